@@ -1,0 +1,36 @@
+//! # vistaf-host
+//!
+//! The robot computer's side of a vistaf skin: open a link ([`link`]), shake hands and
+//! send commands ([`client`]), read one skin or many ([`multi`]) with sequence-gap
+//! accounting ([`seq`]), and record what arrives ([`record`]). The `vistaf-host` binary
+//! is a thin CLI over this library.
+//!
+//! ```text
+//!  skin ─▶ serial ─▶ Link ─▶ Client (DeviceDecoder) ─▶ Received { msg, at }
+//!                                  ▲                        │
+//!                       commands ──┘                        ├─▶ monitor (live readout)
+//!                                                           └─▶ Recorder (.csv/.jsonl)
+//! ```
+//!
+//! ```no_run
+//! use vistaf_host::{client::{Client, Next, DEFAULT_TIMEOUT}, link::{Link, LinkSpec}};
+//! # fn main() -> Result<(), vistaf_host::HostError> {
+//! let spec: LinkSpec = "/dev/ttyACM0".parse()?;
+//! let mut skin = Client::new(Link::open(&spec)?);
+//! let hello = skin.handshake(DEFAULT_TIMEOUT)?;
+//! println!("skin {} at {}×{}", hello.serial, hello.frame_width_px, hello.frame_height_px);
+//! while let Next::Message(r) = skin.next(None)? {
+//!     println!("{:?}", r.msg);
+//! }
+//! # Ok(()) }
+//! ```
+#![deny(missing_docs)]
+
+pub mod client;
+pub mod error;
+pub mod link;
+pub mod multi;
+pub mod record;
+pub mod seq;
+
+pub use error::HostError;

@@ -1,0 +1,147 @@
+//! Quality flags: one bit per way a measurement can fail.
+//!
+//! A flagged quantity is never silently wrong: either it is within its stated tolerance or
+//! the bit that explains why it may not be is set. Bits are append-only on the wire: a new
+//! flag takes the next free bit and bumps [`crate::PROTOCOL_VERSION`].
+
+use postcard::experimental::max_size::MaxSize;
+use postcard_schema::Schema;
+use serde::{Deserialize, Serialize};
+
+/// Bitfield of [`Flag`]s carried in every [`crate::Summary`].
+#[derive(
+    Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize, MaxSize, Schema,
+)]
+#[serde(transparent)]
+pub struct QualityFlags(pub u16);
+
+/// One quality flag. The discriminant is the bit index on the wire.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u8)]
+pub enum Flag {
+    /// Fringe contrast too low to demodulate (dark, washed out, no grating in view).
+    LowContrast = 0,
+    /// Local phase slope beyond the carrier band: the first order overlaps its neighbours,
+    /// so depth at the steepest part of the indentation is underestimated.
+    PhaseSlope = 1,
+    /// Phase unwrapping met residues or paths that disagree.
+    UnwrapFailure = 2,
+    /// Frame and reference are shifted by more than the pipeline compensates.
+    Misregistration = 3,
+    /// Saturated pixels cover part of the measured area.
+    OverExposure = 4,
+    /// Some temperature lies outside the calibrated range (reported unclamped).
+    TemperatureOutOfRange = 5,
+    /// The reference frame has drifted from the no-contact image and was not refreshed.
+    StaleReference = 6,
+}
+
+impl Flag {
+    /// Every flag, in bit order.
+    pub const ALL: [Flag; 7] = [
+        Flag::LowContrast,
+        Flag::PhaseSlope,
+        Flag::UnwrapFailure,
+        Flag::Misregistration,
+        Flag::OverExposure,
+        Flag::TemperatureOutOfRange,
+        Flag::StaleReference,
+    ];
+
+    /// The flag's bit in [`QualityFlags`].
+    pub const fn bit(self) -> u16 {
+        1 << (self as u8)
+    }
+
+    /// Stable snake_case name used in JSON output and logs.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Flag::LowContrast => "low_contrast",
+            Flag::PhaseSlope => "phase_slope",
+            Flag::UnwrapFailure => "unwrap_failure",
+            Flag::Misregistration => "misregistration",
+            Flag::OverExposure => "over_exposure",
+            Flag::TemperatureOutOfRange => "temperature_out_of_range",
+            Flag::StaleReference => "stale_reference",
+        }
+    }
+
+    /// Parses a name produced by [`Flag::name`].
+    pub fn from_name(name: &str) -> Option<Flag> {
+        Flag::ALL.into_iter().find(|f| f.name() == name)
+    }
+}
+
+impl QualityFlags {
+    /// No flag set: the measurement is trusted.
+    pub const NONE: QualityFlags = QualityFlags(0);
+
+    /// Whether `flag` is set.
+    pub const fn contains(self, flag: Flag) -> bool {
+        self.0 & flag.bit() != 0
+    }
+
+    /// Sets `flag`.
+    pub fn insert(&mut self, flag: Flag) {
+        self.0 |= flag.bit();
+    }
+
+    /// Returns these flags with `flag` set.
+    #[must_use]
+    pub const fn with(self, flag: Flag) -> QualityFlags {
+        QualityFlags(self.0 | flag.bit())
+    }
+
+    /// Whether no flag is set.
+    pub const fn is_empty(self) -> bool {
+        self.0 == 0
+    }
+
+    /// The set flags, in bit order. Bits no [`Flag`] names (from a newer device) are skipped;
+    /// see [`QualityFlags::unknown_bits`].
+    pub fn iter(self) -> impl Iterator<Item = Flag> {
+        Flag::ALL.into_iter().filter(move |f| self.contains(*f))
+    }
+
+    /// Bits set that this build has no name for.
+    pub fn unknown_bits(self) -> u16 {
+        let known = Flag::ALL.iter().fold(0u16, |acc, f| acc | f.bit());
+        self.0 & !known
+    }
+}
+
+impl FromIterator<Flag> for QualityFlags {
+    fn from_iter<I: IntoIterator<Item = Flag>>(iter: I) -> Self {
+        let mut flags = QualityFlags::NONE;
+        for f in iter {
+            flags.insert(f);
+        }
+        flags
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip_and_bits_are_distinct() {
+        let mut seen = 0u16;
+        for f in Flag::ALL {
+            assert_eq!(Flag::from_name(f.name()), Some(f));
+            assert_eq!(seen & f.bit(), 0, "{f:?} reuses a bit");
+            seen |= f.bit();
+        }
+        assert_eq!(Flag::from_name("nonsense"), None);
+    }
+
+    #[test]
+    fn iter_skips_unknown_bits_and_reports_them() {
+        let flags = QualityFlags(Flag::PhaseSlope.bit() | 0x8000);
+        let listed: heapless::Vec<Flag, 8> = flags.iter().collect();
+        assert_eq!(listed.as_slice(), &[Flag::PhaseSlope]);
+        assert_eq!(flags.unknown_bits(), 0x8000);
+        assert!(!flags.is_empty());
+        assert!(QualityFlags::NONE.is_empty());
+    }
+}

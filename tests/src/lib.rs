@@ -1,0 +1,3 @@
+//! # vistaf-tests
+//!
+//! End-to-end tests across crates, recorded-frame fixtures, benchmarks and charts.
