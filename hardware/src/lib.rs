@@ -1,5 +1,24 @@
 //! # vistaf-hardware
 //!
-//! Everything that touches hardware, behind traits: the camera (`FrameSource`), the LED
-//! ring (`LedRing`), frame-set replay and recording, and the simulated skin that stands in
-//! for all of them in tests and demos.
+//! Everything that touches hardware, behind small traits, each with a real implementation
+//! and a stand-in that tests and demos use:
+//!
+//! | seam | real | stand-in |
+//! |---|---|---|
+//! | [`source::FrameSource`] | [`camera`] (V4L2, feature `v4l`) | [`source::SetReplay`], [`sim::SimSource`] |
+//! | [`led::LedRing`] | [`led::SpiLedRing`] over rppal SPI (feature `rpi`) | [`led::MemoryLedRing`] |
+//!
+//! [`frameset`] reads and writes the `vistaf-frames/1` format; [`sim`] renders synthetic
+//! sensor frames with ground truth.
+#![deny(missing_docs)]
+
+#[cfg(feature = "v4l")]
+pub mod camera;
+pub mod frame;
+pub mod frameset;
+pub mod led;
+pub mod sim;
+pub mod source;
+
+pub use frame::{Frame, PixelFormat};
+pub use source::{FrameSource, SourceError, SourceFormat};

@@ -1,0 +1,235 @@
+//! Frames as cameras deliver them, and their conversion to the pipeline's input (8-bit RGB).
+
+use std::time::Duration;
+
+use image::RgbImage;
+
+/// Pixel layout of a captured frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum PixelFormat {
+    /// Packed 8-bit R, G, B.
+    Rgb8,
+    /// 8-bit grey.
+    Gray8,
+    /// YUV 4:2:2, Y0 U Y1 V per two pixels (V4L2 `YUYV`).
+    Yuyv,
+    /// Motion JPEG: one JPEG image per frame.
+    Mjpeg,
+}
+
+impl PixelFormat {
+    /// Bytes per frame of `width × height` pixels; `None` for compressed formats.
+    pub fn frame_len(self, width: u32, height: u32) -> Option<usize> {
+        let px = width as usize * height as usize;
+        match self {
+            PixelFormat::Rgb8 => Some(px * 3),
+            PixelFormat::Gray8 => Some(px),
+            PixelFormat::Yuyv => Some(px * 2),
+            PixelFormat::Mjpeg => None,
+        }
+    }
+}
+
+/// One captured frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Frame {
+    /// Width, pixels.
+    pub width: u32,
+    /// Height, pixels.
+    pub height: u32,
+    /// Layout of `data`.
+    pub format: PixelFormat,
+    /// Pixel bytes.
+    pub data: Vec<u8>,
+    /// Capture time since the source was opened.
+    pub timestamp: Duration,
+    /// Sequence number from the source; gaps mean frames the source dropped.
+    pub seq: u64,
+}
+
+/// A frame could not be converted: the bytes do not match what the header says.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum FrameError {
+    /// Uncompressed frame with the wrong number of bytes.
+    #[error("frame {seq}: {got} bytes, a {width}×{height} {format:?} frame has {want}")]
+    WrongLength {
+        /// Frame sequence number.
+        seq: u64,
+        /// Width, pixels.
+        width: u32,
+        /// Height, pixels.
+        height: u32,
+        /// Format.
+        format: PixelFormat,
+        /// Bytes received.
+        got: usize,
+        /// Bytes expected.
+        want: usize,
+    },
+    /// A compressed frame that does not decode (truncated MJPEG, say).
+    #[error("frame {seq}: cannot decode {format:?}: {detail}")]
+    Decode {
+        /// Frame sequence number.
+        seq: u64,
+        /// Format.
+        format: PixelFormat,
+        /// The decoder's message.
+        detail: String,
+    },
+    /// A decoded frame whose size differs from its header.
+    #[error("frame {seq}: decoded {got_w}×{got_h}, expected {width}×{height}")]
+    WrongSize {
+        /// Frame sequence number.
+        seq: u64,
+        /// Expected width.
+        width: u32,
+        /// Expected height.
+        height: u32,
+        /// Decoded width.
+        got_w: u32,
+        /// Decoded height.
+        got_h: u32,
+    },
+}
+
+impl Frame {
+    /// A frame holding an RGB image.
+    pub fn from_rgb(img: RgbImage, timestamp: Duration, seq: u64) -> Frame {
+        Frame {
+            width: img.width(),
+            height: img.height(),
+            format: PixelFormat::Rgb8,
+            data: img.into_raw(),
+            timestamp,
+            seq,
+        }
+    }
+
+    /// Converts to 8-bit RGB (BT.601 limited-range YUV, as UVC cameras send).
+    pub fn to_rgb(&self) -> Result<RgbImage, FrameError> {
+        let (w, h) = (self.width, self.height);
+        if let Some(want) = self.format.frame_len(w, h) {
+            if self.data.len() != want {
+                return Err(FrameError::WrongLength {
+                    seq: self.seq,
+                    width: w,
+                    height: h,
+                    format: self.format,
+                    got: self.data.len(),
+                    want,
+                });
+            }
+        }
+        let wrong_len = || FrameError::WrongLength {
+            seq: self.seq,
+            width: w,
+            height: h,
+            format: self.format,
+            got: self.data.len(),
+            want: 0,
+        };
+        let img = match self.format {
+            PixelFormat::Rgb8 => {
+                RgbImage::from_raw(w, h, self.data.clone()).ok_or_else(wrong_len)?
+            }
+            PixelFormat::Gray8 => {
+                let rgb = self.data.iter().flat_map(|&g| [g, g, g]).collect();
+                RgbImage::from_raw(w, h, rgb).ok_or_else(wrong_len)?
+            }
+            PixelFormat::Yuyv => {
+                let mut rgb = Vec::with_capacity(w as usize * h as usize * 3);
+                for q in self.data.chunks_exact(4) {
+                    let (u, v) = (q[1], q[3]);
+                    rgb.extend_from_slice(&yuv_to_rgb(q[0], u, v));
+                    rgb.extend_from_slice(&yuv_to_rgb(q[2], u, v));
+                }
+                RgbImage::from_raw(w, h, rgb).ok_or_else(wrong_len)?
+            }
+            PixelFormat::Mjpeg => {
+                let decoded =
+                    image::load_from_memory_with_format(&self.data, image::ImageFormat::Jpeg)
+                        .map_err(|e| FrameError::Decode {
+                            seq: self.seq,
+                            format: self.format,
+                            detail: e.to_string(),
+                        })?
+                        .to_rgb8();
+                if decoded.dimensions() != (w, h) {
+                    return Err(FrameError::WrongSize {
+                        seq: self.seq,
+                        width: w,
+                        height: h,
+                        got_w: decoded.width(),
+                        got_h: decoded.height(),
+                    });
+                }
+                decoded
+            }
+        };
+        Ok(img)
+    }
+}
+
+/// BT.601 limited-range YCbCr → RGB, integer arithmetic (8.8 fixed point).
+pub fn yuv_to_rgb(y: u8, u: u8, v: u8) -> [u8; 3] {
+    let c = (i32::from(y) - 16).max(0) * 298;
+    let d = i32::from(u) - 128;
+    let e = i32::from(v) - 128;
+    let clamp = |x: i32| ((x + 128) >> 8).clamp(0, 255) as u8;
+    [
+        clamp(c + 409 * e),
+        clamp(c - 100 * d - 208 * e),
+        clamp(c + 516 * d),
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn yuv_primaries() {
+        assert_eq!(yuv_to_rgb(16, 128, 128), [0, 0, 0]);
+        assert_eq!(yuv_to_rgb(235, 128, 128), [255, 255, 255]);
+        let red = yuv_to_rgb(81, 90, 240);
+        assert!(red[0] > 250 && red[1] < 5 && red[2] < 5, "{red:?}");
+    }
+
+    #[test]
+    fn wrong_lengths_and_bad_jpeg_are_errors() {
+        let f = Frame {
+            width: 4,
+            height: 2,
+            format: PixelFormat::Yuyv,
+            data: vec![0; 15],
+            timestamp: Duration::ZERO,
+            seq: 3,
+        };
+        let e = f.to_rgb().unwrap_err().to_string();
+        assert!(
+            e.contains("frame 3") && e.contains("15 bytes") && e.contains("16"),
+            "{e}"
+        );
+        let j = Frame {
+            format: PixelFormat::Mjpeg,
+            data: vec![0xff, 0xd8, 0xff],
+            ..f
+        };
+        assert!(matches!(j.to_rgb(), Err(FrameError::Decode { .. })));
+    }
+
+    #[test]
+    fn yuyv_converts_every_pixel() {
+        let f = Frame {
+            width: 2,
+            height: 1,
+            format: PixelFormat::Yuyv,
+            data: vec![16, 128, 235, 128],
+            timestamp: Duration::ZERO,
+            seq: 0,
+        };
+        let img = f.to_rgb().unwrap();
+        assert_eq!(img.get_pixel(0, 0).0, [0, 0, 0]);
+        assert_eq!(img.get_pixel(1, 0).0, [255, 255, 255]);
+    }
+}

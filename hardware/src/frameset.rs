@@ -1,0 +1,509 @@
+//! Frame sets: the `vistaf-frames/1` directory format (see `shared/formats/frame-set.md`).
+//!
+//! ```text
+//! my-set/
+//!   set.json        manifest: format, grating_period_mm, reference, frames[] with labels
+//!   reference.png   no-contact frame
+//!   f0000.png ...   frames
+//! ```
+//!
+//! [`FrameSet::open`] validates the manifest and every referenced file's header before
+//! anything is processed, and refuses a bad set with an error naming the file and the
+//! problem. File names are plain relative names inside the set: absolute paths, `..`, and
+//! symbolic links that lead outside the set are refused. Unknown manifest keys (richer
+//! ground truth from a simulator) are kept when a set is rewritten and ignored otherwise.
+//!
+//! Writing is deterministic: the same images and labels give the same bytes, so a set
+//! read and written again is byte-identical.
+
+use std::fs;
+use std::path::{Component, Path, PathBuf};
+
+use image::RgbImage;
+use serde::{Deserialize, Serialize};
+use serde_json::{Map, Value};
+
+/// The format tag every manifest carries.
+pub const FORMAT: &str = "vistaf-frames/1";
+
+/// Name of the manifest inside a set.
+pub const MANIFEST: &str = "set.json";
+
+/// One frame of a set and its optional labels.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct FrameEntry {
+    /// File name, relative to the set directory.
+    pub file: String,
+    /// Capture time since the first frame, ms.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub t_ms: Option<f64>,
+    /// Peak indentation depth, mm (0 = no contact).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub depth_mm: Option<f64>,
+    /// Applied normal force, N.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub force_n: Option<f64>,
+    /// Skin temperature (uniform), or the contact temperature with a heated contact, °C.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub temperature_c: Option<f64>,
+    /// Contact centre, x, image pixels.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub contact_x_px: Option<f64>,
+    /// Contact centre, y, image pixels.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub contact_y_px: Option<f64>,
+    /// Keys this version does not know, kept verbatim.
+    #[serde(flatten)]
+    pub extra: Map<String, Value>,
+}
+
+/// The manifest, `set.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Manifest {
+    /// Must be [`FORMAT`].
+    pub format: String,
+    /// Physical grating period, mm.
+    pub grating_period_mm: f64,
+    /// File name of the no-contact reference frame.
+    pub reference: String,
+    /// The frames, in order.
+    pub frames: Vec<FrameEntry>,
+    /// Keys this version does not know, kept verbatim.
+    #[serde(flatten)]
+    pub extra: Map<String, Value>,
+}
+
+/// Why a frame set was refused. Every variant names the file it is about.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum FrameSetError {
+    /// The directory or its manifest is missing or unreadable.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file or directory.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// The manifest is not valid JSON or lacks a required key.
+    #[error("{path}: invalid manifest at line {line}, column {column}: {detail}")]
+    Manifest {
+        /// The manifest.
+        path: PathBuf,
+        /// Line of the problem.
+        line: usize,
+        /// Column of the problem.
+        column: usize,
+        /// The parser's message.
+        detail: String,
+    },
+    /// The manifest's `format` is not [`FORMAT`].
+    #[error("{path}: format is {found:?}, expected {FORMAT:?}")]
+    WrongFormat {
+        /// The manifest.
+        path: PathBuf,
+        /// What it says.
+        found: String,
+    },
+    /// A key holds a value outside its valid range.
+    #[error("{path}: {key} = {value}: {why}")]
+    InvalidValue {
+        /// The manifest.
+        path: PathBuf,
+        /// The key (with the frame index for frame keys).
+        key: String,
+        /// The value.
+        value: String,
+        /// What is wrong with it.
+        why: &'static str,
+    },
+    /// A file name that would leave the set directory.
+    #[error("{path}: {key} = {value:?} leaves the set directory ({why})")]
+    UnsafePath {
+        /// The manifest.
+        path: PathBuf,
+        /// The key.
+        key: String,
+        /// The file name.
+        value: String,
+        /// Why it is refused.
+        why: &'static str,
+    },
+    /// A referenced image is missing.
+    #[error("{path}: listed in the manifest but missing")]
+    MissingFile {
+        /// The image.
+        path: PathBuf,
+    },
+    /// An image that does not decode, or not 8-bit RGB/RGBA/grey.
+    #[error("{path}: {detail}")]
+    Image {
+        /// The image.
+        path: PathBuf,
+        /// What is wrong with it.
+        detail: String,
+    },
+    /// An image whose size differs from the reference's.
+    #[error("{path}: {got_w}×{got_h} px, but the reference is {width}×{height} px")]
+    SizeMismatch {
+        /// The image.
+        path: PathBuf,
+        /// Reference width.
+        width: u32,
+        /// Reference height.
+        height: u32,
+        /// This image's width.
+        got_w: u32,
+        /// This image's height.
+        got_h: u32,
+    },
+}
+
+/// An opened, validated frame set.
+#[derive(Debug, Clone)]
+pub struct FrameSet {
+    dir: PathBuf,
+    /// The manifest.
+    pub manifest: Manifest,
+    width: u32,
+    height: u32,
+}
+
+fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> FrameSetError + '_ {
+    move |source| FrameSetError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+/// Checks that `name` is a plain relative path inside the set.
+fn check_name(manifest: &Path, key: &str, name: &str) -> Result<(), FrameSetError> {
+    let unsafe_path = |why| FrameSetError::UnsafePath {
+        path: manifest.to_path_buf(),
+        key: key.to_string(),
+        value: name.to_string(),
+        why,
+    };
+    if name.is_empty() {
+        return Err(unsafe_path("empty file name"));
+    }
+    if name.contains('\\') || name.contains('\0') {
+        return Err(unsafe_path("backslash or NUL in file name"));
+    }
+    for c in Path::new(name).components() {
+        match c {
+            Component::Normal(_) | Component::CurDir => {}
+            Component::ParentDir => return Err(unsafe_path("'..' is not allowed")),
+            Component::RootDir | Component::Prefix(_) => {
+                return Err(unsafe_path("absolute paths are not allowed"))
+            }
+        }
+    }
+    Ok(())
+}
+
+impl FrameSet {
+    /// Opens and validates the set in `dir`.
+    pub fn open(dir: &Path) -> Result<FrameSet, FrameSetError> {
+        let mpath = dir.join(MANIFEST);
+        let text = fs::read_to_string(&mpath).map_err(io_err(&mpath))?;
+        let manifest: Manifest =
+            serde_json::from_str(&text).map_err(|e| FrameSetError::Manifest {
+                path: mpath.clone(),
+                line: e.line(),
+                column: e.column(),
+                detail: e.to_string(),
+            })?;
+        if manifest.format != FORMAT {
+            return Err(FrameSetError::WrongFormat {
+                path: mpath,
+                found: manifest.format,
+            });
+        }
+        let invalid = |key: String, value: f64, why| FrameSetError::InvalidValue {
+            path: mpath.clone(),
+            key,
+            value: value.to_string(),
+            why,
+        };
+        let p = manifest.grating_period_mm;
+        if !(p.is_finite() && p > 0.0) {
+            return Err(invalid(
+                "grating_period_mm".into(),
+                p,
+                "must be a positive length in mm",
+            ));
+        }
+        check_name(&mpath, "reference", &manifest.reference)?;
+        for (i, f) in manifest.frames.iter().enumerate() {
+            check_name(&mpath, &format!("frames[{i}].file"), &f.file)?;
+            for (key, v, why) in [
+                ("t_ms", f.t_ms, "must not be negative"),
+                ("depth_mm", f.depth_mm, "must not be negative"),
+                ("force_n", f.force_n, "must not be negative"),
+            ] {
+                if let Some(v) = v {
+                    if v < 0.0 {
+                        return Err(invalid(format!("frames[{i}].{key}"), v, why));
+                    }
+                }
+            }
+            if let Some(t) = f.temperature_c {
+                if !(-50.0..=150.0).contains(&t) {
+                    return Err(invalid(
+                        format!("frames[{i}].temperature_c"),
+                        t,
+                        "outside -50…150 °C: not a skin temperature",
+                    ));
+                }
+            }
+        }
+        let canon_dir = dir.canonicalize().map_err(io_err(dir))?;
+        let mut set = FrameSet {
+            dir: dir.to_path_buf(),
+            manifest,
+            width: 0,
+            height: 0,
+        };
+        let (w, h) = set.check_image(&canon_dir, &set.manifest.reference.clone(), None)?;
+        set.width = w;
+        set.height = h;
+        for f in set.manifest.frames.clone() {
+            set.check_image(&canon_dir, &f.file, Some((w, h)))?;
+        }
+        Ok(set)
+    }
+
+    /// Validates one image's location and header; returns its size.
+    fn check_image(
+        &self,
+        canon_dir: &Path,
+        name: &str,
+        want: Option<(u32, u32)>,
+    ) -> Result<(u32, u32), FrameSetError> {
+        let path = self.dir.join(name);
+        if !path.exists() {
+            return Err(FrameSetError::MissingFile { path });
+        }
+        let canon = path.canonicalize().map_err(io_err(&path))?;
+        if !canon.starts_with(canon_dir) {
+            return Err(FrameSetError::UnsafePath {
+                path: self.dir.join(MANIFEST),
+                key: "file".into(),
+                value: name.to_string(),
+                why: "a link that points outside the set",
+            });
+        }
+        let reader = image::ImageReader::open(&path)
+            .map_err(io_err(&path))?
+            .with_guessed_format()
+            .map_err(io_err(&path))?;
+        if reader.format() != Some(image::ImageFormat::Png) {
+            return Err(FrameSetError::Image {
+                path,
+                detail: "not a PNG file".into(),
+            });
+        }
+        let (w, h) = reader.into_dimensions().map_err(|e| FrameSetError::Image {
+            path: path.clone(),
+            detail: e.to_string(),
+        })?;
+        if let Some((ww, wh)) = want {
+            if (w, h) != (ww, wh) {
+                return Err(FrameSetError::SizeMismatch {
+                    path,
+                    width: ww,
+                    height: wh,
+                    got_w: w,
+                    got_h: h,
+                });
+            }
+        }
+        Ok((w, h))
+    }
+
+    /// The set's directory.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// Frame size, pixels (every frame has the reference's size).
+    pub fn size(&self) -> (u32, u32) {
+        (self.width, self.height)
+    }
+
+    /// Number of frames (not counting the reference).
+    pub fn len(&self) -> usize {
+        self.manifest.frames.len()
+    }
+
+    /// Whether the set has no frames besides the reference.
+    pub fn is_empty(&self) -> bool {
+        self.manifest.frames.is_empty()
+    }
+
+    /// Path of a file of the set.
+    pub fn path_of(&self, name: &str) -> PathBuf {
+        self.dir.join(name)
+    }
+
+    /// Decodes the reference frame.
+    pub fn load_reference(&self) -> Result<RgbImage, FrameSetError> {
+        self.load_checked(&self.manifest.reference)
+    }
+
+    /// Decodes frame `index`.
+    ///
+    /// # Panics
+    /// If `index >= self.len()`.
+    pub fn load_frame(&self, index: usize) -> Result<RgbImage, FrameSetError> {
+        self.load_checked(&self.manifest.frames[index].file)
+    }
+
+    fn load_checked(&self, name: &str) -> Result<RgbImage, FrameSetError> {
+        let path = self.dir.join(name);
+        let img = load_png_rgb(&path)?;
+        if img.dimensions() != (self.width, self.height) {
+            return Err(FrameSetError::SizeMismatch {
+                path,
+                width: self.width,
+                height: self.height,
+                got_w: img.width(),
+                got_h: img.height(),
+            });
+        }
+        Ok(img)
+    }
+}
+
+/// Decodes an 8-bit RGB, RGBA (alpha ignored) or grey PNG to RGB.
+pub fn load_png_rgb(path: &Path) -> Result<RgbImage, FrameSetError> {
+    let img = image::open(path).map_err(|e| FrameSetError::Image {
+        path: path.to_path_buf(),
+        detail: e.to_string(),
+    })?;
+    use image::DynamicImage as D;
+    match img {
+        D::ImageRgb8(i) => Ok(i),
+        D::ImageRgba8(_) | D::ImageLuma8(_) | D::ImageLumaA8(_) => Ok(img.to_rgb8()),
+        other => Err(FrameSetError::Image {
+            path: path.to_path_buf(),
+            detail: format!(
+                "pixel type {:?} not accepted (8-bit RGB, RGBA or grey only)",
+                other.color()
+            ),
+        }),
+    }
+}
+
+/// Encodes an RGB image as PNG bytes (deterministic: same pixels, same bytes).
+pub fn png_bytes(img: &RgbImage) -> Result<Vec<u8>, image::ImageError> {
+    let mut out = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut out, image::ImageFormat::Png)?;
+    Ok(out.into_inner())
+}
+
+/// Writes a frame set: reference first, frames as they come, manifest last (so a set whose
+/// writer was killed has no manifest and is refused rather than read half-written).
+#[derive(Debug)]
+pub struct FrameSetWriter {
+    dir: PathBuf,
+    manifest: Manifest,
+    size: (u32, u32),
+}
+
+impl FrameSetWriter {
+    /// Creates `dir` (if needed) and writes the reference frame.
+    pub fn create(
+        dir: &Path,
+        grating_period_mm: f64,
+        reference: &RgbImage,
+    ) -> Result<FrameSetWriter, FrameSetError> {
+        fs::create_dir_all(dir).map_err(io_err(dir))?;
+        let writer = FrameSetWriter {
+            dir: dir.to_path_buf(),
+            manifest: Manifest {
+                format: FORMAT.to_string(),
+                grating_period_mm,
+                reference: "reference.png".to_string(),
+                frames: Vec::new(),
+                extra: Map::new(),
+            },
+            size: reference.dimensions(),
+        };
+        writer.write_png("reference.png", reference)?;
+        Ok(writer)
+    }
+
+    /// Top-level manifest keys beyond the format's (scene parameters, truth descriptions).
+    pub fn extra_mut(&mut self) -> &mut Map<String, Value> {
+        &mut self.manifest.extra
+    }
+
+    fn write_png(&self, name: &str, img: &RgbImage) -> Result<(), FrameSetError> {
+        let path = self.dir.join(name);
+        if img.dimensions() != self.size {
+            return Err(FrameSetError::SizeMismatch {
+                path,
+                width: self.size.0,
+                height: self.size.1,
+                got_w: img.width(),
+                got_h: img.height(),
+            });
+        }
+        let bytes = png_bytes(img).map_err(|e| FrameSetError::Image {
+            path: path.clone(),
+            detail: e.to_string(),
+        })?;
+        fs::write(&path, bytes).map_err(io_err(&path))
+    }
+
+    /// Directory being written.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// Name the next frame will get (`f0000.png`, `f0001.png`, ...).
+    pub fn next_name(&self) -> String {
+        format!("f{:04}.png", self.manifest.frames.len())
+    }
+
+    /// Appends a frame; `entry.file` is replaced by the next frame name.
+    pub fn add(&mut self, img: &RgbImage, mut entry: FrameEntry) -> Result<(), FrameSetError> {
+        entry.file = self.next_name();
+        self.write_png(&entry.file, img)?;
+        self.manifest.frames.push(entry);
+        Ok(())
+    }
+
+    /// Writes the manifest and returns the set, re-opened and validated.
+    pub fn finish(self) -> Result<FrameSet, FrameSetError> {
+        write_manifest(&self.dir, &self.manifest)?;
+        FrameSet::open(&self.dir)
+    }
+}
+
+/// Writes `manifest` as `dir/set.json` (pretty JSON, keys in a fixed order, newline at end).
+pub fn write_manifest(dir: &Path, manifest: &Manifest) -> Result<(), FrameSetError> {
+    let path = dir.join(MANIFEST);
+    let mut text = serde_json::to_string_pretty(manifest).map_err(|e| FrameSetError::Manifest {
+        path: path.clone(),
+        line: 0,
+        column: 0,
+        detail: e.to_string(),
+    })?;
+    text.push('\n');
+    fs::write(&path, text).map_err(io_err(&path))
+}
+
+/// Copies a set to `dst`, re-encoding every image and rewriting the manifest with its
+/// unknown keys kept.
+pub fn copy_set(src: &FrameSet, dst: &Path) -> Result<FrameSet, FrameSetError> {
+    let mut w =
+        FrameSetWriter::create(dst, src.manifest.grating_period_mm, &src.load_reference()?)?;
+    w.manifest.extra = src.manifest.extra.clone();
+    for (i, e) in src.manifest.frames.iter().enumerate() {
+        w.add(&src.load_frame(i)?, e.clone())?;
+    }
+    w.finish()
+}

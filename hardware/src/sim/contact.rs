@@ -1,0 +1,305 @@
+//! Contact mechanics: the skin surface under an indenter.
+//!
+//! **Model.** The skin and its clear buffer are treated as a linear elastic half-space with
+//! an effective contact modulus `E*` per unit (it absorbs the stiffening of the finite
+//! layer thickness). Indentation depth `δ` is the approach of the indenter.
+//!
+//! * **Sphere** of radius `R` (Hertz): contact radius `a = √(Rδ)`, force
+//!   `F = 4/3·E*·√R·δ^{3/2}`; inside the contact the surface follows the sphere,
+//!   `w = δ − r²/2R`; outside, `w = (a²/πR)·[(2 − r²/a²)·asin(a/r) + √(r²/a² − 1)]`.
+//! * **Flat punch** of any footprint (cylinder, letters E/P/F, a hex nut): uniform `w = δ`
+//!   under the footprint. Outside, the exact Boussinesq solution of a circular punch of the
+//!   same area, `w = δ·(2/π)·asin(a/(a + d))`, is applied to the distance `d` from the
+//!   footprint's edge, and `F = 2·E*·a·δ` with `a = √(area/π)`. Exact for a circle; for other
+//!   shapes it is an approximation whose fall-off is too slow next to thin strokes.
+//!   The sharp edge is rounded by a Gaussian of σ = 0.3 mm (the skin's thickness cannot bend
+//!   sharper), which keeps steep but finite slopes at punch edges, as on the real skin.
+//!
+//! Limits: no friction, no large-strain effects, no layer-thickness saturation beyond the
+//! effective modulus, no interaction between several contacts (displacements add).
+
+use std::f32::consts::PI;
+
+/// Rounding of punch edges by the skin, mm.
+pub const EDGE_ROUNDING_MM: f32 = 0.3;
+
+/// A 2-D point on the skin, mm.
+pub type Mm = (f32, f32);
+
+/// Footprint of a flat punch, as a signed distance (mm, negative inside).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Footprint {
+    /// A disc of radius `r_mm`.
+    Disc {
+        /// Radius, mm.
+        r_mm: f32,
+    },
+    /// Union of axis-aligned rectangles (x0, y0, x1, y1) in mm, relative to the centre.
+    Rects(Vec<[f32; 4]>),
+    /// A hexagon with across-flats `af_mm` and a round hole of diameter `hole_mm`.
+    HexNut {
+        /// Width across flats, mm.
+        af_mm: f32,
+        /// Hole diameter, mm.
+        hole_mm: f32,
+    },
+}
+
+fn sd_rect(p: Mm, r: &[f32; 4]) -> f32 {
+    let (cx, cy) = ((r[0] + r[2]) / 2.0, (r[1] + r[3]) / 2.0);
+    let (hx, hy) = ((r[2] - r[0]) / 2.0, (r[3] - r[1]) / 2.0);
+    let (dx, dy) = ((p.0 - cx).abs() - hx, (p.1 - cy).abs() - hy);
+    let outside = (dx.max(0.0).powi(2) + dy.max(0.0).powi(2)).sqrt();
+    outside + dx.max(dy).min(0.0)
+}
+
+impl Footprint {
+    /// Letter E, `h_mm` tall, strokes `h/5` wide.
+    pub fn letter_e(h_mm: f32) -> Footprint {
+        let s = h_mm / 5.0;
+        let (w, y0) = (h_mm * 0.6, -h_mm / 2.0);
+        Footprint::Rects(vec![
+            [-w / 2.0, y0, -w / 2.0 + s, y0 + h_mm],
+            [-w / 2.0, y0, w / 2.0, y0 + s],
+            [-w / 2.0, -s / 2.0, w / 2.0 - s / 2.0, s / 2.0],
+            [-w / 2.0, y0 + h_mm - s, w / 2.0, y0 + h_mm],
+        ])
+    }
+
+    /// Letter F.
+    pub fn letter_f(h_mm: f32) -> Footprint {
+        let s = h_mm / 5.0;
+        let (w, y0) = (h_mm * 0.6, -h_mm / 2.0);
+        Footprint::Rects(vec![
+            [-w / 2.0, y0, -w / 2.0 + s, y0 + h_mm],
+            [-w / 2.0, y0, w / 2.0, y0 + s],
+            [-w / 2.0, -s / 2.0, w / 2.0 - s / 2.0, s / 2.0],
+        ])
+    }
+
+    /// Letter P.
+    pub fn letter_p(h_mm: f32) -> Footprint {
+        let s = h_mm / 5.0;
+        let (w, y0) = (h_mm * 0.6, -h_mm / 2.0);
+        Footprint::Rects(vec![
+            [-w / 2.0, y0, -w / 2.0 + s, y0 + h_mm],
+            [-w / 2.0, y0, w / 2.0, y0 + s],
+            [-w / 2.0, -s / 2.0, w / 2.0, s / 2.0],
+            [w / 2.0 - s, y0, w / 2.0, s / 2.0],
+        ])
+    }
+
+    /// Signed distance from `p` (relative to the footprint's centre) to its edge, mm.
+    pub fn signed_distance(&self, p: Mm) -> f32 {
+        match self {
+            Footprint::Disc { r_mm } => (p.0 * p.0 + p.1 * p.1).sqrt() - r_mm,
+            Footprint::Rects(rs) => rs
+                .iter()
+                .map(|r| sd_rect(p, r))
+                .fold(f32::INFINITY, f32::min),
+            Footprint::HexNut { af_mm, hole_mm } => {
+                // Regular hexagon with flats at top and bottom.
+                let (x, y) = (p.0.abs(), p.1.abs());
+                let k = (0.866_025_4f32, 0.5f32);
+                let apo = af_mm / 2.0;
+                let proj = k.0 * x + k.1 * y;
+                let hex = proj.max(y) - apo;
+                let hole = hole_mm / 2.0 - (p.0 * p.0 + p.1 * p.1).sqrt();
+                hex.max(hole)
+            }
+        }
+    }
+
+    /// Half-width of a square around the centre that holds the whole footprint, mm.
+    pub fn bound_mm(&self) -> f32 {
+        match self {
+            Footprint::Disc { r_mm } => *r_mm,
+            Footprint::Rects(rs) => rs.iter().flatten().fold(0.0f32, |m, v| m.max(v.abs())),
+            Footprint::HexNut { af_mm, .. } => af_mm / 3.0f32.sqrt(),
+        }
+    }
+
+    /// Footprint area, mm² (exact for a disc, else counted on a 400 × 400 grid).
+    pub fn area_mm2(&self) -> f32 {
+        if let Footprint::Disc { r_mm } = self {
+            return PI * r_mm * r_mm;
+        }
+        let b = self.bound_mm();
+        let cells = 400i32;
+        let step = 2.0 * b / cells as f32;
+        let mut n = 0u32;
+        for iy in 0..cells {
+            for ix in 0..cells {
+                let p = (-b + (ix as f32 + 0.5) * step, -b + (iy as f32 + 0.5) * step);
+                if self.signed_distance(p) <= 0.0 {
+                    n += 1;
+                }
+            }
+        }
+        n as f32 * step * step
+    }
+}
+
+/// What presses on the skin.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Indenter {
+    /// A sphere of radius `r_mm` (Hertz contact).
+    Sphere {
+        /// Radius, mm.
+        r_mm: f32,
+    },
+    /// A flat punch with a footprint.
+    Punch(Footprint),
+}
+
+/// One indenter at a place and depth.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Contact {
+    /// Shape.
+    pub indenter: Indenter,
+    /// Centre on the skin, mm from the image's top-left.
+    pub center_mm: Mm,
+    /// Indentation depth (approach), mm.
+    pub depth_mm: f32,
+}
+
+impl Indenter {
+    /// Equivalent contact radius used by the punch model, mm.
+    fn punch_radius_mm(fp: &Footprint) -> f32 {
+        (fp.area_mm2() / PI).sqrt()
+    }
+
+    /// Normal force at `depth_mm` for contact modulus `modulus_mpa`, N.
+    pub fn force_n(&self, depth_mm: f32, modulus_mpa: f32) -> f32 {
+        let d = depth_mm.max(0.0);
+        match self {
+            Indenter::Sphere { r_mm } => 4.0 / 3.0 * modulus_mpa * r_mm.sqrt() * d.powf(1.5),
+            Indenter::Punch(fp) => 2.0 * modulus_mpa * Self::punch_radius_mm(fp) * d,
+        }
+    }
+
+    /// Depth that produces `force_n`, mm (inverse of [`Indenter::force_n`]).
+    pub fn depth_for_force_mm(&self, force_n: f32, modulus_mpa: f32) -> f32 {
+        let f = force_n.max(0.0);
+        match self {
+            Indenter::Sphere { r_mm } => {
+                (3.0 * f / (4.0 * modulus_mpa * r_mm.sqrt())).powf(2.0 / 3.0)
+            }
+            Indenter::Punch(fp) => f / (2.0 * modulus_mpa * Self::punch_radius_mm(fp)),
+        }
+    }
+}
+
+/// Fills `depth` (row-major, `w × h`, mm) with the surface displacement of `contacts`,
+/// sampled at pixel centres shifted by `shift_px`, at `mm_per_px`.
+pub fn depth_field(
+    contacts: &[Contact],
+    w: usize,
+    h: usize,
+    mm_per_px: f32,
+    shift_px: (f32, f32),
+    depth: &mut [f32],
+) {
+    depth.iter_mut().for_each(|d| *d = 0.0);
+    for c in contacts.iter().filter(|c| c.depth_mm > 0.0) {
+        let mut layer = vec![0.0f32; w * h];
+        let punch_a = match &c.indenter {
+            Indenter::Punch(fp) => Indenter::punch_radius_mm(fp),
+            Indenter::Sphere { .. } => 0.0,
+        };
+        for y in 0..h {
+            for x in 0..w {
+                let p = (
+                    (x as f32 + 0.5 + shift_px.0) * mm_per_px - c.center_mm.0,
+                    (y as f32 + 0.5 + shift_px.1) * mm_per_px - c.center_mm.1,
+                );
+                layer[y * w + x] = match &c.indenter {
+                    Indenter::Sphere { r_mm } => sphere_w(p, *r_mm, c.depth_mm),
+                    Indenter::Punch(fp) => {
+                        let d = fp.signed_distance(p);
+                        if d <= 0.0 {
+                            c.depth_mm
+                        } else {
+                            c.depth_mm * 2.0 / PI * (punch_a / (punch_a + d)).asin()
+                        }
+                    }
+                };
+            }
+        }
+        if matches!(c.indenter, Indenter::Punch(_)) {
+            super::render::blur_plane(&mut layer, w, h, EDGE_ROUNDING_MM / mm_per_px);
+        }
+        for (d, l) in depth.iter_mut().zip(&layer) {
+            *d += l;
+        }
+    }
+}
+
+fn sphere_w(p: Mm, r_mm: f32, delta: f32) -> f32 {
+    let r2 = p.0 * p.0 + p.1 * p.1;
+    let a2 = r_mm * delta;
+    if r2 <= a2 {
+        delta - r2 / (2.0 * r_mm)
+    } else {
+        let q = r2 / a2;
+        let r = r2.sqrt();
+        let a = a2.sqrt();
+        a2 / (PI * r_mm) * ((2.0 - q) * (a / r).asin() + (q - 1.0).sqrt())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hertz_surface_is_continuous_and_decays() {
+        let (r, d) = (10.0f32, 1.0f32);
+        let a = (r * d).sqrt();
+        let inside = sphere_w((a - 1e-3, 0.0), r, d);
+        let outside = sphere_w((a + 1e-3, 0.0), r, d);
+        assert!((inside - outside).abs() < 1e-3, "{inside} {outside}");
+        assert!((sphere_w((0.0, 0.0), r, d) - d).abs() < 1e-6);
+        // Far field ~ (4/3)·a³/(πRr).
+        let far = sphere_w((50.0, 0.0), r, d);
+        let expect = 4.0 / 3.0 * a.powi(3) / (PI * r * 50.0);
+        assert!((far - expect).abs() / expect < 0.02, "{far} {expect}");
+    }
+
+    #[test]
+    fn force_and_depth_invert() {
+        for ind in [
+            Indenter::Sphere { r_mm: 10.0 },
+            Indenter::Punch(Footprint::letter_e(12.0)),
+        ] {
+            for f in [0.5, 5.0, 30.0] {
+                let d = ind.depth_for_force_mm(f, 1.6);
+                assert!((ind.force_n(d, 1.6) - f).abs() < 1e-3 * f);
+            }
+        }
+        // Reference unit: a 10 mm sphere reaches 30 N near 2.6 mm.
+        let d30 = Indenter::Sphere { r_mm: 10.0 }.depth_for_force_mm(30.0, 1.6);
+        assert!((2.3..3.0).contains(&d30), "{d30}");
+    }
+
+    #[test]
+    fn footprints_have_sensible_areas() {
+        let e = Footprint::letter_e(10.0).area_mm2();
+        assert!((35.0..60.0).contains(&e), "{e}");
+        let nut = Footprint::HexNut {
+            af_mm: 10.0,
+            hole_mm: 5.0,
+        };
+        let hex = 10.0f32 * 10.0 * 0.866_025_4; // af² · √3/2
+        let want = hex - PI * 2.5 * 2.5;
+        assert!(
+            (nut.area_mm2() - want).abs() < 1.0,
+            "{} vs {want}",
+            nut.area_mm2()
+        );
+        assert!(
+            nut.signed_distance((0.0, 0.0)) > 0.0,
+            "the hole does not touch"
+        );
+    }
+}
