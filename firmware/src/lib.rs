@@ -1,4 +1,8 @@
 //! # vistaf-firmware
 //!
-//! The on-device side: the FTP and temperature pipeline (fixed-point device path and a
-//! float reference) and the `vistaf-skin` service that streams summaries over serial.
+//! The device side of a vistaf skin: the pipeline that turns a reference frame and each new
+//! frame into force, shape and temperature, and the `vistaf-skin` service that streams
+//! them over serial.
+#![deny(missing_docs)]
+
+pub mod source_spec;

@@ -1,0 +1,37 @@
+//! `vistaf-skin`: the vistaf skin's device program.
+
+use anyhow::Result;
+use clap::{Parser, Subcommand};
+
+mod cmd;
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "vistaf-skin",
+    version,
+    about = "Vision-based tactile and thermal skin: device program"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Cmd,
+}
+
+#[derive(Subcommand, Debug)]
+enum Cmd {
+    /// Render simulated frame sets, calibration kits, fixtures, or the montage.
+    Simulate(cmd::simulate::Args),
+    /// Record frames from a source into a frame set.
+    Record(cmd::record::Args),
+}
+
+fn main() {
+    let cli = Cli::parse();
+    let result: Result<()> = match &cli.command {
+        Cmd::Simulate(a) => cmd::simulate::run(a),
+        Cmd::Record(a) => cmd::record::run(a),
+    };
+    if let Err(e) = result {
+        eprintln!("vistaf-skin: {e:#}");
+        std::process::exit(1);
+    }
+}
