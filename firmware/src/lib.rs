@@ -5,4 +5,7 @@
 //! them over serial.
 #![deny(missing_docs)]
 
+pub mod calibration;
+pub mod fit;
+pub mod pipeline;
 pub mod source_spec;

@@ -22,6 +22,10 @@ enum Cmd {
     Simulate(cmd::simulate::Args),
     /// Record frames from a source into a frame set.
     Record(cmd::record::Args),
+    /// Analyse frames against a reference: depth, area, volume, centre, force, flags.
+    Analyze(cmd::analyze::Args),
+    /// Fit a calibration from labelled frame sets.
+    Calibrate(cmd::calibrate::Args),
 }
 
 fn main() {
@@ -29,6 +33,8 @@ fn main() {
     let result: Result<()> = match &cli.command {
         Cmd::Simulate(a) => cmd::simulate::run(a),
         Cmd::Record(a) => cmd::record::run(a),
+        Cmd::Analyze(a) => cmd::analyze::run(a),
+        Cmd::Calibrate(a) => cmd::calibrate::run(a),
     };
     if let Err(e) = result {
         eprintln!("vistaf-skin: {e:#}");

@@ -1,5 +1,9 @@
 //! The `vistaf-skin` subcommands.
 
+pub mod analyze;
+pub mod calibrate;
+pub mod maps;
+pub mod paper;
 pub mod record;
 pub mod simulate;
 

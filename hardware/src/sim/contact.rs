@@ -15,8 +15,15 @@
 //!   The sharp edge is rounded by a Gaussian of σ = 0.3 mm (the skin's thickness cannot bend
 //!   sharper), which keeps steep but finite slopes at punch edges, as on the real skin.
 //!
+//! * **Finite layer.** The skin is a thin layer on a clear buffer bonded to a rigid window,
+//!   not a half-space: far from the contact its surface returns to rest much faster than the
+//!   half-space's `1/r`. Outside the contact the half-space displacement is therefore
+//!   multiplied by `e^{−d/λ}`, `d` the distance from the contact edge and `λ` the unit's
+//!   layer decay length (a few mm, of the order of the buffer thickness).
+//!
 //! Limits: no friction, no large-strain effects, no layer-thickness saturation beyond the
-//! effective modulus, no interaction between several contacts (displacements add).
+//! effective modulus and the decay factor, no interaction between several contacts
+//! (displacements add).
 
 use std::f32::consts::PI;
 
@@ -198,6 +205,7 @@ pub fn depth_field(
     h: usize,
     mm_per_px: f32,
     shift_px: (f32, f32),
+    layer_decay_mm: f32,
     depth: &mut [f32],
 ) {
     depth.iter_mut().for_each(|d| *d = 0.0);
@@ -213,14 +221,18 @@ pub fn depth_field(
                     (x as f32 + 0.5 + shift_px.0) * mm_per_px - c.center_mm.0,
                     (y as f32 + 0.5 + shift_px.1) * mm_per_px - c.center_mm.1,
                 );
+                let decay = |d: f32| (-d.max(0.0) / layer_decay_mm.max(1e-3)).exp();
                 layer[y * w + x] = match &c.indenter {
-                    Indenter::Sphere { r_mm } => sphere_w(p, *r_mm, c.depth_mm),
+                    Indenter::Sphere { r_mm } => {
+                        let a = (r_mm * c.depth_mm).sqrt();
+                        sphere_w(p, *r_mm, c.depth_mm) * decay(p.0.hypot(p.1) - a)
+                    }
                     Indenter::Punch(fp) => {
                         let d = fp.signed_distance(p);
                         if d <= 0.0 {
                             c.depth_mm
                         } else {
-                            c.depth_mm * 2.0 / PI * (punch_a / (punch_a + d)).asin()
+                            c.depth_mm * 2.0 / PI * (punch_a / (punch_a + d)).asin() * decay(d)
                         }
                     }
                 };

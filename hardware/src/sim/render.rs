@@ -214,7 +214,15 @@ impl Renderer {
         let (w, h) = (unit.width_px as usize, unit.height_px as usize);
         let mmpp = unit.mm_per_px();
         let mut depth = vec![0.0f32; w * h];
-        depth_field(&state.contacts, w, h, mmpp, state.shift_px, &mut depth);
+        depth_field(
+            &state.contacts,
+            w,
+            h,
+            mmpp,
+            state.shift_px,
+            unit.layer_decay_mm,
+            &mut depth,
+        );
 
         let mut temp = vec![0.0f32; w * h];
         let uniform = state.temperature.sources.is_empty();

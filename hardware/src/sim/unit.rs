@@ -52,6 +52,8 @@ pub struct SensorUnit {
     pub phase_saturation_mm: f32,
     /// Effective contact modulus E* of skin and buffer, MPa (N/mm²).
     pub modulus_mpa: f32,
+    /// Decay length of the surface displacement outside a contact (finite layer), mm.
+    pub layer_decay_mm: f32,
     /// Optical blur (Gaussian σ), pixels.
     pub blur_px: f32,
     /// Sensor noise (Gaussian σ), 8-bit digital numbers.
@@ -91,6 +93,7 @@ impl SensorUnit {
             phase_gain_rad_per_mm: 1.6,
             phase_saturation_mm: 6.0,
             modulus_mpa: 1.6,
+            layer_decay_mm: 3.0,
             blur_px: 0.8,
             noise_dn: 1.5,
             vignetting: 0.35,
@@ -140,6 +143,7 @@ impl SensorUnit {
         u.phase_gain_rad_per_mm = r.range(1.1, 2.2) as f32;
         u.phase_saturation_mm = r.range(4.0, 9.0) as f32;
         u.modulus_mpa = r.range(1.2, 2.0) as f32;
+        u.layer_decay_mm = r.range(2.0, 4.5) as f32;
         u.blur_px = r.range(0.5, 1.3) as f32;
         u.noise_dn = r.range(0.8, 2.5) as f32;
         u.vignetting = r.range(0.15, 0.5) as f32;

@@ -1,0 +1,151 @@
+//! `vistaf-skin analyze`: run the pipeline on a reference and frames; JSON lines out.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{bail, Context, Result};
+use serde_json::json;
+use vistaf_firmware::calibration::Calibration;
+use vistaf_firmware::pipeline::{Analyzer, AnalyzerOptions, Deformation, Implementation};
+use vistaf_hardware::frameset::{load_png_rgb, FrameSet};
+
+/// What to analyse.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Reference (no-contact) frame, PNG.
+    #[arg(long, requires = "frame", conflicts_with = "set")]
+    pub reference: Option<PathBuf>,
+    /// Frame to analyse, PNG.
+    #[arg(long)]
+    pub frame: Option<PathBuf>,
+    /// A frame set (its reference and every frame).
+    #[arg(long, required_unless_present = "reference")]
+    pub set: Option<PathBuf>,
+    /// Calibration file (default: the simulated reference unit's).
+    #[arg(long)]
+    pub calibration: Option<PathBuf>,
+    /// Use a calibration made for another grating period or image size.
+    #[arg(long)]
+    pub force_calibration: bool,
+    /// float (rustfft reference) or fixed (device path).
+    #[arg(long, default_value = "fixed")]
+    pub pipeline: Implementation,
+    /// Override the working-resolution downsampling factor.
+    #[arg(long)]
+    pub downsample: Option<usize>,
+    /// JSON lines on stdout (the default output; kept for scripts that pass it).
+    #[arg(long)]
+    pub json: bool,
+    /// Also write depth-map PNGs and a summary JSON here.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+fn calibration(a: &Args) -> Result<Calibration> {
+    Ok(match &a.calibration {
+        Some(p) => Calibration::load(p)?,
+        None => Calibration::default_sim(),
+    })
+}
+
+/// One result as a JSON object.
+pub fn result_json(file: &str, d: &Deformation, latency_us: u128) -> serde_json::Value {
+    json!({
+        "file": file,
+        "depth_mm": d.peak_depth_mm,
+        "force_n": d.force_n,
+        "contact_area_mm2": d.contact_area_mm2,
+        "volume_mm3": d.volume_mm3,
+        "contact_x_px": d.centroid_px.map(|c| c.0),
+        "contact_y_px": d.centroid_px.map(|c| c.1),
+        "integrated_phase_rad_mm2": d.integrated_phase_rad_mm2,
+        "flags": d.flags.iter().map(|f| f.name()).collect::<Vec<_>>(),
+        "noise_rad": d.noise_rad,
+        "offset_rad": d.offset_rad,
+        "latency_us": latency_us,
+    })
+}
+
+/// Runs the command.
+pub fn run(a: &Args) -> Result<()> {
+    let calib = calibration(a)?;
+    let (reference, frames): (image::RgbImage, Vec<(String, PathBuf)>) =
+        match (&a.set, &a.reference, &a.frame) {
+            (Some(dir), _, _) => {
+                let set = FrameSet::open(dir)?;
+                let frames = set
+                    .manifest
+                    .frames
+                    .iter()
+                    .map(|f| (f.file.clone(), set.path_of(&f.file)))
+                    .collect();
+                (set.load_reference()?, frames)
+            }
+            (None, Some(r), Some(f)) => (
+                load_png_rgb(r)?,
+                vec![(
+                    f.file_name()
+                        .map_or_else(|| f.display().to_string(), |n| n.to_string_lossy().into()),
+                    f.clone(),
+                )],
+            ),
+            _ => bail!("give --set DIR, or --reference REF.png --frame F.png"),
+        };
+    let opts = AnalyzerOptions {
+        factor: a.downsample,
+        force_calibration: a.force_calibration,
+        ..Default::default()
+    };
+    let analyzer =
+        Analyzer::new(&reference, calib, a.pipeline, opts).context("preparing the reference")?;
+    let stdout = std::io::stdout();
+    let mut out = stdout.lock();
+    let mut results = Vec::new();
+    for (name, path) in &frames {
+        let img = load_png_rgb(path)?;
+        let t = Instant::now();
+        let d = analyzer
+            .analyze(&img)
+            .with_context(|| format!("{}", path.display()))?;
+        let latency = t.elapsed().as_micros();
+        let j = result_json(name, &d, latency);
+        writeln!(out, "{j}").context("writing stdout")?;
+        results.push((name.clone(), d, j));
+    }
+    if let Some(dir) = &a.out {
+        write_outputs(dir, &analyzer, &results)?;
+    }
+    Ok(())
+}
+
+fn write_outputs(
+    dir: &Path,
+    analyzer: &Analyzer,
+    results: &[(String, Deformation, serde_json::Value)],
+) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    for (name, d, _) in results {
+        let stem = Path::new(name)
+            .file_stem()
+            .map_or_else(|| name.clone(), |s| s.to_string_lossy().into_owned());
+        let png = dir.join(format!("{stem}_depth.png"));
+        crate::cmd::maps::depth_png(d, &png)?;
+    }
+    let c = analyzer.calibration();
+    let summary = json!({
+        "scale_mm_per_px": analyzer.mm_per_px(),
+        "grating_period_px": analyzer.period_px(),
+        "calibration": {
+            "id": format!("{:08x}", c.id()),
+            "phase_to_depth": { "equation": c.depth.equation, "model": c.depth.model, "cv_rmse_mm": c.depth.cv_rmse, "in_sample_rmse_mm": c.depth.in_sample_rmse, "n": c.depth.n },
+            "force": c.force.as_ref().map(|f| json!({ "equation": f.equation, "model": f.model, "cv_rmse_n": f.cv_rmse, "in_sample_rmse_n": f.in_sample_rmse, "n": f.n })),
+            "sets": c.sets,
+        },
+        "frames": results.iter().map(|r| r.2.clone()).collect::<Vec<_>>(),
+    });
+    let p = dir.join("summary.json");
+    std::fs::write(&p, serde_json::to_string_pretty(&summary)? + "\n")
+        .with_context(|| format!("writing {}", p.display()))?;
+    Ok(())
+}

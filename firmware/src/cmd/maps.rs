@@ -1,0 +1,74 @@
+//! Colour-mapped map images with a colour bar.
+
+use std::path::Path;
+
+use anyhow::{Context, Result};
+use image::{Rgb, RgbImage};
+use vistaf_firmware::pipeline::Deformation;
+
+/// A perceptually ordered colour map (viridis, 5 anchors, linear between).
+pub fn viridis(t: f32) -> Rgb<u8> {
+    const A: [[f32; 3]; 5] = [
+        [68.0, 1.0, 84.0],
+        [59.0, 82.0, 139.0],
+        [33.0, 145.0, 140.0],
+        [94.0, 201.0, 98.0],
+        [253.0, 231.0, 37.0],
+    ];
+    let t = t.clamp(0.0, 1.0) * 4.0;
+    let i = (t.floor() as usize).min(3);
+    let f = t - i as f32;
+    let c = |k: usize| (A[i][k] + (A[i + 1][k] - A[i][k]) * f).round() as u8;
+    Rgb([c(0), c(1), c(2)])
+}
+
+/// Writes a map (row-major `w × h`, values in `unit`) scaled to [lo, hi], with a colour bar
+/// on the right whose ticks are drawn as tick marks at 0, ¼, ½, ¾ and 1 of the range
+/// (the range is recorded in the file name's companion summary).
+pub fn map_png(
+    values: &[f32],
+    w: usize,
+    h: usize,
+    lo: f32,
+    hi: f32,
+    scale: usize,
+    path: &Path,
+) -> Result<()> {
+    let s = scale.max(1);
+    let bar = 24;
+    let (iw, ih) = ((w * s + 8 + bar) as u32, (h * s) as u32);
+    let mut img = RgbImage::from_pixel(iw, ih, Rgb([255, 255, 255]));
+    let span = (hi - lo).max(1e-6);
+    for y in 0..h * s {
+        for x in 0..w * s {
+            let v = values[(y / s) * w + x / s];
+            img.put_pixel(
+                x as u32,
+                y as u32,
+                if v.is_finite() {
+                    viridis((v - lo) / span)
+                } else {
+                    Rgb([128, 128, 128])
+                },
+            );
+        }
+        let t = 1.0 - y as f32 / (h * s).max(1) as f32;
+        for x in 0..bar {
+            img.put_pixel((w * s + 8 + x) as u32, y as u32, viridis(t));
+        }
+    }
+    for k in 0..=4 {
+        let y = ((h * s - 1) as f32 * k as f32 / 4.0) as u32;
+        for x in 0..6 {
+            img.put_pixel((w * s + 8 + bar - 6 + x) as u32, y, Rgb([0, 0, 0]));
+        }
+    }
+    img.save(path)
+        .with_context(|| format!("writing {}", path.display()))
+}
+
+/// The depth map of a result as PNG (0 … peak, at least 0.1 mm).
+pub fn depth_png(d: &Deformation, path: &Path) -> Result<()> {
+    let v: Vec<f32> = d.depth_um.iter().map(|&u| u as f32 / 1000.0).collect();
+    map_png(&v, d.w, d.h, 0.0, d.peak_depth_mm.max(0.1), d.factor, path)
+}

@@ -1,0 +1,306 @@
+//! The float reference: full 2-D Fourier-transform profilometry with rustfft. The oracle the
+//! device path is tested against.
+//!
+//! Per frame: luminance at the working resolution → mean removed → 2-D FFT → separable
+//! band-pass window centred on the first order → inverse FFT → analytic signal `z`. The
+//! wrapped phase difference is `arg(z_frame · conj(z_ref))`, the reference's `z` being
+//! computed once.
+//!
+//! Two windows ([`BandWindow`]):
+//! * **Matched** (default): per axis `|D_L(Δν)|²`, the exact frequency response of the
+//!   device path's two box passes of length `L` (`D_L` the Dirichlet kernel). It is a
+//!   smooth, non-negative taper with nulls exactly on DC and the second order when `L` is
+//!   the period, and it makes this path compute the *same operator* as
+//!   [`super::fixed_ftp`] in floating point, so comparing the two isolates the fixed-point
+//!   error, which is what an oracle is for.
+//! * **Hann**: a separable Hann window of half-width [`BAND_HALF_WIDTH`] × the carrier
+//!   frequency (the classic FTP choice), kept for the speed/accuracy trade-off study. It is
+//!   a different filter, so its depth maps differ from the device path's by a few percent
+//!   where the surface is curved, and it needs its own calibration.
+
+use std::sync::Arc;
+
+use image::RgbImage;
+use rustfft::num_complex::Complex32;
+use rustfft::{Fft, FftPlanner};
+
+use super::carrier::{self, Carrier};
+use super::image_ops::{downsample_factor, gray_down_f32};
+use super::PipelineError;
+
+/// Band-pass half-width of the Hann window, as a fraction of the carrier frequency; also the
+/// band the phase-slope flag measures against.
+pub const BAND_HALF_WIDTH: f32 = 0.64;
+
+/// The band-pass window of the float path.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum BandWindow {
+    /// The device path's box-cascade response (the oracle's default).
+    #[default]
+    Matched,
+    /// Separable Hann of half-width [`BAND_HALF_WIDTH`] × f.
+    Hann,
+}
+
+/// Box lengths (x, y) of the device demodulator for a working-resolution carrier: one
+/// period along x, so the nulls fall on the other orders; one period along y.
+pub fn box_lengths(c: &Carrier) -> (usize, usize) {
+    let lx = (1.0 / c.fx.abs().max(1e-3)).round().clamp(2.0, 64.0) as usize;
+    let ly = c.period_px().round().clamp(2.0, 64.0) as usize;
+    (lx, ly)
+}
+
+/// `|D_L(ν)|²`: the magnitude response of two passes of a length-`L` box at `ν` cycles/px.
+fn box2_response(nu: f32, l: usize) -> f32 {
+    let s = (std::f32::consts::PI * nu).sin();
+    if s.abs() < 1e-7 {
+        return 1.0;
+    }
+    let d = (std::f32::consts::PI * nu * l as f32).sin() / (l as f32 * s);
+    d * d
+}
+
+/// The wrapped phase difference of a frame against the reference.
+#[derive(Debug, Clone)]
+pub struct PhaseField {
+    /// Working width, pixels.
+    pub w: usize,
+    /// Working height, pixels.
+    pub h: usize,
+    /// Wrapped phase difference, rad, in (−π, π].
+    pub wrapped: Vec<f32>,
+    /// Fringe amplitude of the frame, luminance units.
+    pub amp_frame: Vec<f32>,
+    /// Fringe amplitude of the reference, luminance units.
+    pub amp_ref: Vec<f32>,
+}
+
+/// Reference-side state of the float pipeline.
+pub struct FloatFtp {
+    w: usize,
+    h: usize,
+    factor: usize,
+    carrier: Carrier,
+    window: Vec<f32>,
+    z_ref: Vec<Complex32>,
+    ref_median: u32,
+    fwd: (Arc<dyn Fft<f32>>, Arc<dyn Fft<f32>>),
+    inv: (Arc<dyn Fft<f32>>, Arc<dyn Fft<f32>>),
+}
+
+impl std::fmt::Debug for FloatFtp {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FloatFtp")
+            .field("w", &self.w)
+            .field("h", &self.h)
+            .field("factor", &self.factor)
+            .field("carrier", &self.carrier)
+            .finish_non_exhaustive()
+    }
+}
+
+impl FloatFtp {
+    /// Prepares the reference. `factor` overrides the downsampling chosen from the carrier.
+    pub fn new(
+        reference: &RgbImage,
+        factor: Option<usize>,
+        band: BandWindow,
+    ) -> Result<FloatFtp, PipelineError> {
+        let (full, fw, fh) = gray_down_f32(reference, 1);
+        let c_full = carrier::estimate(&full, fw, fh)?;
+        let factor = factor
+            .unwrap_or_else(|| downsample_factor(c_full.period_px()))
+            .max(1);
+        let (gray, w, h) = gray_down_f32(reference, factor);
+        let carrier = c_full.scaled(factor);
+        if carrier.period_px() < carrier::MIN_PERIOD_PX {
+            return Err(PipelineError::Carrier(carrier::CarrierError::TooFine(
+                carrier.period_px(),
+            )));
+        }
+        let mut planner = FftPlanner::new();
+        let fwd = (planner.plan_fft_forward(w), planner.plan_fft_forward(h));
+        let inv = (planner.plan_fft_inverse(w), planner.plan_fft_inverse(h));
+        let rho = BAND_HALF_WIDTH * carrier.freq();
+        let hann = |d: f32| {
+            if d.abs() >= rho {
+                0.0
+            } else {
+                0.5 + 0.5 * (std::f32::consts::PI * d / rho).cos()
+            }
+        };
+        let (lx, ly) = box_lengths(&carrier);
+        let taper = |d: f32, l: usize| match band {
+            BandWindow::Matched => box2_response(d, l),
+            BandWindow::Hann => hann(d),
+        };
+        let signed = |k: usize, n: usize| {
+            if k <= n / 2 {
+                k as f32 / n as f32
+            } else {
+                k as f32 / n as f32 - 1.0
+            }
+        };
+        let mut window = vec![0.0f32; w * h];
+        for v in 0..h {
+            let wy = taper(signed(v, h) - carrier.fy, ly);
+            for u in 0..w {
+                // Hann is compact inside the carrier's half-plane; the matched response is
+                // periodic and acts on the whole plane, exactly as the box filters do.
+                window[v * w + u] = wy * taper(signed(u, w) - carrier.fx, lx);
+            }
+        }
+        let mut ftp = FloatFtp {
+            w,
+            h,
+            factor,
+            carrier,
+            window,
+            z_ref: Vec::new(),
+            ref_median: 0,
+            fwd,
+            inv,
+        };
+        ftp.z_ref = ftp.analytic(&gray);
+        let mut a: Vec<u32> = ftp
+            .z_ref
+            .iter()
+            .map(|c| (c.norm() * PhaseField::AMP_SCALE) as u32)
+            .collect();
+        let k = a.len() / 2;
+        ftp.ref_median = *a.select_nth_unstable(k).1;
+        Ok(ftp)
+    }
+
+    /// Working size (w, h) and the downsampling factor from input pixels.
+    pub fn geometry(&self) -> (usize, usize, usize) {
+        (self.w, self.h, self.factor)
+    }
+
+    /// The carrier at the working resolution.
+    pub fn carrier(&self) -> Carrier {
+        self.carrier
+    }
+
+    fn transform(
+        &self,
+        data: &mut [Complex32],
+        (row, col): &(Arc<dyn Fft<f32>>, Arc<dyn Fft<f32>>),
+    ) {
+        let (w, h) = (self.w, self.h);
+        row.process(data);
+        let mut column = vec![Complex32::default(); h];
+        for x in 0..w {
+            for (y, c) in column.iter_mut().enumerate() {
+                *c = data[y * w + x];
+            }
+            col.process(&mut column);
+            for (y, c) in column.iter().enumerate() {
+                data[y * w + x] = *c;
+            }
+        }
+    }
+
+    /// The analytic signal of a working-resolution luminance image.
+    fn analytic(&self, gray: &[f32]) -> Vec<Complex32> {
+        let mean = gray.iter().sum::<f32>() / gray.len().max(1) as f32;
+        let mut z: Vec<Complex32> = gray.iter().map(|v| Complex32::new(v - mean, 0.0)).collect();
+        self.transform(&mut z, &self.fwd);
+        for (c, wv) in z.iter_mut().zip(&self.window) {
+            *c *= *wv;
+        }
+        self.transform(&mut z, &self.inv);
+        // Unnormalised inverse: scale by 1/N, ×2 for the one-sided band (amplitude = fringe
+        // half peak-to-peak).
+        let s = 2.0 / (self.w * self.h) as f32;
+        z.iter_mut().for_each(|c| *c *= s);
+        z
+    }
+
+    /// The wrapped phase difference of `frame` against the reference.
+    ///
+    /// # Panics
+    /// If `frame` is not the reference's size (checked by the caller, [`super::Analyzer`]).
+    pub fn phase(&self, frame: &RgbImage) -> PhaseField {
+        let (gray, w, h) = gray_down_f32(frame, self.factor);
+        assert_eq!(
+            (w, h),
+            (self.w, self.h),
+            "frame size differs from the reference"
+        );
+        let z = self.analytic(&gray);
+        let wrapped = z
+            .iter()
+            .zip(&self.z_ref)
+            .map(|(a, b)| (a * b.conj()).arg())
+            .collect();
+        PhaseField {
+            w,
+            h,
+            wrapped,
+            amp_frame: z.iter().map(|c| c.norm()).collect(),
+            amp_ref: self.z_ref.iter().map(|c| c.norm()).collect(),
+        }
+    }
+}
+
+impl PhaseField {
+    /// Amplitude scale into the shared `u32` amplitude units (1/256 luminance step).
+    const AMP_SCALE: f32 = 256.0;
+}
+
+/// The float field as the measurement sees it: phases in f32 radians; depth through the
+/// calibration's model evaluated in floating point.
+#[derive(Debug)]
+pub struct FloatMap<'a> {
+    field: PhaseField,
+    ref_median: u32,
+    depth: &'a crate::calibration::DepthModel,
+}
+
+impl FloatFtp {
+    /// Analyses one frame.
+    pub fn analyze(
+        &self,
+        frame: &RgbImage,
+        ctx: &super::measure::Context<'_>,
+    ) -> super::Deformation {
+        let map = FloatMap {
+            field: self.phase(frame),
+            ref_median: self.ref_median,
+            depth: &ctx.calib.depth.model,
+        };
+        super::measure::measure(&map, self.factor, self.carrier, ctx)
+    }
+}
+
+impl super::measure::PhaseMap for FloatMap<'_> {
+    type P = f32;
+    fn size(&self) -> (usize, usize) {
+        (self.field.w, self.field.h)
+    }
+    fn wrapped(&self, i: usize) -> f32 {
+        self.field.wrapped[i]
+    }
+    fn amp_frame(&self, i: usize) -> u32 {
+        (self.field.amp_frame[i] * PhaseField::AMP_SCALE) as u32
+    }
+    fn amp_ref(&self, i: usize) -> u32 {
+        (self.field.amp_ref[i] * PhaseField::AMP_SCALE) as u32
+    }
+    fn amp_ref_median(&self) -> u32 {
+        self.ref_median
+    }
+    fn mean_direction(&self, keep: &dyn Fn(usize) -> bool) -> f32 {
+        let (mut s, mut c) = (0.0f64, 0.0f64);
+        for i in (0..self.field.wrapped.len()).filter(|&i| keep(i)) {
+            let a = f64::from(self.field.amp_frame[i]);
+            s += a * f64::from(self.field.wrapped[i]).sin();
+            c += a * f64::from(self.field.wrapped[i]).cos();
+        }
+        s.atan2(c) as f32
+    }
+    fn depth_um(&self, x: f32) -> i32 {
+        (self.depth.depth_mm(f64::from(x)) * 1000.0).round() as i32
+    }
+}

@@ -1,0 +1,223 @@
+//! The force-and-shape pipeline: from a reference frame and each new frame to the depth
+//! map, peak depth, contact area, volume, contact centre and force, with quality flags.
+//!
+//! ```text
+//!  reference ─▶ carrier (once) ─▶ reference analytic signal (once)
+//!  frame ─▶ luminance, area-downsampled ─▶ analytic signal ─▶ Δφ = arg(z · conj z_ref)
+//!        ─▶ registration offset, noise floor ─▶ no contact? leave early
+//!        ─▶ contact tiles ─▶ unwrap (only if it can have wrapped) ─▶ depth (calibration)
+//!        ─▶ peak, area, volume, centre, force ─▶ flags
+//! ```
+//!
+//! Two implementations share this contract: [`float_ftp`] (rustfft, the oracle) and
+//! [`fixed_ftp`] (integer arithmetic per frame, the device path). Both return a
+//! [`Deformation`], and [`measure::summarize`] turns either depth map into the same
+//! features.
+
+pub mod carrier;
+pub mod fixed_ftp;
+pub mod float_ftp;
+pub mod image_ops;
+pub mod measure;
+pub mod unwrap;
+
+use image::RgbImage;
+use vistaf_protocol::QualityFlags;
+
+use crate::calibration::{Calibration, CalibrationError};
+
+/// Side of a contact tile at the working resolution, pixels.
+pub const TILE_PX: usize = 8;
+
+/// Which implementation runs per frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Implementation {
+    /// rustfft float FTP: the reference.
+    Float,
+    /// Integer demodulation: the device path.
+    #[default]
+    Fixed,
+}
+
+impl std::str::FromStr for Implementation {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "float" => Ok(Implementation::Float),
+            "fixed" => Ok(Implementation::Fixed),
+            other => Err(format!("pipeline {other:?}: expected float or fixed")),
+        }
+    }
+}
+
+/// Why a frame or reference cannot be analysed at all (as opposed to a flagged result).
+#[derive(Debug, thiserror::Error)]
+pub enum PipelineError {
+    /// No usable grating in the reference.
+    #[error("reference: {0}")]
+    Carrier(#[from] carrier::CarrierError),
+    /// The frame's size differs from the reference's.
+    #[error("frame is {got_w}×{got_h} px, the reference is {w}×{h} px")]
+    SizeMismatch {
+        /// Reference width.
+        w: u32,
+        /// Reference height.
+        h: u32,
+        /// Frame width.
+        got_w: u32,
+        /// Frame height.
+        got_h: u32,
+    },
+    /// The calibration does not fit this sensor.
+    #[error(transparent)]
+    Calibration(#[from] CalibrationError),
+}
+
+/// The result of analysing one frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Deformation {
+    /// Working width, pixels.
+    pub w: usize,
+    /// Working height, pixels.
+    pub h: usize,
+    /// Input pixels per working pixel (each axis).
+    pub factor: usize,
+    /// Depth per working pixel, µm (0 where there is no deformation).
+    pub depth_um: Vec<i32>,
+    /// Whether each working pixel's phase was trusted.
+    pub reliable: Vec<bool>,
+    /// Whether any contact was found.
+    pub contact: bool,
+    /// Deepest point, mm.
+    pub peak_depth_mm: f32,
+    /// Contact area (depth ≥ half the peak: the Hertz contact radius for a sphere), mm².
+    pub contact_area_mm2: f32,
+    /// Deformation volume over pixels deeper than the noise floor, mm³.
+    pub volume_mm3: f32,
+    /// Contact centre in input-image pixels (depth-weighted over the contact area).
+    pub centroid_px: Option<(f32, f32)>,
+    /// Indentation phase integrated over the deformed area, rad·mm².
+    pub integrated_phase_rad_mm2: f32,
+    /// Normal force from the calibration's force model, N.
+    pub force_n: f32,
+    /// What may be wrong.
+    pub flags: QualityFlags,
+    /// Measured phase noise floor (1σ), rad.
+    pub noise_rad: f32,
+    /// Global phase offset removed (registration), rad.
+    pub offset_rad: f32,
+    /// Depth of the contact threshold (6 σ of phase noise): the map reports depth above it, µm.
+    pub floor_um: i32,
+    /// Contact tiles processed.
+    pub tiles: usize,
+}
+
+/// Options of an [`Analyzer`].
+#[derive(Debug, Clone, Copy, Default)]
+pub struct AnalyzerOptions {
+    /// Override the downsampling factor chosen from the carrier period.
+    pub factor: Option<usize>,
+    /// Use a calibration made for another geometry.
+    pub force_calibration: bool,
+    /// Band-pass window of the float path.
+    pub band: float_ftp::BandWindow,
+}
+
+enum Imp {
+    Float(float_ftp::FloatFtp),
+    Fixed(Box<fixed_ftp::FixedFtp>),
+}
+
+/// A prepared pipeline: reference-side work done, ready for frames.
+pub struct Analyzer {
+    imp: Imp,
+    calib: Calibration,
+    size: (u32, u32),
+    mm_per_px: f32,
+    period_px: f32,
+    ref_saturation: f32,
+}
+
+impl std::fmt::Debug for Analyzer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Analyzer")
+            .field("size", &self.size)
+            .field("mm_per_px", &self.mm_per_px)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Analyzer {
+    /// Prepares a pipeline for `reference` (a no-contact frame).
+    pub fn new(
+        reference: &RgbImage,
+        calib: Calibration,
+        imp: Implementation,
+        opts: AnalyzerOptions,
+    ) -> Result<Analyzer, PipelineError> {
+        let (full, fw, fh) = image_ops::gray_down_f32(reference, 1);
+        let c = carrier::estimate(&full, fw, fh)?;
+        if !opts.force_calibration {
+            calib.check_fits(
+                reference.width(),
+                reference.height(),
+                f64::from(c.period_px()),
+            )?;
+        }
+        let imp = match imp {
+            Implementation::Float => {
+                Imp::Float(float_ftp::FloatFtp::new(reference, opts.factor, opts.band)?)
+            }
+            Implementation::Fixed => Imp::Fixed(Box::new(fixed_ftp::FixedFtp::new(
+                reference,
+                opts.factor,
+                &calib,
+            )?)),
+        };
+        Ok(Analyzer {
+            imp,
+            mm_per_px: calib.unit.grating_period_mm as f32 / c.period_px(),
+            period_px: c.period_px(),
+            calib,
+            size: reference.dimensions(),
+            ref_saturation: image_ops::saturated_fraction(reference),
+        })
+    }
+
+    /// Input scale, mm per pixel (from the measured carrier period).
+    pub fn mm_per_px(&self) -> f32 {
+        self.mm_per_px
+    }
+
+    /// Measured carrier period, input pixels.
+    pub fn period_px(&self) -> f32 {
+        self.period_px
+    }
+
+    /// The calibration in use.
+    pub fn calibration(&self) -> &Calibration {
+        &self.calib
+    }
+
+    /// Analyses one frame.
+    pub fn analyze(&self, frame: &RgbImage) -> Result<Deformation, PipelineError> {
+        if frame.dimensions() != self.size {
+            return Err(PipelineError::SizeMismatch {
+                w: self.size.0,
+                h: self.size.1,
+                got_w: frame.width(),
+                got_h: frame.height(),
+            });
+        }
+        let saturated = image_ops::saturated_fraction(frame) - self.ref_saturation;
+        let ctx = measure::Context {
+            calib: &self.calib,
+            mm_per_px: self.mm_per_px,
+            saturated_fraction: saturated,
+        };
+        Ok(match &self.imp {
+            Imp::Float(f) => f.analyze(frame, &ctx),
+            Imp::Fixed(f) => f.analyze(frame, &ctx),
+        })
+    }
+}
