@@ -75,7 +75,10 @@ fn fit_ab(samples: &[Sample], lo: f64, hi: f64, g: impl Fn(f64, f64) -> f64) -> 
 
 /// Pool-adjacent-violators on the setpoint means: the non-decreasing fit of `y` over `u`,
 /// anchored at (0, 0), one knot per setpoint (averaging the frames of a setpoint first
-/// keeps the knots, and the slope used beyond the last one, stable). Returns knots.
+/// keeps the knots stable). Beyond the last setpoint the model continues with the
+/// least-squares slope of the last knots spanning a fifth of the range (stored as one extra
+/// knot at twice the range): the slope between the last two knots alone can come from two
+/// setpoints microns apart, and is no basis for extrapolation. Returns knots.
 fn isotonic(samples: &[Sample]) -> (Vec<f64>, Vec<f64>) {
     let mut groups: Vec<(f64, f64, f64, f64)> = Vec::new(); // group, Σu, Σy, n
     for s in samples {
@@ -101,15 +104,14 @@ fn isotonic(samples: &[Sample]) -> (Vec<f64>, Vec<f64>) {
             let n = blocks.len();
             let (a, b) = (blocks[n - 2], blocks[n - 1]);
             if a.1 / a.2 > b.1 / b.2 {
-                blocks.pop();
-                blocks.pop();
+                blocks.truncate(n - 2);
                 blocks.push((a.0 + b.0, a.1 + b.1, a.2 + b.2));
             } else {
                 break;
             }
         }
     }
-    let mut xs = Vec::new();
+    let mut xs: Vec<f64> = Vec::new();
     let mut ds: Vec<f64> = Vec::new();
     for (su, sy, n) in blocks {
         let (x, d) = (su / n, (sy / n).max(ds.last().copied().unwrap_or(0.0)));
@@ -117,6 +119,35 @@ fn isotonic(samples: &[Sample]) -> (Vec<f64>, Vec<f64>) {
             xs.push(x);
             ds.push(d);
         }
+    }
+    if let Some(&x_last) = xs.last() {
+        // The last knots spanning at least a fifth of the range (with the origin as a
+        // knot when needed).
+        let mut all: Vec<(f64, f64)> = vec![(0.0, 0.0)];
+        all.extend(xs.iter().copied().zip(ds.iter().copied()));
+        let start = all
+            .iter()
+            .rposition(|p| x_last - p.0 >= 0.2 * x_last)
+            .unwrap_or(0);
+        let top = &all[start..];
+        let slope = if top.len() >= 2 {
+            let (mx, md) = (
+                top.iter().map(|p| p.0).sum::<f64>() / top.len() as f64,
+                top.iter().map(|p| p.1).sum::<f64>() / top.len() as f64,
+            );
+            let sxx: f64 = top.iter().map(|p| (p.0 - mx).powi(2)).sum();
+            let sxd: f64 = top.iter().map(|p| (p.0 - mx) * (p.1 - md)).sum();
+            if sxx > 0.0 {
+                (sxd / sxx).max(0.0)
+            } else {
+                0.0
+            }
+        } else {
+            0.0
+        };
+        let d_last = ds[ds.len() - 1];
+        xs.push(2.0 * x_last);
+        ds.push(d_last + slope * x_last);
     }
     (xs, ds)
 }
@@ -378,17 +409,21 @@ mod tests {
     }
 
     #[test]
-    fn isotonic_is_monotone_through_the_origin() {
+    fn isotonic_is_monotone_through_the_origin_and_extrapolates_smoothly() {
         let sample = |u, y, group| Sample { u, y, group };
         let s = vec![
             sample(1.0, 1.0, 1.0),
             sample(2.0, 0.7, 2.0),
             sample(2.0, 0.9, 2.0),
             sample(3.0, 2.0, 3.0),
+            sample(3.001, 2.2, 4.0),
         ];
         let (x, d) = isotonic(&s);
         assert!(d.windows(2).all(|p| p[1] >= p[0]));
         assert_eq!(x.len(), d.len());
-        assert!((d[0] - 0.9).abs() < 1e-12);
+        assert!((d[0] - 0.9).abs() < 1e-12, "1.0 and group 2 pool to 0.9");
+        // Two near-duplicate last setpoints do not make the extrapolation explode.
+        let m = DepthModel::Monotone { x_rad: x, d_mm: d };
+        assert!(m.depth_mm(4.0) < 4.0, "{}", m.depth_mm(4.0));
     }
 }

@@ -5,6 +5,7 @@
 //! them over serial.
 #![deny(missing_docs)]
 
+pub mod calibrate;
 pub mod calibration;
 pub mod fit;
 pub mod pipeline;

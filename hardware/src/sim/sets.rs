@@ -54,8 +54,15 @@ fn truth_png(
 fn labels(state: &SkinState, truth: &Truth) -> FrameEntry {
     let contact = truth.contact_px;
     let uniform = state.temperature.sources.is_empty();
+    // The depth label is the commanded indentation (what a lab records), not the peak of
+    // the pixel-sampled truth map (which the truth PNG carries).
+    let nominal = state
+        .contacts
+        .iter()
+        .map(|c| c.depth_mm)
+        .fold(0.0f32, f32::max);
     FrameEntry {
-        depth_mm: Some(f64::from(truth.peak_depth_mm)),
+        depth_mm: Some(f64::from(nominal)),
         force_n: Some(f64::from(truth.force_n)),
         temperature_c: truth
             .contact_temp_c

@@ -1,0 +1,47 @@
+//! Per-frame cost of each pipeline stage, float reference beside the device path, on a
+//! simulated 640×480 frame (reference unit: 16 px period → 320×240 working resolution).
+//! Setup (reference-side work) is outside the timed loop.
+#![allow(clippy::unwrap_used)] // a bench that cannot set up is a broken bench
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use std::hint::black_box;
+use vistaf_firmware::calibration::Calibration;
+use vistaf_firmware::pipeline::image_ops::{gray_down_f32, gray_down_q8};
+use vistaf_firmware::pipeline::{Analyzer, AnalyzerOptions, Implementation};
+use vistaf_hardware::sim::{scene, Renderer, SensorUnit, SkinState};
+
+fn pipeline(c: &mut Criterion) {
+    let unit = SensorUnit::reference();
+    let r = Renderer::new(unit.clone());
+    let (reference, _) = r.render(&SkinState::idle(scene::ROOM_C), 1);
+    let press = &scene::states("sweep-depth", &unit, 5).unwrap()[3];
+    let (frame, _) = r.render(press, 2);
+    let (idle, _) = r.render(&SkinState::idle(scene::ROOM_C), 3);
+    let mut g = c.benchmark_group("pipeline_640x480");
+    g.sample_size(30);
+    g.bench_function("luma_downsample_q8", |b| {
+        b.iter(|| gray_down_q8(black_box(&frame), 2))
+    });
+    g.bench_function("luma_downsample_f32", |b| {
+        b.iter(|| gray_down_f32(black_box(&frame), 2))
+    });
+    for imp in [Implementation::Fixed, Implementation::Float] {
+        let a = Analyzer::new(
+            &reference,
+            Calibration::default_sim(),
+            imp,
+            AnalyzerOptions::default(),
+        )
+        .unwrap();
+        g.bench_function(format!("{imp:?}_press_1.9mm"), |b| {
+            b.iter(|| a.analyze(black_box(&frame)).unwrap())
+        });
+        g.bench_function(format!("{imp:?}_no_contact"), |b| {
+            b.iter(|| a.analyze(black_box(&idle)).unwrap())
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, pipeline);
+criterion_main!(benches);

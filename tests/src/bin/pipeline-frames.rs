@@ -1,0 +1,48 @@
+//! Runs the pipeline on N frames, for instruction counting under callgrind:
+//!
+//! ```sh
+//! valgrind --tool=callgrind target/release/pipeline-frames fixed 1 640 480
+//! valgrind --tool=callgrind target/release/pipeline-frames fixed 11 640 480
+//! ```
+//!
+//! The difference of the two totals divided by 10 is the per-frame cost without setup
+//! (`scripts/instructions.sh` does exactly that). Arguments: `float|fixed`, frame count,
+//! input width and height (the reference unit's 16 px period is kept), and optionally
+//! `idle` to analyse no-contact frames.
+
+use vistaf_firmware::calibration::Calibration;
+use vistaf_firmware::pipeline::{Analyzer, AnalyzerOptions, Implementation};
+use vistaf_hardware::sim::{scene, Renderer, SensorUnit, SkinState};
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().collect();
+    let imp: Implementation = args.get(1).map_or("fixed", String::as_str).parse()?;
+    let n: usize = args.get(2).map_or(Ok(1), |s| s.parse())?;
+    let w: u32 = args.get(3).map_or(Ok(640), |s| s.parse())?;
+    let h: u32 = args.get(4).map_or(Ok(480), |s| s.parse())?;
+    let idle = args.get(5).is_some_and(|s| s == "idle");
+    let unit = SensorUnit {
+        width_px: w,
+        height_px: h,
+        ..SensorUnit::reference()
+    };
+    let r = Renderer::new(unit.clone());
+    let (reference, _) = r.render(&SkinState::idle(scene::ROOM_C), 1);
+    let state = if idle {
+        SkinState::idle(scene::ROOM_C)
+    } else {
+        scene::states("sweep-depth", &unit, 5).ok_or("scene")?[3].clone()
+    };
+    let (frame, _) = r.render(&state, 2);
+    let opts = AnalyzerOptions {
+        force_calibration: true,
+        ..Default::default()
+    };
+    let a = Analyzer::new(&reference, Calibration::default_sim(), imp, opts)?;
+    let mut peak = 0.0;
+    for _ in 0..n {
+        peak += a.analyze(&frame)?.peak_depth_mm;
+    }
+    println!("{imp:?}: {n} frames, mean peak {:.3} mm", peak / n as f32);
+    Ok(())
+}
