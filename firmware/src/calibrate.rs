@@ -17,7 +17,7 @@ use sha2::{Digest, Sha256};
 use vistaf_hardware::frameset::FrameSet;
 
 use crate::calibration::{
-    Calibration, DepthModel, Fitted, ForceFeature, SetRecord, UnitGeometry, FORMAT,
+    Calibration, DepthModel, Fitted, ForceFeature, SetRecord, ShapeSignature, UnitGeometry, FORMAT,
 };
 use crate::fit::{fit_depth, fit_force, Sample};
 use crate::pipeline::image_ops::gray_down_f32;
@@ -171,6 +171,7 @@ fn identity(unit: &UnitGeometry, sign: f64) -> Calibration {
             candidates: vec![],
         },
         force: None,
+        shape: None,
         sets: vec![],
     }
 }
@@ -252,6 +253,21 @@ pub fn calibrate<O: Observer>(
         n: samples.len(),
         candidates,
     };
+
+    // The calibrated indenter's contact area against its measured depth, averaged per
+    // setpoint and made monotone.
+    let shaped = run.analyze(&calib, Label::Depth, "indenter shape", &|_| true)?;
+    let shape_samples: Vec<Sample> = shaped
+        .iter()
+        .filter(|(_, d)| d.contact)
+        .map(|(y, d)| Sample {
+            u: f64::from(d.peak_depth_mm),
+            y: f64::from(d.contact_area_mm2),
+            group: setpoint(*y),
+        })
+        .collect();
+    let (depth_mm, area_mm2) = crate::fit::monotone_knots(&shape_samples);
+    calib.shape = (depth_mm.len() >= 3).then_some(ShapeSignature { depth_mm, area_mm2 });
 
     let force_frames = run.analyze(&calib, Label::Force, "deformation → force", &|_| true)?;
     let feats: Vec<(ForceFeature, Vec<Sample>)> = ForceFeature::ALL

@@ -251,6 +251,31 @@ pub struct UnitGeometry {
     pub grating_period_mm: f64,
 }
 
+/// How the calibrated indenter looks: its contact area (depth ≥ half the peak) at each
+/// measured depth. The calibration is exact for contacts of this shape; a contact much
+/// sharper than it is flagged.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ShapeSignature {
+    /// Measured peak depths, mm, increasing.
+    pub depth_mm: Vec<f64>,
+    /// Contact area at each, mm².
+    pub area_mm2: Vec<f64>,
+}
+
+impl ShapeSignature {
+    /// Area at `depth_mm` (linear between knots, constant beyond), mm².
+    pub fn area_mm2_at(&self, depth_mm: f64) -> f64 {
+        let (d, a) = (&self.depth_mm, &self.area_mm2);
+        match d.iter().position(|&x| x >= depth_mm) {
+            None => a.last().copied().unwrap_or(0.0),
+            Some(0) => a.first().copied().unwrap_or(0.0),
+            Some(k) => {
+                a[k - 1] + (a[k] - a[k - 1]) * (depth_mm - d[k - 1]) / (d[k] - d[k - 1]).max(1e-12)
+            }
+        }
+    }
+}
+
 /// A frame set used for the calibration.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SetRecord {
@@ -275,6 +300,9 @@ pub struct Calibration {
     pub depth: Fitted<DepthModel>,
     /// Deformation → force, if the kit had force labels.
     pub force: Option<Fitted<ForceModel>>,
+    /// The calibrated indenter's contact area by depth (for the sharpness check).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shape: Option<ShapeSignature>,
     /// Frame sets the fit used.
     pub sets: Vec<SetRecord>,
 }

@@ -152,6 +152,15 @@ fn isotonic(samples: &[Sample]) -> (Vec<f64>, Vec<f64>) {
     (xs, ds)
 }
 
+/// Setpoint-mean knots of a non-decreasing relation (no extrapolation knot): for tables
+/// such as the calibrated indenter's area by depth.
+pub fn monotone_knots(samples: &[Sample]) -> (Vec<f64>, Vec<f64>) {
+    let (mut x, mut y) = isotonic(samples);
+    x.pop();
+    y.pop();
+    (x, y)
+}
+
 /// Fits a model to samples.
 type Fitter<M> = Box<dyn Fn(&[Sample]) -> M>;
 

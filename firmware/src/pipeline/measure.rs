@@ -33,6 +33,12 @@ pub const SLOPE_LIMIT: f32 = 0.55;
 /// A region whose opposite-signed phase exceeds this fraction of its indentation-signed
 /// phase is a thermal or shading dipole, not a contact.
 pub const DIPOLE_RATIO: f32 = 0.35;
+/// Phase-slope flag: more than this fraction of the deformed pixels lost half their fringe
+/// amplitude.
+pub const BAND_LOSS_FRACTION: f32 = 0.01;
+/// Phase-slope flag: a contact area below this fraction of the calibrated indenter's area at
+/// the same depth.
+pub const SHARPNESS_RATIO: f64 = 0.7;
 /// Misregistration flag: a global offset beyond this, rad (a quarter period).
 pub const MISREGISTRATION_RAD: f32 = std::f32::consts::FRAC_PI_2;
 /// Over-exposure flag: more than this fraction of newly saturated pixels.
@@ -319,9 +325,10 @@ pub fn measure<M: PhaseMap>(
     let n = w * h;
     let med_ref = map.amp_ref_median().max(1);
     let lim = |m: u32| (u64::from(m) * (RELIABLE_AMPLITUDE * 1024.0) as u64 / 1024) as u32;
-    // Within about a period of the image edge neither the FFT (periodic wrap) nor the box
-    // filters (replicated edges) see a whole neighbourhood: those pixels are not trusted.
-    let margin = carrier.period_px().ceil() as usize;
+    // Near the image edge neither the FFT (periodic wrap) nor the box filters (replicated
+    // edges) see a whole neighbourhood: the two box passes reach one period each way, so
+    // pixels within a period and a half of the edge are not trusted.
+    let margin = (1.5 * carrier.period_px()).ceil() as usize;
     let inside = |i: usize| {
         let (x, y) = (i % w, i / w);
         x >= margin && y >= margin && x + margin < w && y + margin < h
@@ -460,7 +467,24 @@ pub fn measure<M: PhaseMap>(
     let deformed: Vec<bool> = depth_um.iter().map(|&d| d > thr_um).collect();
     let slope_limit = SLOPE_LIMIT * 65_536.0 * BAND_HALF_WIDTH * carrier.freq();
     let u_units: Vec<i32> = u.iter().map(|p| p.units()).collect();
-    if slope_p98(&u_units, &deformed, w, h) as f32 > slope_limit {
+    // Beyond the band the demodulator cannot even report the slope; what it shows is the
+    // fringe amplitude falling (by the filter's response at the local frequency offset).
+    // Deformed pixels whose amplitude fell below half the reference's, or that became
+    // unreliable, mean the spectrum has left the band there.
+    let (mut lost, mut seen) = (0usize, 0usize);
+    for i in (0..n).filter(|&i| deformed[i] && inside(i)) {
+        seen += 1;
+        if !reliable[i] || u64::from(map.amp_frame(i)) * 2 < u64::from(map.amp_ref(i)) {
+            lost += 1;
+        }
+    }
+    let band_lost = lost as f32 > BAND_LOSS_FRACTION * seen as f32 && lost >= 4;
+    // A contact much sharper than the calibrated indenter (less area at the same depth) is
+    // smoothed by the band more than the calibration knows: its depth reads low.
+    let sharper = ctx.calib.shape.as_ref().is_some_and(|s| {
+        f64::from(feats.area_mm2) < SHARPNESS_RATIO * s.area_mm2_at(f64::from(feats.peak_mm))
+    });
+    if sharper || band_lost || slope_p98(&u_units, &deformed, w, h) as f32 > slope_limit {
         flags.insert(Flag::PhaseSlope);
     }
     if unreached > 0 || n_res > MAX_RESIDUES {

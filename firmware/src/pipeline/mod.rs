@@ -74,7 +74,7 @@ pub enum PipelineError {
 }
 
 /// The result of analysing one frame.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Clone, PartialEq)]
 pub struct Deformation {
     /// Working width, pixels.
     pub w: usize,
@@ -110,6 +110,32 @@ pub struct Deformation {
     pub floor_um: i32,
     /// Contact tiles processed.
     pub tiles: usize,
+}
+
+impl std::fmt::Debug for Deformation {
+    /// The summary numbers; the maps only by size.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Deformation")
+            .field(
+                "map",
+                &format_args!("{}×{} (÷{})", self.w, self.h, self.factor),
+            )
+            .field("contact", &self.contact)
+            .field("peak_depth_mm", &self.peak_depth_mm)
+            .field("contact_area_mm2", &self.contact_area_mm2)
+            .field("volume_mm3", &self.volume_mm3)
+            .field("centroid_px", &self.centroid_px)
+            .field("force_n", &self.force_n)
+            .field(
+                "flags",
+                &self.flags.iter().map(|f| f.name()).collect::<Vec<_>>(),
+            )
+            .field("noise_rad", &self.noise_rad)
+            .field("offset_rad", &self.offset_rad)
+            .field("floor_um", &self.floor_um)
+            .field("tiles", &self.tiles)
+            .finish()
+    }
 }
 
 /// Options of an [`Analyzer`].

@@ -197,14 +197,10 @@ fn press(unit: &SensorUnit, k: usize, depth_mm: f32) -> SkinState {
     s
 }
 
-/// The three sets a lab records to calibrate a unit: `depth/` (known depths), `force/`
-/// (known forces with the 10 mm sphere), `temperature/` (uniform setpoints, no contact).
-pub fn write_calibration_kit(
-    dir: &Path,
-    unit: &SensorUnit,
-    opts: &SetOptions,
-    mut progress: impl FnMut(&str, usize, usize),
-) -> Result<[FrameSet; 3], FrameSetError> {
+/// The scripted states of the three calibration sets: known depths and known forces with
+/// the 10 mm sphere at two positions each, and uniform temperature setpoints (two frames
+/// each, no contact).
+pub fn kit_states(unit: &SensorUnit) -> [Vec<SkinState>; 3] {
     let sphere = Indenter::Sphere { r_mm: SPHERE_R_MM };
     let depth: Vec<SkinState> = KIT_DEPTHS_MM
         .iter()
@@ -220,6 +216,18 @@ pub fn write_calibration_kit(
         .iter()
         .flat_map(|&t| [scene::uniform(t), scene::uniform(t)])
         .collect();
+    [depth, force, temps]
+}
+
+/// The three sets a lab records to calibrate a unit: `depth/` (known depths), `force/`
+/// (known forces with the 10 mm sphere), `temperature/` (uniform setpoints, no contact).
+pub fn write_calibration_kit(
+    dir: &Path,
+    unit: &SensorUnit,
+    opts: &SetOptions,
+    mut progress: impl FnMut(&str, usize, usize),
+) -> Result<[FrameSet; 3], FrameSetError> {
+    let [depth, force, temps] = kit_states(unit);
     let d = write_states(
         &dir.join("depth"),
         "kit-depth",
