@@ -45,8 +45,15 @@ pub fn atan2_units(y: i64, x: i64, table: &[u16; 257]) -> i32 {
         return 0;
     }
     let (lo, hi) = if ay > ax { (ay, ax) } else { (ax, ay) };
-    // hi / lo in Q16 (≤ 65 536); lo > 0 here.
-    let t = ((u128::from(hi) << 16) / u128::from(lo)) as u32;
+    // hi / lo in Q16 (≤ 65 536); lo > 0 here. Shift both down to 47 bits first so the
+    // 64-bit division cannot overflow.
+    let shift = 64 - lo.leading_zeros();
+    let (hi, lo) = if shift > 47 {
+        (hi >> (shift - 47), (lo >> (shift - 47)).max(1))
+    } else {
+        (hi, lo)
+    };
+    let t = ((hi << 16) / lo) as u32;
     let (k, f) = ((t >> 8) as usize, t & 0xff);
     let a0 = u32::from(table[k.min(256)]);
     let a1 = u32::from(table[(k + 1).min(256)]);
@@ -63,34 +70,64 @@ pub fn atan2_units(y: i64, x: i64, table: &[u16; 257]) -> i32 {
     i32::from(a as i16)
 }
 
-/// Two passes of a running-sum box of length `len` along rows (`stride` 1) or columns
-/// (`stride` w) of `buf`, edge-replicated, normalised by a Q16 reciprocal.
+/// One running-sum box pass of length `len` over `src` (a line of `n` samples), edge-
+/// replicated, `before` samples to the left of each output; normalised by `recip` (Q16).
+#[inline]
+fn box_line(src: &[i32], dst: &mut [i32], len: usize, before: usize, recip: i64) {
+    let n = src.len();
+    let at = |k: isize| src[k.clamp(0, n as isize - 1) as usize];
+    let mut sum: i64 = (0..len)
+        .map(|k| i64::from(at(k as isize - before as isize)))
+        .sum();
+    let after = (len - before) as isize;
+    // Edges (clamped reads) and the interior (direct reads) in one loop with a fast path.
+    for (i, d) in dst.iter_mut().enumerate() {
+        *d = ((sum * recip) >> 16) as i32;
+        let (add, sub) = (i as isize + after, i as isize - before as isize);
+        let (a, b) = if sub >= 0 && (add as usize) < n {
+            (src[add as usize], src[sub as usize])
+        } else {
+            (at(add), at(sub))
+        };
+        sum += i64::from(a) - i64::from(b);
+    }
+}
+
+/// Two passes of a running-sum box of length `len` along rows (`along_x`) or columns of
+/// `buf` (`w × h`), edge-replicated, normalised by a Q16 reciprocal. Columns are processed
+/// a whole row at a time, so memory is read in order.
 fn box2(buf: &mut [i32], w: usize, h: usize, len: usize, along_x: bool, tmp: &mut Vec<i32>) {
     let len = len.max(1);
-    let recip = ((1u64 << 16) + len as u64 / 2) / len as u64;
-    let (lines, n, stride, step) = if along_x { (h, w, 1, w) } else { (w, h, w, 1) };
-    tmp.resize(n, 0);
+    let recip = (((1u64 << 16) + len as u64 / 2) / len as u64) as i64;
+    tmp.resize(buf.len(), 0);
     // An even box is off-centre by half a sample; the second pass leans the other way, so
     // the cascade is centred.
     for before in [len / 2, (len - 1) / 2] {
-        for line in 0..lines {
-            let base = line * step;
-            let at = |k: isize| base + (k.clamp(0, n as isize - 1) as usize) * stride;
-            let mut sum: i64 = (0..len)
-                .map(|k| i64::from(buf[at(k as isize - before as isize)]))
-                .sum();
-            for (i, t) in tmp.iter_mut().enumerate() {
-                *t = ((sum * recip as i64) >> 16) as i32;
-                let (add, sub) = (
-                    i as isize + (len - before) as isize,
-                    i as isize - before as isize,
-                );
-                sum += i64::from(buf[at(add)]) - i64::from(buf[at(sub)]);
+        if along_x {
+            for (src, dst) in buf.chunks_exact(w).zip(tmp.chunks_exact_mut(w)) {
+                box_line(src, dst, len, before, recip);
             }
-            for (i, t) in tmp.iter().enumerate() {
-                buf[base + i * stride] = *t;
+        } else {
+            let row = |y: isize| y.clamp(0, h as isize - 1) as usize * w;
+            let mut sum: Vec<i64> = vec![0; w];
+            for k in 0..len {
+                let r = row(k as isize - before as isize);
+                for (s, v) in sum.iter_mut().zip(&buf[r..r + w]) {
+                    *s += i64::from(*v);
+                }
+            }
+            let after = (len - before) as isize;
+            for y in 0..h {
+                for (d, s) in tmp[y * w..(y + 1) * w].iter_mut().zip(&sum) {
+                    *d = ((s * recip) >> 16) as i32;
+                }
+                let (ra, rs) = (row(y as isize + after), row(y as isize - before as isize));
+                for ((s, a), b) in sum.iter_mut().zip(&buf[ra..ra + w]).zip(&buf[rs..rs + w]) {
+                    *s += i64::from(*a) - i64::from(*b);
+                }
             }
         }
+        buf.copy_from_slice(tmp);
     }
 }
 
@@ -182,7 +219,7 @@ impl FixedFtp {
                 carrier.period_px(),
             )));
         }
-        let (gray, w, h) = gray_down_q8(reference, factor);
+        let (gray, w, h, _) = gray_down_q8(reference, factor);
         let mix = (0..w * h)
             .map(|i| {
                 let th = std::f64::consts::TAU
@@ -252,7 +289,7 @@ impl FixedFtp {
 
     /// Wrapped phase difference (units) and frame amplitude per working pixel.
     pub fn phase(&self, frame: &RgbImage) -> FixedField<'_> {
-        let (gray, w, h) = gray_down_q8(frame, self.factor);
+        let (gray, w, h, saturated) = gray_down_q8(frame, self.factor);
         assert_eq!(
             (w, h),
             (self.w, self.h),
@@ -271,16 +308,24 @@ impl FixedFtp {
             wrapped.push(atan2_units(b * c - a * d, a * c + b * d, &self.atan));
             amp_frame.push(amp(*zf));
         }
+        let saturated_fraction =
+            saturated as f32 / (frame.width() as f32 * frame.height() as f32).max(1.0);
         FixedField {
             ftp: self,
             wrapped,
             amp_frame,
+            saturated_fraction,
         }
     }
 
     /// Analyses one frame.
     pub fn analyze(&self, frame: &RgbImage, ctx: &Context<'_>) -> Deformation {
-        measure(&self.phase(frame), self.factor, self.carrier, ctx)
+        let field = self.phase(frame);
+        let ctx = Context {
+            saturated_fraction: field.saturated_fraction - ctx.saturated_fraction,
+            ..*ctx
+        };
+        measure(&field, self.factor, self.carrier, &ctx)
     }
 }
 
@@ -292,6 +337,8 @@ pub struct FixedField<'a> {
     pub wrapped: Vec<i32>,
     /// Frame amplitude.
     pub amp_frame: Vec<u32>,
+    /// Fraction of input pixels with a saturated channel.
+    pub saturated_fraction: f32,
 }
 
 impl PhaseMap for FixedField<'_> {

@@ -265,6 +265,11 @@ impl FloatFtp {
         frame: &RgbImage,
         ctx: &super::measure::Context<'_>,
     ) -> super::Deformation {
+        let saturated = super::image_ops::saturated_fraction(frame) - ctx.saturated_fraction;
+        let ctx = &super::measure::Context {
+            saturated_fraction: saturated,
+            ..*ctx
+        };
         let map = FloatMap {
             field: self.phase(frame),
             ref_median: self.ref_median,

@@ -22,32 +22,34 @@ const LUMA_Q8: [u32; 3] = [77, 150, 29];
 
 /// Integer luminance, area-downsampled by `f`: each output is the mean of an `f × f` block,
 /// in 8.8 fixed point (0…65 280). Partial blocks at the right and bottom edges are dropped.
-pub fn gray_down_q8(img: &RgbImage, f: usize) -> (Vec<u16>, usize, usize) {
+/// Also returns the number of input pixels with a saturated channel (one pass over the
+/// frame for both).
+pub fn gray_down_q8(img: &RgbImage, f: usize) -> (Vec<u16>, usize, usize, usize) {
     let (w, h) = (img.width() as usize, img.height() as usize);
     let (ow, oh) = (w / f, h / f);
     let raw: &[u8] = img.as_raw();
     let mut out = vec![0u16; ow * oh];
     let mut row = vec![0u32; ow];
     let n = (f * f) as u32;
+    let mut saturated = 0usize;
     for oy in 0..oh {
         row.iter_mut().for_each(|v| *v = 0);
         for y in oy * f..(oy + 1) * f {
             let line = &raw[y * w * 3..(y * w + ow * f) * 3];
-            for (ox, acc) in row.iter_mut().enumerate() {
-                let mut s = 0u32;
-                for px in line[ox * f * 3..(ox + 1) * f * 3].chunks_exact(3) {
-                    s += LUMA_Q8[0] * u32::from(px[0])
+            for (acc, block) in row.iter_mut().zip(line.chunks_exact(3 * f)) {
+                for px in block.chunks_exact(3) {
+                    *acc += LUMA_Q8[0] * u32::from(px[0])
                         + LUMA_Q8[1] * u32::from(px[1])
                         + LUMA_Q8[2] * u32::from(px[2]);
+                    saturated += usize::from(px[0].max(px[1]).max(px[2]) == 255);
                 }
-                *acc += s;
             }
         }
         for (o, acc) in out[oy * ow..(oy + 1) * ow].iter_mut().zip(&row) {
             *o = ((acc + n / 2) / n) as u16;
         }
     }
-    (out, ow, oh)
+    (out, ow, oh, saturated)
 }
 
 /// Float luminance (0…255), area-downsampled by `f`: the reference path's twin of
@@ -105,7 +107,7 @@ mod tests {
             ]);
         }
         for f in [1, 2, 3] {
-            let (q, w, h) = gray_down_q8(&img, f);
+            let (q, w, h, _) = gray_down_q8(&img, f);
             let (fl, w2, h2) = gray_down_f32(&img, f);
             assert_eq!((w, h), (w2, h2));
             for (a, b) in q.iter().zip(&fl) {

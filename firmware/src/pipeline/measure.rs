@@ -47,13 +47,14 @@ pub const OVER_EXPOSED_FRACTION: f32 = 0.002;
 pub const MAX_RESIDUES: usize = 2;
 
 /// What the measurement needs besides the phase.
-#[derive(Debug)]
+#[derive(Debug, Clone, Copy)]
 pub struct Context<'a> {
     /// The calibration.
     pub calib: &'a Calibration,
     /// Input scale, mm per pixel.
     pub mm_per_px: f32,
-    /// Fraction of saturated pixels beyond the reference's.
+    /// Fraction of saturated pixels beyond the reference's (the analyzer passes the
+    /// reference's; each path replaces it with the difference).
     pub saturated_fraction: f32,
 }
 

@@ -235,11 +235,12 @@ impl Analyzer {
                 got_h: frame.height(),
             });
         }
-        let saturated = image_ops::saturated_fraction(frame) - self.ref_saturation;
+        // Each path measures the frame's saturation itself; the context carries the
+        // reference's, to subtract.
         let ctx = measure::Context {
             calib: &self.calib,
             mm_per_px: self.mm_per_px,
-            saturated_fraction: saturated,
+            saturated_fraction: self.ref_saturation,
         };
         Ok(match &self.imp {
             Imp::Float(f) => f.analyze(frame, &ctx),
