@@ -46,8 +46,8 @@ fn scale_fit(samples: &[Sample], g: impl Fn(f64) -> f64) -> (f64, f64) {
     (a, sse)
 }
 
-/// Fits `y ≈ a·g(b, u)` over `b` in [lo, hi] (log grid, then golden section).
-fn fit_ab(samples: &[Sample], lo: f64, hi: f64, g: impl Fn(f64, f64) -> f64) -> (f64, f64) {
+/// Fits `y ≈ a·g(b, u)` over `b` in [lo, hi] (log grid, then golden section); returns (a, b).
+pub fn fit_ab(samples: &[Sample], lo: f64, hi: f64, g: impl Fn(f64, f64) -> f64) -> (f64, f64) {
     let sse_of = |b: f64| scale_fit(samples, |u| g(b, u)).1;
     let steps = 60;
     let (mut best_b, mut best) = (lo, f64::INFINITY);

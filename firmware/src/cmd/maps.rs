@@ -22,9 +22,8 @@ pub fn viridis(t: f32) -> Rgb<u8> {
     Rgb([c(0), c(1), c(2)])
 }
 
-/// Writes a map (row-major `w × h`, values in `unit`) scaled to [lo, hi], with a colour bar
-/// on the right whose ticks are drawn as tick marks at 0, ¼, ½, ¾ and 1 of the range
-/// (the range is recorded in the file name's companion summary).
+/// Writes a map (row-major `w × h`) scaled to [lo, hi], with a colour bar on the right and
+/// tick marks at 0, ¼, ½, ¾ and 1 of the range.
 pub fn map_png(
     values: &[f32],
     w: usize,
@@ -67,7 +66,8 @@ pub fn map_png(
         .with_context(|| format!("writing {}", path.display()))
 }
 
-/// The depth map of a result as PNG (0 … peak, at least 0.1 mm).
+/// The depth map of a result as PNG: the bar spans 0 to the frame's peak depth (its
+/// `depth_mm` in the JSON output), at least 0.1 mm.
 pub fn depth_png(d: &Deformation, path: &Path) -> Result<()> {
     let v: Vec<f32> = d.depth_um.iter().map(|&u| u as f32 / 1000.0).collect();
     map_png(&v, d.w, d.h, 0.0, d.peak_depth_mm.max(0.1), d.factor, path)

@@ -328,7 +328,11 @@ fn truth_of(unit: &SensorUnit, state: &SkinState, depth: Vec<f32>, temp: Vec<f32
             c.center_mm.1 / mmpp - state.shift_px.1,
         )
     });
+    let uniform = state.temperature.sources.is_empty();
     let contact_temp_c = deepest.and_then(|c| {
+        if uniform {
+            return Some(state.temperature.base_c);
+        }
         let (mut sum, mut n) = (0.0f64, 0u32);
         for y in 0..h {
             for x in 0..w {

@@ -1,0 +1,190 @@
+//! `vistaf-skin` on the committed fixtures: JSON lines, traceable outputs, and refusals
+//! that name the problem.
+#![allow(clippy::unwrap_used)] // tests unwrap: a failure is the test failing
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn skin(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_vistaf-skin"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn fixture(name: &str) -> String {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../tests/fixtures")
+        .join(name)
+        .display()
+        .to_string()
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("vistaf-skin-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+#[test]
+fn analyze_set_prints_one_json_object_per_frame() {
+    let out = skin(&[
+        "analyze",
+        "--set",
+        &fixture("press-sphere"),
+        "--json",
+        "--force-calibration",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8(out.stdout).unwrap();
+    let rows: Vec<serde_json::Value> = text
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(rows.len(), 4);
+    for key in [
+        "file",
+        "depth_mm",
+        "force_n",
+        "contact_area_mm2",
+        "volume_mm3",
+        "contact_x_px",
+        "contact_y_px",
+        "flags",
+        "latency_us",
+    ] {
+        assert!(rows[0].get(key).is_some(), "missing {key}");
+    }
+    assert!(rows[3]["depth_mm"].as_f64().unwrap() > 2.4);
+}
+
+#[test]
+fn analyze_out_writes_maps_and_a_traceable_summary() {
+    let out_dir = tmp("out");
+    let f = fixture("press-sphere");
+    let out = skin(&[
+        "analyze",
+        "--reference",
+        &format!("{f}/reference.png"),
+        "--frame",
+        &format!("{f}/f0003.png"),
+        "--out",
+        out_dir.to_str().unwrap(),
+        "--force-calibration",
+        "--pipeline",
+        "float",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(out_dir.join("f0003_depth.png").exists());
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out_dir.join("summary.json")).unwrap())
+            .unwrap();
+    assert!(summary["calibration"]["phase_to_depth"]["equation"]
+        .as_str()
+        .unwrap()
+        .contains("d_mm"));
+    assert!(summary["calibration"]["force"]["equation"]
+        .as_str()
+        .unwrap()
+        .contains("F_N"));
+    std::fs::remove_dir_all(out_dir).unwrap();
+}
+
+#[test]
+fn a_calibration_for_another_geometry_is_refused_unless_forced() {
+    // The fixtures are 320×240; the default calibration was made at 640×480.
+    let out = skin(&["analyze", "--set", &fixture("idle")]);
+    assert!(!out.status.success());
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert!(
+        err.contains("640×480") && err.contains("320×240") && err.contains("--force-calibration"),
+        "{err}"
+    );
+}
+
+#[test]
+fn bad_inputs_are_named() {
+    let cal = tmp("bad.json");
+    std::fs::write(&cal, "{\"format\": \"vistaf-calibration/7\"}").unwrap();
+    let out = skin(&[
+        "analyze",
+        "--set",
+        &fixture("idle"),
+        "--calibration",
+        cal.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert!(
+        !out.status.success() && err.contains("vistaf-calibration/7"),
+        "{err}"
+    );
+    std::fs::remove_file(cal).unwrap();
+
+    let f = fixture("idle");
+    // A frame of another size than the reference: the frame is named.
+    let wrong = tmp("small.png");
+    image::RgbImage::new(10, 10).save(&wrong).unwrap();
+    let out = skin(&[
+        "analyze",
+        "--reference",
+        &format!("{f}/reference.png"),
+        "--frame",
+        wrong.to_str().unwrap(),
+        "--force-calibration",
+    ]);
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert!(
+        !out.status.success() && err.contains("small.png") && err.contains("10×10"),
+        "{err}"
+    );
+    std::fs::remove_file(wrong).unwrap();
+
+    let out = skin(&["simulate", "--scene", "no-such", "--out", "/tmp/x"]);
+    assert!(String::from_utf8(out.stderr)
+        .unwrap()
+        .contains("press-sphere"));
+}
+
+#[test]
+fn calibrate_fits_a_labelled_set_and_the_result_analyzes() {
+    // The press-sphere fixture has four labelled depths: enough for a (small) calibration.
+    let cal = tmp("fixture-cal.json");
+    let out = skin(&[
+        "calibrate",
+        "--set",
+        &fixture("press-sphere"),
+        "--out",
+        cal.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        text.contains("phase → depth") && text.contains("← chosen"),
+        "{text}"
+    );
+    let out = skin(&[
+        "analyze",
+        "--set",
+        &fixture("idle"),
+        "--calibration",
+        cal.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    std::fs::remove_file(cal).unwrap();
+}
