@@ -9,4 +9,5 @@ pub mod calibrate;
 pub mod calibration;
 pub mod fit;
 pub mod pipeline;
+pub mod service;
 pub mod source_spec;

@@ -26,6 +26,8 @@ enum Cmd {
     Analyze(cmd::analyze::Args),
     /// Fit a calibration from labelled frame sets.
     Calibrate(cmd::calibrate::Args),
+    /// Run the service: source → pipeline → summaries on a serial link.
+    Run(cmd::run::Args),
 }
 
 fn main() {
@@ -35,6 +37,7 @@ fn main() {
         Cmd::Record(a) => cmd::record::run(a),
         Cmd::Analyze(a) => cmd::analyze::run(a),
         Cmd::Calibrate(a) => cmd::calibrate::run(a),
+        Cmd::Run(a) => cmd::run::run(a),
     };
     if let Err(e) = result {
         eprintln!("vistaf-skin: {e:#}");

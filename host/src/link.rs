@@ -172,12 +172,19 @@ impl Link {
         &self.name
     }
 
-    /// Reads some bytes. `Ok(0)` means end of stream; a poll timeout is reported as
-    /// [`io::ErrorKind::WouldBlock`].
+    /// Reads some bytes. `Ok(0)` means end of stream, including the other end going away
+    /// (a closed pseudo-terminal or a pulled USB cable reads as EIO or a broken pipe); a
+    /// poll timeout is reported as [`io::ErrorKind::WouldBlock`].
     pub fn read(&mut self, buf: &mut [u8]) -> Result<usize, HostError> {
+        const EIO: i32 = 5;
         loop {
             match self.reader.read(buf) {
                 Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                Err(e)
+                    if e.kind() == io::ErrorKind::BrokenPipe || e.raw_os_error() == Some(EIO) =>
+                {
+                    return Ok(0)
+                }
                 Err(e) => {
                     return Err(HostError::Io {
                         link: self.name.clone(),

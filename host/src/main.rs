@@ -69,6 +69,17 @@ enum Cmd {
         #[arg(long, default_value_t = 10_000)]
         timeout_ms: u64,
     },
+    /// The whole chain on a simulated skin: the device service on a scripted scene (idle,
+    /// heated sphere pressed and slid, released, letter E, heated bar) writing to a real
+    /// pseudo-terminal, this host reading it with a live readout, a recording in --out.
+    Demo {
+        /// Frames of the scripted scene (30 per second).
+        #[arg(long, default_value_t = 300)]
+        frames: usize,
+        /// Session folder (summaries.jsonl, session.json).
+        #[arg(long, default_value = "vistaf-demo")]
+        out: PathBuf,
+    },
     /// Measure the round-trip time to the device.
     Ping {
         /// Serial link.
@@ -102,10 +113,10 @@ fn main() {
 
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
-        Cmd::Monitor { ports, run } => stream(&ports, &run, None),
+        Cmd::Monitor { ports, run } => stream(&ports, &run, None, true),
         Cmd::Record { ports, out, run } => {
             let rec = Recorder::create(&out)?;
-            stream(&ports, &run, Some(rec))
+            stream(&ports, &run, Some(rec), false)
         }
         Cmd::Decode { file, json: _ } => decode(&file),
         Cmd::Info { port, timeout_ms } => {
@@ -133,6 +144,7 @@ fn run(cli: Cli) -> Result<()> {
             println!("{}: new reference captured", c.name());
             Ok(())
         }
+        Cmd::Demo { frames, out } => demo(frames, &out),
         Cmd::Ping { port, count } => {
             let mut c = open_client(&port)?;
             for nonce in 0..count {
@@ -146,6 +158,83 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
     }
+}
+
+fn demo(frames: usize, out: &std::path::Path) -> Result<()> {
+    use std::sync::atomic::AtomicBool;
+    use std::sync::Arc;
+    use vistaf_firmware::calibration::Calibration;
+    use vistaf_firmware::service::{run as serve, Settings};
+    use vistaf_firmware::source_spec::{open, OpenOptions, SourceSpec};
+    use vistaf_hardware::led::{LedConfig, MemoryLedRing};
+
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let (master, slave) = serialport::TTYPort::pair().context("creating a pseudo-terminal pair")?;
+    let port = serialport::SerialPort::name(&slave).context("pseudo-terminal has no name")?;
+    let calibration = Calibration::default_sim();
+    let settings = Settings {
+        serial: "VSK-SIM-DEMO".into(),
+        calibration: calibration.clone(),
+        force_calibration: false,
+        pipeline: vistaf_firmware::pipeline::Implementation::Fixed,
+        frames: Some(frames as u64),
+        max_rate_hz: 0,
+        led: LedConfig::default(),
+    };
+    let source = open(
+        &SourceSpec::Sim("demo".into()),
+        &OpenOptions {
+            sim_frames: frames + 2,
+            fps: Some(30.0),
+            ..OpenOptions::default()
+        },
+    )?;
+    let reader = master.try_clone_native().context("pseudo-terminal")?;
+    let stop = Arc::new(AtomicBool::new(false));
+    let device_stop = stop.clone();
+    let device = std::thread::spawn(move || {
+        let mut led = MemoryLedRing::default();
+        serve(
+            source,
+            master,
+            Some(Box::new(reader)),
+            &mut led,
+            &settings,
+            device_stop,
+        )
+    });
+    eprintln!("device: simulated skin on {port}; host: reading it");
+    let rec = Recorder::create(&out.join("summaries.jsonl"))?;
+    let args = RunArgs {
+        frames: Some(frames as u64),
+        duration_s: Some(frames as f64 / 30.0 + 20.0),
+        no_handshake: false,
+    };
+    let result = stream(&[format!("serial:{port}")], &args, Some(rec), true);
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    let counters = device
+        .join()
+        .map_err(|_| anyhow::anyhow!("device thread panicked"))??;
+    let session = serde_json::json!({
+        "scene": "demo",
+        "link": port,
+        "device": {
+            "frames_captured": counters.captured, "frames_processed": counters.processed,
+            "frames_dropped": counters.dropped, "summaries_sent": counters.sent,
+        },
+        "calibration": {
+            "phase_to_depth": { "equation": calibration.depth.equation, "cv_rmse_mm": calibration.depth.cv_rmse, "in_sample_rmse_mm": calibration.depth.in_sample_rmse },
+            "force": calibration.force.as_ref().map(|f| serde_json::json!({ "equation": f.equation, "cv_rmse_n": f.cv_rmse, "in_sample_rmse_n": f.in_sample_rmse })),
+        },
+        "summaries": "summaries.jsonl",
+    });
+    std::fs::write(
+        out.join("session.json"),
+        serde_json::to_string_pretty(&session)? + "\n",
+    )
+    .with_context(|| format!("writing {}", out.join("session.json").display()))?;
+    eprintln!("session: {}", out.display());
+    result
 }
 
 fn open_client(port: &str) -> Result<Client> {
@@ -204,7 +293,7 @@ fn decode(file: &str) -> Result<()> {
     }
 }
 
-fn stream(ports: &[String], run: &RunArgs, mut rec: Option<Recorder>) -> Result<()> {
+fn stream(ports: &[String], run: &RunArgs, mut rec: Option<Recorder>, live: bool) -> Result<()> {
     let mut clients = Vec::new();
     for p in ports {
         let mut c = open_client(p)?;
@@ -229,7 +318,7 @@ fn stream(ports: &[String], run: &RunArgs, mut rec: Option<Recorder>) -> Result<
         clients.push(c);
     }
     let mut reader = MultiReader::spawn(clients);
-    let mut view = Monitor::new(reader.stats().len(), rec.is_none());
+    let mut view = Monitor::new(reader.stats().len(), live);
     let started = Instant::now();
     let deadline = run
         .duration_s
@@ -360,20 +449,31 @@ impl Monitor {
                     let si = s.si();
                     let flags: Vec<&str> = s.flags.iter().map(|f| f.name()).collect();
                     format!(
-                        "#{:<7} F {:7.3} N  d {:6.3} mm  A {:7.2} mm²  T {:5.2} °C [{:5.2}…{:5.2}]{}  \
+                        "#{:<7} F {:7.3} N  d {:6.3} mm  A {:7.2} mm²  T {}{}  \
                          {:5.1} Hz  lost {}  dropped {}  {}",
                         s.seq,
                         si.force_n,
                         si.peak_depth_mm,
                         si.contact_area_mm2,
-                        si.temp_mean_c,
-                        si.temp_min_c,
-                        si.temp_max_c,
-                        si.contact_temp_c.map(|t| format!(" contact {t:5.2} °C")).unwrap_or_default(),
+                        if si.temp_mean_c.is_nan() {
+                            "— (not measured)".to_string()
+                        } else {
+                            format!(
+                                "{:5.2} °C [{:5.2}…{:5.2}]",
+                                si.temp_mean_c, si.temp_min_c, si.temp_max_c
+                            )
+                        },
+                        si.contact_temp_c
+                            .map(|t| format!(" contact {t:5.2} °C"))
+                            .unwrap_or_default(),
                         hz,
                         st.seq.missing,
                         st.drops.total(),
-                        if flags.is_empty() { "ok".to_string() } else { flags.join(",") }
+                        if flags.is_empty() {
+                            "ok".to_string()
+                        } else {
+                            flags.join(",")
+                        }
                     )
                 }
                 None => "waiting for summaries…".to_string(),

@@ -32,6 +32,10 @@ pub const LED_MASK_BITS: u32 = 32;
 /// Marker of a [`Map`] cell without a trusted value.
 pub const MAP_NO_DATA: i16 = i16::MIN;
 
+/// Value of a [`Summary`] temperature field that was not measured (a build or calibration
+/// without thermometry): never a plausible temperature, so it cannot be mistaken for one.
+pub const TEMP_NOT_MEASURED: i16 = i16::MIN;
+
 /// Semantic version of the firmware that sent a [`Hello`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, MaxSize, Schema)]
 pub struct FirmwareVersion {
@@ -96,7 +100,7 @@ pub struct Summary {
     pub volume_milli_mm3: u32,
     /// Contact centre; `None` when there is no contact.
     pub centroid: Option<CentroidDeciMm>,
-    /// Lowest skin temperature, 0.01 °C.
+    /// Lowest skin temperature, 0.01 °C ([`TEMP_NOT_MEASURED`] when not measured).
     pub temp_min_centi_c: i16,
     /// Mean skin temperature, 0.01 °C.
     pub temp_mean_centi_c: i16,

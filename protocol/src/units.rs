@@ -36,7 +36,17 @@ pub fn deci_mm(pos_mm: f32) -> i16 {
     to_i16(pos_mm, 10.0)
 }
 
-/// A [`Summary`] in SI units, for display and recording.
+/// 0.01 °C → °C; [`crate::msg::TEMP_NOT_MEASURED`] → NaN.
+fn temp_c(v: i16) -> f32 {
+    if v == crate::msg::TEMP_NOT_MEASURED {
+        f32::NAN
+    } else {
+        f32::from(v) / 100.0
+    }
+}
+
+/// A [`Summary`] in SI units, for display and recording. Temperatures that were not
+/// measured are NaN.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SummarySi {
     /// Normal force, N.
@@ -70,9 +80,9 @@ impl Summary {
             centroid_mm: self
                 .centroid
                 .map(|c| (c.x as f32 / 10.0, c.y as f32 / 10.0)),
-            temp_min_c: self.temp_min_centi_c as f32 / 100.0,
-            temp_mean_c: self.temp_mean_centi_c as f32 / 100.0,
-            temp_max_c: self.temp_max_centi_c as f32 / 100.0,
+            temp_min_c: temp_c(self.temp_min_centi_c),
+            temp_mean_c: temp_c(self.temp_mean_centi_c),
+            temp_max_c: temp_c(self.temp_max_centi_c),
             contact_temp_c: self.contact_temp_centi_c.map(|t| t as f32 / 100.0),
         }
     }
@@ -126,5 +136,10 @@ mod tests {
         assert_eq!(si.centroid_mm, Some((20.0, -3.5)));
         assert!((si.temp_mean_c - 31.5).abs() < 1e-6);
         assert_eq!(si.contact_temp_c, Some(40.0));
+        let unmeasured = Summary {
+            temp_min_centi_c: crate::msg::TEMP_NOT_MEASURED,
+            ..s
+        };
+        assert!(unmeasured.si().temp_min_c.is_nan());
     }
 }

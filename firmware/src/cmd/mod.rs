@@ -5,6 +5,7 @@ pub mod calibrate;
 pub mod maps;
 pub mod paper;
 pub mod record;
+pub mod run;
 pub mod simulate;
 
 /// A progress bar on stderr (hidden when stderr is not a terminal).

@@ -1,0 +1,121 @@
+//! The whole chain in one process: the device service films a simulated press, writes
+//! summaries to one end of a real pseudo-terminal, and the host library reads the other
+//! end. Every summary arrives, in order, with the scene's depths and forces, and the
+//! commands (Ping, GetInfo, RequestMap) are answered while frames stream.
+#![allow(clippy::unwrap_used)] // tests unwrap: a failure is the test failing
+
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use serialport::{SerialPort, TTYPort};
+use vistaf_firmware::calibration::Calibration;
+use vistaf_firmware::pipeline::Implementation;
+use vistaf_firmware::service::{run, Settings};
+use vistaf_hardware::led::{LedConfig, MemoryLedRing};
+use vistaf_hardware::sim::contact::{Contact, Indenter};
+use vistaf_hardware::sim::scene::{center_mm, ROOM_C, SPHERE_R_MM};
+use vistaf_hardware::sim::{SensorUnit, SimSource, SkinState};
+use vistaf_host::client::{Client, Next};
+use vistaf_host::link::{Link, LinkSpec};
+use vistaf_protocol::{DeviceMsg, MapKind};
+
+#[test]
+fn summaries_cross_a_pty_in_order_and_match_the_scene() {
+    let unit = SensorUnit {
+        width_px: 320,
+        height_px: 240,
+        ..SensorUnit::reference()
+    };
+    let depths: Vec<f32> = (0..24).map(|i| 0.1 * i as f32).collect();
+    let mut states = vec![SkinState::idle(ROOM_C); 3];
+    for &d in &depths {
+        let mut s = SkinState::idle(ROOM_C);
+        s.contacts.push(Contact {
+            indenter: Indenter::Sphere { r_mm: SPHERE_R_MM },
+            center_mm: center_mm(&unit),
+            depth_mm: d,
+        });
+        states.push(s);
+    }
+    // Paced at 30 frames/s so the commands below meet a running stream.
+    let source = SimSource::new("press", unit, states, Some(30.0), 7);
+    let (master, slave) = TTYPort::pair().unwrap();
+    let path = slave.name().unwrap();
+    let reader = master.try_clone_native().unwrap();
+    let settings = Settings {
+        serial: "VSK-TEST".into(),
+        calibration: Calibration::default_sim(),
+        force_calibration: true,
+        pipeline: Implementation::Fixed,
+        frames: None,
+        max_rate_hz: 0,
+        led: LedConfig::default(),
+    };
+    let stop = Arc::new(AtomicBool::new(false));
+    let device_stop = stop.clone();
+    let device = std::thread::spawn(move || {
+        let mut led = MemoryLedRing::default();
+        run(
+            Box::new(source),
+            master,
+            Some(Box::new(reader)),
+            &mut led,
+            &settings,
+            device_stop,
+        )
+        .unwrap()
+    });
+
+    let mut host =
+        Client::new(Link::open(&format!("serial:{path}").parse::<LinkSpec>().unwrap()).unwrap());
+    let hello = host.handshake(Duration::from_secs(5)).unwrap();
+    assert_eq!((hello.frame_width_px, hello.frame_height_px), (320, 240));
+    assert_eq!(&hello.serial[..], "VSK-TEST");
+    host.ping(42, Duration::from_secs(5)).unwrap();
+    let map = host
+        .request_map(MapKind::Depth, Duration::from_secs(5))
+        .unwrap();
+    assert!(map.is_consistent() && map.cells.len() <= vistaf_protocol::msg::MAP_MAX_CELLS);
+
+    let mut summaries = Vec::new();
+    let deadline = Instant::now() + Duration::from_secs(30);
+    while Instant::now() < deadline {
+        match host
+            .next(Some(Instant::now() + Duration::from_millis(300)))
+            .unwrap()
+        {
+            Next::Message(r) => {
+                if let DeviceMsg::Summary(s) = r.msg {
+                    summaries.push(s);
+                }
+            }
+            Next::End => break,
+            Next::Timeout if device.is_finished() => break,
+            Next::Timeout => {}
+        }
+    }
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    let counters = device.join().unwrap();
+    assert_eq!(
+        summaries.len() as u32,
+        counters.sent,
+        "every summary sent arrived"
+    );
+    assert!(
+        summaries.windows(2).all(|w| w[1].seq == w[0].seq + 1),
+        "in order, no gaps"
+    );
+    // The last summaries are the deepest presses; each must match its scene depth.
+    let tail = &summaries[summaries.len() - 10..];
+    for (s, want) in tail.iter().zip(&depths[depths.len() - 10..]) {
+        let got = s.peak_depth_um as f32 / 1000.0;
+        assert!(
+            (got - want).abs() <= 0.03 * want + 0.02,
+            "{got} mm for {want} mm"
+        );
+        assert!(s.flags.is_empty());
+        assert!(s.force_mn > 0);
+    }
+    assert_eq!(host.drops().total(), 0);
+}
