@@ -47,10 +47,11 @@ pub struct Args {
     pub serial: String,
 }
 
-/// Opens a link spec: (writer, optional reader).
-pub fn open_link(
-    spec: &str,
-) -> Result<(Box<dyn Write + Send>, Option<Box<dyn std::io::Read + Send>>)> {
+/// The device's side of a link: where frames go, and where commands come from (if anywhere).
+type LinkEnds = (Box<dyn Write + Send>, Option<Box<dyn std::io::Read + Send>>);
+
+/// Opens a link spec.
+pub fn open_link(spec: &str) -> Result<LinkEnds> {
     if spec == "stdout" {
         return Ok((Box::new(std::io::stdout()), None));
     }
