@@ -6,8 +6,7 @@ use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use serde_json::json;
-use vistaf_firmware::calibration::Calibration;
-use vistaf_firmware::pipeline::{Analyzer, AnalyzerOptions, Deformation, Implementation};
+use vistaf_firmware::pipeline::{Analyzer, AnalyzerOptions, Deformation};
 use vistaf_hardware::frameset::{load_png_rgb, FrameSet};
 
 /// What to analyse.
@@ -22,15 +21,8 @@ pub struct Args {
     /// A frame set (its reference and every frame).
     #[arg(long, required_unless_present = "reference")]
     pub set: Option<PathBuf>,
-    /// Calibration file (default: the simulated reference unit's).
-    #[arg(long)]
-    pub calibration: Option<PathBuf>,
-    /// Use a calibration made for another grating period or image size.
-    #[arg(long)]
-    pub force_calibration: bool,
-    /// float (rustfft reference) or fixed (device path).
-    #[arg(long, default_value = "fixed")]
-    pub pipeline: Implementation,
+    #[command(flatten)]
+    pub pipe: super::common::PipelineArgs,
     /// Override the working-resolution downsampling factor.
     #[arg(long)]
     pub downsample: Option<usize>,
@@ -40,13 +32,6 @@ pub struct Args {
     /// Also write depth-map PNGs and a summary JSON here.
     #[arg(long)]
     pub out: Option<PathBuf>,
-}
-
-fn calibration(a: &Args) -> Result<Calibration> {
-    Ok(match &a.calibration {
-        Some(p) => Calibration::load(p)?,
-        None => Calibration::default_sim(),
-    })
 }
 
 /// One result as a JSON object.
@@ -69,7 +54,7 @@ pub fn result_json(file: &str, d: &Deformation, latency_us: u128) -> serde_json:
 
 /// Runs the command.
 pub fn run(a: &Args) -> Result<()> {
-    let calib = calibration(a)?;
+    let calib = a.pipe.calibration()?;
     let (reference, frames): (image::RgbImage, Vec<(String, PathBuf)>) =
         match (&a.set, &a.reference, &a.frame) {
             (Some(dir), _, _) => {
@@ -94,11 +79,11 @@ pub fn run(a: &Args) -> Result<()> {
         };
     let opts = AnalyzerOptions {
         factor: a.downsample,
-        force_calibration: a.force_calibration,
+        force_calibration: a.pipe.force_calibration,
         ..Default::default()
     };
-    let analyzer =
-        Analyzer::new(&reference, calib, a.pipeline, opts).context("preparing the reference")?;
+    let analyzer = Analyzer::new(&reference, calib, a.pipe.pipeline, opts)
+        .context("preparing the reference")?;
     let stdout = std::io::stdout();
     let mut out = stdout.lock();
     let mut results = Vec::new();

@@ -1,13 +1,10 @@
 //! `vistaf-skin run`: the service.
 
 use std::io::Write;
-use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
 use anyhow::{bail, Context, Result};
-use vistaf_firmware::calibration::Calibration;
-use vistaf_firmware::pipeline::Implementation;
 use vistaf_firmware::service::{run as serve, Settings};
 use vistaf_firmware::source_spec::{open, OpenOptions, SourceSpec};
 use vistaf_hardware::led::{LedConfig, MemoryLedRing};
@@ -24,15 +21,8 @@ pub struct Args {
     /// Stop after this many processed frames.
     #[arg(long)]
     pub frames: Option<u64>,
-    /// Calibration file (default: the simulated reference unit's).
-    #[arg(long)]
-    pub calibration: Option<PathBuf>,
-    /// Use a calibration made for another geometry.
-    #[arg(long)]
-    pub force_calibration: bool,
-    /// float or fixed.
-    #[arg(long, default_value = "fixed")]
-    pub pipeline: Implementation,
+    #[command(flatten)]
+    pub pipe: super::common::PipelineArgs,
     /// Pace sets and simulated scenes at this rate (frames per second).
     #[arg(long)]
     pub fps: Option<f32>,
@@ -82,10 +72,7 @@ pub fn open_link(spec: &str) -> Result<LinkEnds> {
 
 /// Runs the command until the source ends, `--frames`, or SIGTERM/SIGINT.
 pub fn run(a: &Args) -> Result<()> {
-    let calibration = match &a.calibration {
-        Some(p) => Calibration::load(p)?,
-        None => Calibration::default_sim(),
-    };
+    let calibration = a.pipe.calibration()?;
     let opts = OpenOptions {
         sim_frames: a.sim_frames,
         unit_seed: a.unit_seed,
@@ -101,8 +88,8 @@ pub fn run(a: &Args) -> Result<()> {
     let settings = Settings {
         serial: a.serial.clone(),
         calibration,
-        force_calibration: a.force_calibration,
-        pipeline: a.pipeline,
+        force_calibration: a.pipe.force_calibration,
+        pipeline: a.pipe.pipeline,
         frames: a.frames,
         max_rate_hz: 0,
         led: LedConfig::default(),

@@ -65,19 +65,24 @@ pub enum CarrierError {
 /// below ~2.5 the band-pass cannot separate the first order from its aliases).
 pub const MIN_PERIOD_PX: f32 = 2.5;
 
-/// 2-D FFT in place (row-major `w × h`).
-pub fn fft2(
-    data: &mut [Complex32],
-    w: usize,
-    h: usize,
-    planner: &mut FftPlanner<f32>,
-    inverse: bool,
-) {
-    let (row, col) = if inverse {
+/// The two 1-D transforms of a 2-D FFT: along rows (length w) and columns (length h).
+pub type Plan2 = (
+    std::sync::Arc<dyn rustfft::Fft<f32>>,
+    std::sync::Arc<dyn rustfft::Fft<f32>>,
+);
+
+/// Plans a forward or inverse 2-D FFT of `w × h`.
+pub fn plan2(planner: &mut FftPlanner<f32>, w: usize, h: usize, inverse: bool) -> Plan2 {
+    if inverse {
         (planner.plan_fft_inverse(w), planner.plan_fft_inverse(h))
     } else {
         (planner.plan_fft_forward(w), planner.plan_fft_forward(h))
-    };
+    }
+}
+
+/// 2-D FFT in place (row-major, rows of `plan.0`'s length): rows, then columns.
+pub fn fft2(data: &mut [Complex32], (row, col): &Plan2) {
+    let (w, h) = (row.len(), col.len());
     row.process(data);
     let mut column = vec![Complex32::default(); h];
     for x in 0..w {
@@ -104,7 +109,7 @@ pub fn estimate(gray: &[f32], w: usize, h: usize) -> Result<Carrier, CarrierErro
         .map(|(i, v)| Complex32::new((v - mean) * hann(i % w, w) * hann(i / w, h), 0.0))
         .collect();
     let mut planner = FftPlanner::new();
-    fft2(&mut spec, w, h, &mut planner, false);
+    fft2(&mut spec, &plan2(&mut planner, w, h, false));
     let mag = |kx: isize, ky: isize| -> f32 {
         let x = kx.rem_euclid(w as isize) as usize;
         let y = ky.rem_euclid(h as isize) as usize;

@@ -18,11 +18,9 @@
 //!   a different filter, so its depth maps differ from the device path's by a few percent
 //!   where the surface is curved, and it needs its own calibration.
 
-use std::sync::Arc;
-
 use image::RgbImage;
 use rustfft::num_complex::Complex32;
-use rustfft::{Fft, FftPlanner};
+use rustfft::FftPlanner;
 
 use super::carrier::{self, Carrier};
 use super::image_ops::{downsample_factor, gray_down_f32};
@@ -84,8 +82,8 @@ pub struct FloatFtp {
     window: Vec<f32>,
     z_ref: Vec<Complex32>,
     ref_median: u32,
-    fwd: (Arc<dyn Fft<f32>>, Arc<dyn Fft<f32>>),
-    inv: (Arc<dyn Fft<f32>>, Arc<dyn Fft<f32>>),
+    fwd: carrier::Plan2,
+    inv: carrier::Plan2,
 }
 
 impl std::fmt::Debug for FloatFtp {
@@ -119,8 +117,8 @@ impl FloatFtp {
             )));
         }
         let mut planner = FftPlanner::new();
-        let fwd = (planner.plan_fft_forward(w), planner.plan_fft_forward(h));
-        let inv = (planner.plan_fft_inverse(w), planner.plan_fft_inverse(h));
+        let fwd = carrier::plan2(&mut planner, w, h, false);
+        let inv = carrier::plan2(&mut planner, w, h, true);
         let rho = BAND_HALF_WIDTH * carrier.freq();
         let hann = |d: f32| {
             if d.abs() >= rho {
@@ -182,34 +180,15 @@ impl FloatFtp {
         self.carrier
     }
 
-    fn transform(
-        &self,
-        data: &mut [Complex32],
-        (row, col): &(Arc<dyn Fft<f32>>, Arc<dyn Fft<f32>>),
-    ) {
-        let (w, h) = (self.w, self.h);
-        row.process(data);
-        let mut column = vec![Complex32::default(); h];
-        for x in 0..w {
-            for (y, c) in column.iter_mut().enumerate() {
-                *c = data[y * w + x];
-            }
-            col.process(&mut column);
-            for (y, c) in column.iter().enumerate() {
-                data[y * w + x] = *c;
-            }
-        }
-    }
-
     /// The analytic signal of a working-resolution luminance image.
     fn analytic(&self, gray: &[f32]) -> Vec<Complex32> {
         let mean = gray.iter().sum::<f32>() / gray.len().max(1) as f32;
         let mut z: Vec<Complex32> = gray.iter().map(|v| Complex32::new(v - mean, 0.0)).collect();
-        self.transform(&mut z, &self.fwd);
+        carrier::fft2(&mut z, &self.fwd);
         for (c, wv) in z.iter_mut().zip(&self.window) {
             *c *= *wv;
         }
-        self.transform(&mut z, &self.inv);
+        carrier::fft2(&mut z, &self.inv);
         // Unnormalised inverse: scale by 1/N, ×2 for the one-sided band (amplitude = fringe
         // half peak-to-peak).
         let s = 2.0 / (self.w * self.h) as f32;

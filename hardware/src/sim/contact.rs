@@ -61,39 +61,38 @@ fn sd_rect(p: Mm, r: &[f32; 4]) -> f32 {
 }
 
 impl Footprint {
-    /// Letter E, `h_mm` tall, strokes `h/5` wide.
-    pub fn letter_e(h_mm: f32) -> Footprint {
+    /// A letter `h_mm` tall and `0.6·h` wide, with strokes `h/5` wide, drawn on the stem
+    /// (left vertical bar) from the named strokes.
+    fn letter(h_mm: f32, strokes: &[Stroke]) -> Footprint {
         let s = h_mm / 5.0;
         let (w, y0) = (h_mm * 0.6, -h_mm / 2.0);
-        Footprint::Rects(vec![
-            [-w / 2.0, y0, -w / 2.0 + s, y0 + h_mm],
-            [-w / 2.0, y0, w / 2.0, y0 + s],
-            [-w / 2.0, -s / 2.0, w / 2.0 - s / 2.0, s / 2.0],
-            [-w / 2.0, y0 + h_mm - s, w / 2.0, y0 + h_mm],
-        ])
+        let (left, right) = (-w / 2.0, w / 2.0);
+        let mut rects = vec![[left, y0, left + s, y0 + h_mm]];
+        for stroke in strokes {
+            rects.push(match stroke {
+                Stroke::Top => [left, y0, right, y0 + s],
+                Stroke::Middle => [left, -s / 2.0, right - s / 2.0, s / 2.0],
+                Stroke::MiddleFull => [left, -s / 2.0, right, s / 2.0],
+                Stroke::Bottom => [left, y0 + h_mm - s, right, y0 + h_mm],
+                Stroke::UpperRight => [right - s, y0, right, s / 2.0],
+            });
+        }
+        Footprint::Rects(rects)
+    }
+
+    /// Letter E, `h_mm` tall.
+    pub fn letter_e(h_mm: f32) -> Footprint {
+        Self::letter(h_mm, &[Stroke::Top, Stroke::Middle, Stroke::Bottom])
     }
 
     /// Letter F.
     pub fn letter_f(h_mm: f32) -> Footprint {
-        let s = h_mm / 5.0;
-        let (w, y0) = (h_mm * 0.6, -h_mm / 2.0);
-        Footprint::Rects(vec![
-            [-w / 2.0, y0, -w / 2.0 + s, y0 + h_mm],
-            [-w / 2.0, y0, w / 2.0, y0 + s],
-            [-w / 2.0, -s / 2.0, w / 2.0 - s / 2.0, s / 2.0],
-        ])
+        Self::letter(h_mm, &[Stroke::Top, Stroke::Middle])
     }
 
     /// Letter P.
     pub fn letter_p(h_mm: f32) -> Footprint {
-        let s = h_mm / 5.0;
-        let (w, y0) = (h_mm * 0.6, -h_mm / 2.0);
-        Footprint::Rects(vec![
-            [-w / 2.0, y0, -w / 2.0 + s, y0 + h_mm],
-            [-w / 2.0, y0, w / 2.0, y0 + s],
-            [-w / 2.0, -s / 2.0, w / 2.0, s / 2.0],
-            [w / 2.0 - s, y0, w / 2.0, s / 2.0],
-        ])
+        Self::letter(h_mm, &[Stroke::Top, Stroke::MiddleFull, Stroke::UpperRight])
     }
 
     /// Signed distance from `p` (relative to the footprint's centre) to its edge, mm.
@@ -145,6 +144,16 @@ impl Footprint {
         }
         n as f32 * step * step
     }
+}
+
+/// Strokes of the letter punches, besides the stem.
+#[derive(Debug, Clone, Copy)]
+enum Stroke {
+    Top,
+    Middle,
+    MiddleFull,
+    Bottom,
+    UpperRight,
 }
 
 /// What presses on the skin.
