@@ -5,7 +5,6 @@
 //! the service's policy, not the source's: a source hands out every frame it has, in order,
 //! with a sequence number whose gaps reveal frames it dropped.
 
-use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use crate::frame::{Frame, FrameError, PixelFormat};
@@ -204,11 +203,6 @@ pub fn record(
         )?;
     }
     Ok(w.finish()?)
-}
-
-/// Where the recorder put a set (for messages).
-pub fn describe(set: &FrameSet) -> PathBuf {
-    set.dir().to_path_buf()
 }
 
 /// Reopens a source that went away, with exponential back-off.
