@@ -6,7 +6,9 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
 use vistaf_firmware::calibration::Calibration;
+use vistaf_firmware::pipeline::fixed_ftp::FixedFtp;
 use vistaf_firmware::pipeline::image_ops::{gray_down_f32, gray_down_q8};
+use vistaf_firmware::pipeline::measure::{measure, Context};
 use vistaf_firmware::pipeline::{Analyzer, AnalyzerOptions, Implementation};
 use vistaf_hardware::sim::{scene, Renderer, SensorUnit, SkinState};
 
@@ -24,6 +26,23 @@ fn pipeline(c: &mut Criterion) {
     });
     g.bench_function("luma_downsample_f32", |b| {
         b.iter(|| gray_down_f32(black_box(&frame), 2))
+    });
+    // Device path by stage: demodulation and phase, then the measurement.
+    let calib = Calibration::default_sim();
+    let fixed = FixedFtp::new(&reference, None, &calib).unwrap();
+    g.bench_function("Fixed_stage_demodulate_and_phase", |b| {
+        b.iter(|| fixed.phase(black_box(&frame)))
+    });
+    let field = fixed.phase(&frame);
+    let ctx = Context {
+        calib: &calib,
+        mm_per_px: 0.125,
+        saturated_fraction: 0.0,
+    };
+    let (_, _, factor) = fixed.geometry();
+    let carrier = fixed.carrier();
+    g.bench_function("Fixed_stage_measure", |b| {
+        b.iter(|| measure(black_box(&field), factor, carrier, &ctx))
     });
     for imp in [Implementation::Fixed, Implementation::Float] {
         let a = Analyzer::new(

@@ -269,6 +269,11 @@ impl FixedFtp {
         (self.w, self.h, self.factor)
     }
 
+    /// The carrier at the working resolution.
+    pub fn carrier(&self) -> Carrier {
+        self.carrier
+    }
+
     /// The analytic signal of a Q8 luminance image, `[re, im]` in luminance Q8 units.
     fn analytic(&self, gray: &[u16]) -> Vec<[i32; 2]> {
         let (w, h) = (self.w, self.h);
