@@ -29,7 +29,8 @@ fn pipeline(c: &mut Criterion) {
     });
     // Device path by stage: demodulation and phase, then the measurement.
     let calib = Calibration::default_sim();
-    let fixed = FixedFtp::new(&reference, None, &calib).unwrap();
+    let working = vistaf_firmware::pipeline::carrier::working(&reference, None).unwrap();
+    let fixed = FixedFtp::new(&reference, &working, &calib).unwrap();
     g.bench_function("Fixed_stage_demodulate_and_phase", |b| {
         b.iter(|| fixed.phase(black_box(&frame)))
     });

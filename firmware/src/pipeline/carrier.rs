@@ -96,6 +96,39 @@ pub fn fft2(data: &mut [Complex32], (row, col): &Plan2) {
     }
 }
 
+/// The carrier of a reference, at input and at working resolution.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Working {
+    /// At the input resolution.
+    pub full: Carrier,
+    /// Input pixels per working pixel.
+    pub factor: usize,
+    /// At the working resolution.
+    pub carrier: Carrier,
+}
+
+/// Estimates the reference's carrier once, chooses the working resolution (`factor`
+/// overrides the choice), and checks the grating is still resolved there.
+pub fn working(
+    reference: &image::RgbImage,
+    factor: Option<usize>,
+) -> Result<Working, CarrierError> {
+    let (full, fw, fh) = super::image_ops::gray_down_f32(reference, 1);
+    let full = estimate(&full, fw, fh)?;
+    let factor = factor
+        .unwrap_or_else(|| super::image_ops::downsample_factor(full.period_px()))
+        .max(1);
+    let carrier = full.scaled(factor);
+    if carrier.period_px() < MIN_PERIOD_PX {
+        return Err(CarrierError::TooFine(carrier.period_px()));
+    }
+    Ok(Working {
+        full,
+        factor,
+        carrier,
+    })
+}
+
 /// Estimates the carrier of `gray` (`w × h`, any scale).
 pub fn estimate(gray: &[f32], w: usize, h: usize) -> Result<Carrier, CarrierError> {
     if w < 16 || h < 16 {

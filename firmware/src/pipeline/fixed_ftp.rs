@@ -26,7 +26,7 @@
 use image::RgbImage;
 
 use super::carrier::{self, Carrier};
-use super::image_ops::{downsample_factor, gray_down_f32, gray_down_q8};
+use super::image_ops::gray_down_q8;
 use super::measure::{measure, Context, PhaseMap, UNITS_PER_RAD};
 use super::{Deformation, PipelineError};
 use crate::calibration::Calibration;
@@ -202,23 +202,13 @@ fn amp(z: [i32; 2]) -> u32 {
 }
 
 impl FixedFtp {
-    /// Prepares the reference.
+    /// Prepares the reference, whose carrier `working` describes.
     pub fn new(
         reference: &RgbImage,
-        factor: Option<usize>,
+        working: &carrier::Working,
         calib: &Calibration,
     ) -> Result<FixedFtp, PipelineError> {
-        let (full, fw, fh) = gray_down_f32(reference, 1);
-        let c_full = carrier::estimate(&full, fw, fh)?;
-        let factor = factor
-            .unwrap_or_else(|| downsample_factor(c_full.period_px()))
-            .max(1);
-        let carrier = c_full.scaled(factor);
-        if carrier.period_px() < carrier::MIN_PERIOD_PX {
-            return Err(PipelineError::Carrier(carrier::CarrierError::TooFine(
-                carrier.period_px(),
-            )));
-        }
+        let (factor, carrier) = (working.factor, working.carrier);
         let (gray, w, h, _) = gray_down_q8(reference, factor);
         let mix = (0..w * h)
             .map(|i| {

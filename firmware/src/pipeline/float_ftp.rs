@@ -23,7 +23,7 @@ use rustfft::num_complex::Complex32;
 use rustfft::FftPlanner;
 
 use super::carrier::{self, Carrier};
-use super::image_ops::{downsample_factor, gray_down_f32};
+use super::image_ops::gray_down_f32;
 use super::PipelineError;
 
 /// Band-pass half-width of the Hann window, as a fraction of the carrier frequency; also the
@@ -98,24 +98,14 @@ impl std::fmt::Debug for FloatFtp {
 }
 
 impl FloatFtp {
-    /// Prepares the reference. `factor` overrides the downsampling chosen from the carrier.
+    /// Prepares the reference, whose carrier `working` describes.
     pub fn new(
         reference: &RgbImage,
-        factor: Option<usize>,
+        working: &carrier::Working,
         band: BandWindow,
     ) -> Result<FloatFtp, PipelineError> {
-        let (full, fw, fh) = gray_down_f32(reference, 1);
-        let c_full = carrier::estimate(&full, fw, fh)?;
-        let factor = factor
-            .unwrap_or_else(|| downsample_factor(c_full.period_px()))
-            .max(1);
+        let (factor, carrier) = (working.factor, working.carrier);
         let (gray, w, h) = gray_down_f32(reference, factor);
-        let carrier = c_full.scaled(factor);
-        if carrier.period_px() < carrier::MIN_PERIOD_PX {
-            return Err(PipelineError::Carrier(carrier::CarrierError::TooFine(
-                carrier.period_px(),
-            )));
-        }
         let mut planner = FftPlanner::new();
         let fwd = carrier::plan2(&mut planner, w, h, false);
         let inv = carrier::plan2(&mut planner, w, h, true);

@@ -181,8 +181,8 @@ impl Analyzer {
         imp: Implementation,
         opts: AnalyzerOptions,
     ) -> Result<Analyzer, PipelineError> {
-        let (full, fw, fh) = image_ops::gray_down_f32(reference, 1);
-        let c = carrier::estimate(&full, fw, fh)?;
+        let working = carrier::working(reference, opts.factor)?;
+        let c = working.full;
         if !opts.force_calibration {
             calib.check_fits(
                 reference.width(),
@@ -192,12 +192,10 @@ impl Analyzer {
         }
         let imp = match imp {
             Implementation::Float => {
-                Imp::Float(float_ftp::FloatFtp::new(reference, opts.factor, opts.band)?)
+                Imp::Float(float_ftp::FloatFtp::new(reference, &working, opts.band)?)
             }
             Implementation::Fixed => Imp::Fixed(Box::new(fixed_ftp::FixedFtp::new(
-                reference,
-                opts.factor,
-                &calib,
+                reference, &working, &calib,
             )?)),
         };
         Ok(Analyzer {
