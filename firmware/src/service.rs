@@ -407,7 +407,8 @@ pub fn run(
             }
             Err(crossbeam_channel::RecvTimeoutError::Disconnected) => break,
         };
-        let img: RgbImage = match frame.to_rgb() {
+        let capture_us = u64::try_from(frame.timestamp.as_micros()).unwrap_or(u64::MAX);
+        let img: RgbImage = match frame.into_rgb() {
             Ok(i) if i.dimensions() == (format.width, format.height) => i,
             _ => {
                 c.bad += 1;
@@ -444,7 +445,6 @@ pub fn run(
         };
         c.processed += 1;
         let latency_us = u32::try_from(t0.elapsed().as_micros()).unwrap_or(u32::MAX);
-        let capture_us = u64::try_from(frame.timestamp.as_micros()).unwrap_or(u64::MAX);
         let due = max_rate_hz == 0
             || last_sent.is_none_or(|t| {
                 t.elapsed() >= Duration::from_secs_f32(1.0 / f32::from(max_rate_hz))

@@ -105,8 +105,14 @@ impl Frame {
         }
     }
 
-    /// Converts to 8-bit RGB (BT.601 limited-range YUV, as UVC cameras send).
+    /// Converts to 8-bit RGB, keeping this frame (copies its bytes when already RGB).
     pub fn to_rgb(&self) -> Result<RgbImage, FrameError> {
+        self.clone().into_rgb()
+    }
+
+    /// Converts to 8-bit RGB (BT.601 limited-range YUV, as UVC cameras send); an RGB frame's
+    /// bytes are taken over without a copy.
+    pub fn into_rgb(self) -> Result<RgbImage, FrameError> {
         let (w, h) = (self.width, self.height);
         if let Some(want) = self.format.frame_len(w, h) {
             if self.data.len() != want {

@@ -188,14 +188,14 @@ pub fn record(
             detail: "ended before delivering a reference frame".into(),
         })?;
     let t0 = first.timestamp;
-    let mut w = FrameSetWriter::create(dir, grating_period_mm, &first.to_rgb()?)?;
+    let mut w = FrameSetWriter::create(dir, grating_period_mm, &first.into_rgb()?)?;
     w.extra_mut()
         .insert("recorded_from".into(), source.name().into());
     for _ in 0..frames {
         let Some(f) = source.next_frame()? else { break };
         let t_ms = f.timestamp.saturating_sub(t0).as_secs_f64() * 1000.0;
         w.add(
-            &f.to_rgb()?,
+            &f.into_rgb()?,
             FrameEntry {
                 t_ms: Some(t_ms),
                 ..Default::default()

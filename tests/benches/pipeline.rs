@@ -38,7 +38,7 @@ fn pipeline(c: &mut Criterion) {
     let ctx = Context {
         calib: &calib,
         mm_per_px: 0.125,
-        saturated_fraction: 0.0,
+        ref_saturated_fraction: 0.0,
     };
     let (_, _, factor) = fixed.geometry();
     let carrier = fixed.carrier();

@@ -315,12 +315,7 @@ impl FixedFtp {
 
     /// Analyses one frame.
     pub fn analyze(&self, frame: &RgbImage, ctx: &Context<'_>) -> Deformation {
-        let field = self.phase(frame);
-        let ctx = Context {
-            saturated_fraction: field.saturated_fraction - ctx.saturated_fraction,
-            ..*ctx
-        };
-        measure(&field, self.factor, self.carrier, &ctx)
+        measure(&self.phase(frame), self.factor, self.carrier, ctx)
     }
 }
 
@@ -362,6 +357,9 @@ impl PhaseMap for FixedField<'_> {
             s += a * i64::from(t[1]);
         }
         atan2_units(s, c, &self.ftp.atan)
+    }
+    fn saturated_fraction(&self) -> f32 {
+        self.saturated_fraction
     }
     fn depth_um(&self, x: i32) -> i32 {
         self.ftp.lut.depth_um(x)

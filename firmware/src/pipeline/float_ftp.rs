@@ -223,6 +223,7 @@ impl PhaseField {
 #[derive(Debug)]
 pub struct FloatMap<'a> {
     field: PhaseField,
+    saturated: f32,
     ref_median: u32,
     depth: &'a crate::calibration::DepthModel,
 }
@@ -234,13 +235,9 @@ impl FloatFtp {
         frame: &RgbImage,
         ctx: &super::measure::Context<'_>,
     ) -> super::Deformation {
-        let saturated = super::image_ops::saturated_fraction(frame) - ctx.saturated_fraction;
-        let ctx = &super::measure::Context {
-            saturated_fraction: saturated,
-            ..*ctx
-        };
         let map = FloatMap {
             field: self.phase(frame),
+            saturated: super::image_ops::saturated_fraction(frame),
             ref_median: self.ref_median,
             depth: &ctx.calib.depth.model,
         };
@@ -273,6 +270,9 @@ impl super::measure::PhaseMap for FloatMap<'_> {
             c += a * f64::from(self.field.wrapped[i]).cos();
         }
         s.atan2(c) as f32
+    }
+    fn saturated_fraction(&self) -> f32 {
+        self.saturated
     }
     fn depth_um(&self, x: f32) -> i32 {
         (self.depth.depth_mm(f64::from(x)) * 1000.0).round() as i32

@@ -53,9 +53,8 @@ pub struct Context<'a> {
     pub calib: &'a Calibration,
     /// Input scale, mm per pixel.
     pub mm_per_px: f32,
-    /// Fraction of saturated pixels beyond the reference's (the analyzer passes the
-    /// reference's; each path replaces it with the difference).
-    pub saturated_fraction: f32,
+    /// Fraction of the reference's pixels with a saturated channel.
+    pub ref_saturated_fraction: f32,
 }
 
 /// Features of a depth map.
@@ -248,6 +247,8 @@ pub trait PhaseMap {
     fn amp_ref_median(&self) -> u32;
     /// Amplitude-weighted mean direction of the phase over the pixels `keep` accepts.
     fn mean_direction(&self, keep: &dyn Fn(usize) -> bool) -> Self::P;
+    /// Fraction of the frame's input pixels with a saturated channel.
+    fn saturated_fraction(&self) -> f32;
     /// Depth (µm) of an indentation phase `x` (already signed, ≥ 0 under indentation).
     fn depth_um(&self, x: Self::P) -> i32;
 }
@@ -344,7 +345,7 @@ pub fn measure<M: PhaseMap>(
     if (med_frame as f32) < LOW_CONTRAST_RATIO * med_ref as f32 || reliable_n * 2 < inside_n {
         flags.insert(Flag::LowContrast);
     }
-    if ctx.saturated_fraction > OVER_EXPOSED_FRACTION {
+    if map.saturated_fraction() - ctx.ref_saturated_fraction > OVER_EXPOSED_FRACTION {
         flags.insert(Flag::OverExposure);
     }
 

@@ -233,12 +233,10 @@ impl Analyzer {
                 got_h: frame.height(),
             });
         }
-        // Each path measures the frame's saturation itself; the context carries the
-        // reference's, to subtract.
         let ctx = measure::Context {
             calib: &self.calib,
             mm_per_px: self.mm_per_px,
-            saturated_fraction: self.ref_saturation,
+            ref_saturated_fraction: self.ref_saturation,
         };
         Ok(match &self.imp {
             Imp::Float(f) => f.analyze(frame, &ctx),
