@@ -12,6 +12,15 @@ fn skin(args: &[&str]) -> Output {
         .unwrap()
 }
 
+/// Asserts a run succeeded, showing its stderr if not.
+fn ok(out: &Output) {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
 fn fixture(name: &str) -> String {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("../tests/fixtures")
@@ -35,11 +44,7 @@ fn analyze_set_prints_one_json_object_per_frame() {
         "--json",
         "--force-calibration",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    ok(&out);
     let text = String::from_utf8(out.stdout).unwrap();
     let rows: Vec<serde_json::Value> = text
         .lines()
@@ -78,11 +83,7 @@ fn analyze_out_writes_maps_and_a_traceable_summary() {
         "--pipeline",
         "float",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    ok(&out);
     assert!(out_dir.join("f0003_depth.png").exists());
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out_dir.join("summary.json")).unwrap())
@@ -164,11 +165,7 @@ fn calibrate_fits_a_labelled_set_and_the_result_analyzes() {
         "--out",
         cal.to_str().unwrap(),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    ok(&out);
     let text = String::from_utf8(out.stdout).unwrap();
     assert!(
         text.contains("phase → depth") && text.contains("← chosen"),
@@ -181,10 +178,6 @@ fn calibrate_fits_a_labelled_set_and_the_result_analyzes() {
         "--calibration",
         cal.to_str().unwrap(),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    ok(&out);
     std::fs::remove_file(cal).unwrap();
 }

@@ -12,6 +12,9 @@ use vistaf_tests::{fixture, truth_depth_mm};
 
 const IMPLS: [Implementation; 2] = [Implementation::Fixed, Implementation::Float];
 
+/// Scale of the fixtures (reference unit: 2 mm over 16 px).
+const MM_PER_PX: f32 = 2.0 / 16.0;
+
 /// Every frame of a fixture through the pipeline, with its manifest entry index.
 fn replay(name: &str, imp: Implementation) -> Vec<Deformation> {
     let set = fixture(name);
@@ -24,7 +27,7 @@ fn replay(name: &str, imp: Implementation) -> Vec<Deformation> {
     let mut src = SetReplay::new(set, Pacing::AsFastAsPossible, false);
     let mut out = Vec::new();
     while let Some(frame) = src.next_frame().unwrap() {
-        out.push(a.analyze(&frame.to_rgb().unwrap()).unwrap());
+        out.push(a.analyze(&frame.into_rgb().unwrap()).unwrap());
     }
     out
 }
@@ -47,7 +50,6 @@ fn idle_frames_have_no_contact_no_force_no_flags() {
 #[test]
 fn sphere_presses_meet_the_depth_and_centre_tolerances() {
     let set = fixture("press-sphere");
-    let mm_per_px = 2.0 / 16.0;
     for imp in IMPLS {
         for (d, f) in replay("press-sphere", imp).iter().zip(&set.manifest.frames) {
             let want = f.depth_mm.unwrap() as f32;
@@ -60,7 +62,7 @@ fn sphere_presses_meet_the_depth_and_centre_tolerances() {
             let (cx, cy) = d.centroid_px.unwrap();
             let err_mm = (cx - f.contact_x_px.unwrap() as f32)
                 .hypot(cy - f.contact_y_px.unwrap() as f32)
-                * mm_per_px;
+                * MM_PER_PX;
             assert!(err_mm <= 0.5, "{imp:?}: centre off by {err_mm} mm");
             let force = f.force_n.unwrap() as f32;
             assert!(
@@ -107,7 +109,7 @@ fn letter_and_nut_contacts_are_found_and_centred() {
             let (cx, cy) = d.centroid_px.unwrap();
             let err_mm = (cx - f.contact_x_px.unwrap() as f32)
                 .hypot(cy - f.contact_y_px.unwrap() as f32)
-                / 8.0;
+                * MM_PER_PX;
             assert!(err_mm <= 0.5, "{name}: centre off by {err_mm} mm");
             // Flat punches read deeper than they are: the calibration maps the smoothed
             // peak phase of a sphere, and a flat punch's phase is not smoothed down the
