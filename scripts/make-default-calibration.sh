@@ -1,13 +1,14 @@
 #!/usr/bin/env bash
-# Regenerates firmware/calibration/default.json: the calibration kit of the simulated
-# reference unit (unit seed 0), calibrated with the device pipeline.
+# Regenerates firmware/calibration/default.json: the calibration kit (depth, force and
+# temperature sets) of the simulated reference unit (unit seed 0), calibrated with the
+# device pipeline.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 kit=$(mktemp -d)
 trap 'rm -rf "$kit"' EXIT
 cargo build --release -q -p vistaf-firmware
 ./target/release/vistaf-skin simulate --calibration-kit --unit-seed 0 --seed 1 --out "$kit"
-./target/release/vistaf-skin calibrate --set "$kit/depth" --set "$kit/force" --out firmware/calibration/default.json
+./target/release/vistaf-skin calibrate --set "$kit/depth" --set "$kit/force" --set "$kit/temperature" --out firmware/calibration/default.json
 # The sets lived in a temporary directory: record them by what made them, not where.
 python3 - <<'PY'
 import json

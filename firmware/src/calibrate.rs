@@ -150,6 +150,102 @@ impl<O: Observer> Run<'_, O> {
     }
 }
 
+/// Blocks taken from one calibration frame, at most (evenly spread): enough to see the
+/// whole field, few enough to keep the fit quick.
+const BLOCKS_PER_FRAME: usize = 256;
+
+/// Colour → temperature from the frames labelled `temperature_c` without contact
+/// (`depth_mm` and `force_n` absent or 0); `None` (with a note) when there are too few.
+fn temperature_model<O: Observer>(
+    run: &mut Run<'_, O>,
+    calib: &Calibration,
+) -> Result<Option<crate::thermal::model::TemperatureModel>, CalibrateError> {
+    use crate::thermal::fit::{fit_temperature, Sample as TSample};
+    use crate::thermal::lab::Invariants;
+    use crate::thermal::stripes::{pool, Sums};
+    use crate::thermal::BLACK_POOL;
+    let no_contact = |f: &vistaf_hardware::frameset::FrameEntry| {
+        f.temperature_c.is_some()
+            && f.depth_mm.unwrap_or(0.0) <= 0.0
+            && f.force_n.unwrap_or(0.0) <= 0.0
+    };
+    let total: usize = run
+        .sets
+        .iter()
+        .map(|s| s.manifest.frames.iter().filter(|f| no_contact(f)).count())
+        .sum();
+    let opts = AnalyzerOptions {
+        force_calibration: true,
+        ..Default::default()
+    };
+    let mut samples = Vec::new();
+    let mut done = 0;
+    for s in run.sets {
+        if !s.manifest.frames.iter().any(no_contact) {
+            continue;
+        }
+        let set = s.dir().display().to_string();
+        let pipe = |source| CalibrateError::Pipeline {
+            set: set.clone(),
+            source,
+        };
+        let an = Analyzer::new(&s.load_reference()?, calib.clone(), run.imp, opts).map_err(pipe)?;
+        for (i, f) in s.manifest.frames.iter().enumerate() {
+            let Some(t) = f.temperature_c.filter(|_| no_contact(f)) else {
+                continue;
+            };
+            done += 1;
+            run.obs.progress("colour → temperature", done, total);
+            let (d, sums) = an.colour_sums(&s.load_frame(i)?).map_err(pipe)?;
+            if !d.flags.is_empty() || d.contact {
+                let names: Vec<&str> = d.flags.iter().map(|f| f.name()).collect();
+                run.obs.note(format!(
+                    "{set}: {} left out of the temperature fit ({})",
+                    f.file,
+                    if d.contact {
+                        "shows contact".to_string()
+                    } else {
+                        names.join(", ")
+                    }
+                ));
+                continue;
+            }
+            let g = an.thermometer().geometry();
+            let pooled = pool(&sums, g.bw, g.bh, BLACK_POOL);
+            let inv = |b: &Sums| {
+                let (c, k) = b.means();
+                b.enough().then(|| Invariants::from_linear(c, k)).flatten()
+            };
+            let good: Vec<TSample> = sums
+                .iter()
+                .zip(&pooled)
+                .filter_map(|(b, p)| {
+                    Some(TSample {
+                        v: inv(b)?,
+                        pooled: inv(p)?,
+                        t_c: t,
+                    })
+                })
+                .collect();
+            let step = good.len().div_ceil(BLOCKS_PER_FRAME).max(1);
+            samples.extend(good.into_iter().step_by(step));
+        }
+    }
+    if samples.is_empty() {
+        run.obs.note(
+            "no trusted no-contact frames labelled temperature_c: no temperature model".into(),
+        );
+        return Ok(None);
+    }
+    match fit_temperature(&samples) {
+        Ok(m) => Ok(Some(m)),
+        Err(e) => {
+            run.obs.note(format!("{e}: no temperature model"));
+            Ok(None)
+        }
+    }
+}
+
 /// The setpoint a label belongs to: labels equal to 1/1000 of their unit (1 µm, 1 mN) are
 /// one setpoint.
 fn setpoint(label: f64) -> f64 {
@@ -172,6 +268,7 @@ fn identity(unit: &UnitGeometry, sign: f64) -> Calibration {
         },
         force: None,
         shape: None,
+        temperature: None,
         sets: vec![],
     }
 }
@@ -302,6 +399,7 @@ pub fn calibrate<O: Observer>(
             "too few trusted force levels (need three): no force model, force reads 0".into(),
         );
     }
+    calib.temperature = temperature_model(&mut run, &calib)?;
     calib.sets = sets
         .iter()
         .map(|s| {

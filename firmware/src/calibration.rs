@@ -303,6 +303,9 @@ pub struct Calibration {
     /// The calibrated indenter's contact area by depth (for the sharpness check).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub shape: Option<ShapeSignature>,
+    /// Colour → temperature, if the kit had no-contact frames labelled with temperatures.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub temperature: Option<crate::thermal::model::TemperatureModel>,
     /// Frame sets the fit used.
     pub sets: Vec<SetRecord>,
 }
@@ -398,6 +401,14 @@ impl Calibration {
                 return Err(
                     "depth.model: monotone knots must be finite, equally many, increasing".into(),
                 );
+            }
+        }
+        if let Some(t) = &self.temperature {
+            if !t.is_consistent() {
+                return Err("temperature: models must have 2 (coloured) and 3 (black) \
+                            finite standardised features, matching coefficient counts, \
+                            positive variances and a non-empty range and domain"
+                    .into());
             }
         }
         Ok(())

@@ -11,3 +11,4 @@ pub mod fit;
 pub mod pipeline;
 pub mod service;
 pub mod source_spec;
+pub mod thermal;

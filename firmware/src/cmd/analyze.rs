@@ -1,4 +1,8 @@
 //! `vistaf-skin analyze`: run the pipeline on a reference and frames; JSON lines out.
+//!
+//! `temperature_c` is the contact temperature when there is contact, else the skin's mean;
+//! `temp_min_c`, `temp_mean_c`, `temp_max_c` span the measured blocks. All are `null` when
+//! the calibration has no temperature model.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -29,13 +33,16 @@ pub struct Args {
     /// JSON lines on stdout (the default output; kept for scripts that pass it).
     #[arg(long)]
     pub json: bool,
-    /// Also write depth-map PNGs and a summary JSON here.
+    /// Also write depth- and temperature-map PNGs and a summary JSON here.
     #[arg(long)]
     pub out: Option<PathBuf>,
 }
 
 /// One result as a JSON object.
 pub fn result_json(file: &str, d: &Deformation, latency_us: u128) -> serde_json::Value {
+    // NaN is not JSON: an unmeasured temperature is null.
+    let t = d.temperature.as_ref();
+    let finite = |v: f32| v.is_finite().then_some(v);
     json!({
         "file": file,
         "depth_mm": d.peak_depth_mm,
@@ -45,6 +52,13 @@ pub fn result_json(file: &str, d: &Deformation, latency_us: u128) -> serde_json:
         "contact_x_px": d.centroid_px.map(|c| c.0),
         "contact_y_px": d.centroid_px.map(|c| c.1),
         "integrated_phase_rad_mm2": d.integrated_phase_rad_mm2,
+        "temperature_c": t.and_then(|t| t.contact_c.or(finite(t.mean_c))),
+        "temp_mean_c": t.and_then(|t| finite(t.mean_c)),
+        "temp_min_c": t.and_then(|t| finite(t.min_c)),
+        "temp_max_c": t.and_then(|t| finite(t.max_c)),
+        "contact_temp_c": t.and_then(|t| t.contact_c),
+        "hottest_x_px": t.and_then(|t| t.hottest_px.map(|p| p.0)),
+        "hottest_y_px": t.and_then(|t| t.hottest_px.map(|p| p.1)),
         "flags": d.flags.iter().map(|f| f.name()).collect::<Vec<_>>(),
         "noise_rad": d.noise_rad,
         "offset_rad": d.offset_rad,
@@ -116,6 +130,9 @@ fn write_outputs(
             .map_or_else(|| name.clone(), |s| s.to_string_lossy().into_owned());
         let png = dir.join(format!("{stem}_depth.png"));
         crate::cmd::maps::depth_png(d, &png)?;
+        if let Some(t) = &d.temperature {
+            crate::cmd::maps::temperature_png(t, &dir.join(format!("{stem}_temperature.png")))?;
+        }
     }
     let c = analyzer.calibration();
     let summary = json!({
@@ -125,6 +142,14 @@ fn write_outputs(
             "id": format!("{:08x}", c.id()),
             "phase_to_depth": { "equation": c.depth.equation, "model": c.depth.model, "cv_rmse_mm": c.depth.cv_rmse, "in_sample_rmse_mm": c.depth.in_sample_rmse, "n": c.depth.n },
             "force": c.force.as_ref().map(|f| json!({ "equation": f.equation, "model": f.model, "cv_rmse_n": f.cv_rmse, "in_sample_rmse_n": f.in_sample_rmse, "n": f.n })),
+            "temperature": c.temperature.as_ref().map(|t| json!({
+                "coloured": { "equation": t.coloured.equation, "fit_range_c": t.coloured.fit_range_c, "cv_rmse_c": t.coloured.cv_rmse_c, "in_sample_rmse_c": t.coloured.in_sample_rmse_c },
+                "black": { "equation": t.black.equation, "fit_range_c": t.black.fit_range_c, "cv_rmse_c": t.black.cv_rmse_c, "in_sample_rmse_c": t.black.in_sample_rmse_c },
+                "fusion": "inverse-variance blend; each estimate's variance from its cross-validated scatter at that estimate",
+                "range_c": t.range_c,
+                "held_out_rmse_c": { "22_32": t.cv_rmse_transition_c, "all": t.cv_rmse_c },
+                "blocks": t.n,
+            })),
             "sets": c.sets,
         },
         "frames": results.iter().map(|r| r.2.clone()).collect::<Vec<_>>(),

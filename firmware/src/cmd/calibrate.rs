@@ -1,5 +1,5 @@
-//! `vistaf-skin calibrate`: fit phase → depth and deformation → force from labelled frame
-//! sets, choose each model by grouped cross-validation and parsimony, print the evidence.
+//! `vistaf-skin calibrate`: fit phase → depth, deformation → force and colour → temperature
+//! from labelled frame sets, choose each model by grouped cross-validation and parsimony, print the evidence.
 
 use std::path::PathBuf;
 
@@ -14,7 +14,7 @@ use super::progress;
 /// What to calibrate from.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Labelled frame sets (depth_mm, force_n labels); repeat for several.
+    /// Labelled frame sets (depth_mm, force_n, temperature_c labels); repeat for several.
     #[arg(long = "set", required_unless_present = "table")]
     pub sets: Vec<PathBuf>,
     /// Output calibration file.
@@ -44,14 +44,32 @@ impl Observer for Bar {
 
 /// Prints a candidate table with the chosen model marked.
 pub fn print_table<M>(title: &str, unit: &str, fitted: &Fitted<M>) {
+    print_candidates(
+        title,
+        unit,
+        &fitted.candidates,
+        fitted.cv_rmse,
+        fitted.in_sample_rmse,
+        &fitted.equation,
+    );
+}
+
+/// Prints candidates; the one scoring `chosen_cv` / `chosen_in` is marked.
+fn print_candidates(
+    title: &str,
+    unit: &str,
+    candidates: &[CandidateScore],
+    chosen_cv: f64,
+    chosen_in: f64,
+    equation: &str,
+) {
     println!("\n{title}");
     println!(
         "  {:<24} {:>6} {:>12} {:>10} {:>16}",
         "candidate", "params", "CV RMSE", "± SE", "in-sample RMSE"
     );
-    let chosen_cv = fitted.cv_rmse;
     let mut marked = false;
-    for s in &fitted.candidates {
+    for s in candidates {
         let CandidateScore {
             name,
             params,
@@ -59,7 +77,7 @@ pub fn print_table<M>(title: &str, unit: &str, fitted: &Fitted<M>) {
             cv_se,
             in_sample_rmse,
         } = s;
-        let mark = if !marked && *cv_rmse == chosen_cv && *in_sample_rmse == fitted.in_sample_rmse {
+        let mark = if !marked && *cv_rmse == chosen_cv && *in_sample_rmse == chosen_in {
             marked = true;
             "  ← chosen"
         } else {
@@ -67,7 +85,7 @@ pub fn print_table<M>(title: &str, unit: &str, fitted: &Fitted<M>) {
         };
         println!("  {name:<24} {params:>6} {cv_rmse:>9.4} {unit} {cv_se:>10.4} {in_sample_rmse:>13.4} {unit}{mark}");
     }
-    println!("  chosen: {}", fitted.equation);
+    println!("  chosen: {equation}");
 }
 
 /// Runs the command.
@@ -112,6 +130,30 @@ pub fn run(a: &Args) -> Result<()> {
             f,
         ),
         None => println!("\nno force model (no force labels)"),
+    }
+    match &calib.temperature {
+        Some(t) => {
+            for (name, p) in [("coloured", &t.coloured), ("black", &t.black)] {
+                print_candidates(
+                    &format!(
+                        "colour → temperature, {name} stripes ({:.1}–{:.1} °C, \
+                         leave-one-setpoint-out CV of per-setpoint means)",
+                        p.fit_range_c[0], p.fit_range_c[1]
+                    ),
+                    "°C",
+                    &p.candidates,
+                    p.cv_rmse_c,
+                    p.in_sample_rmse_c,
+                    &p.equation,
+                );
+            }
+            println!(
+                "\nfused (inverse-variance), held-out setpoints: RMSE {:.3} °C within 22–32 °C, \
+                 {:.3} °C over {:.1}–{:.1} °C ({} blocks)",
+                t.cv_rmse_transition_c, t.cv_rmse_c, t.range_c[0], t.range_c[1], t.n
+            );
+        }
+        None => println!("\nno temperature model (no no-contact frames labelled temperature_c)"),
     }
     calib.save(out)?;
     println!("\nwrote {}", out.display());

@@ -66,6 +66,20 @@ pub fn map_png(
         .with_context(|| format!("writing {}", path.display()))
 }
 
+/// The temperature map as PNG: one cell per block, the bar spanning the frame's coldest to
+/// hottest block (at least 2 °C wide).
+pub fn temperature_png(t: &vistaf_firmware::thermal::Temperature, path: &Path) -> Result<()> {
+    let (lo, hi) = if t.min_c.is_finite() {
+        let mid = (t.min_c + t.max_c) / 2.0;
+        let half = ((t.max_c - t.min_c) / 2.0).max(1.0);
+        (mid - half, mid + half)
+    } else {
+        (20.0, 40.0)
+    };
+    let scale = (480 / t.bh.max(1)).clamp(4, 32);
+    map_png(&t.map_c, t.bw, t.bh, lo, hi, scale, path)
+}
+
 /// The depth map of a result as PNG: the bar spans 0 to the frame's peak depth (its
 /// `depth_mm` in the JSON output), at least 0.1 mm.
 pub fn depth_png(d: &Deformation, path: &Path) -> Result<()> {

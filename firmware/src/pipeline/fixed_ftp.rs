@@ -313,7 +313,22 @@ impl FixedFtp {
         }
     }
 
-    /// Analyses one frame.
+    /// The reference's grating phase per working pixel, units of 2π/65 536: the mixing
+    /// phase plus the demodulated signal's argument.
+    pub fn grating_phase(&self) -> Vec<u16> {
+        let (fx, fy) = (f64::from(self.carrier.fx), f64::from(self.carrier.fy));
+        self.z_ref
+            .iter()
+            .enumerate()
+            .map(|(i, z)| {
+                let mix = (fx * (i % self.w) as f64 + fy * (i / self.w) as f64) * 65_536.0;
+                let arg = f64::from(z[1]).atan2(f64::from(z[0])) / std::f64::consts::TAU;
+                (mix + arg * 65_536.0).round().rem_euclid(65_536.0) as u16
+            })
+            .collect()
+    }
+
+    /// Analyses one frame (force and shape only).
     pub fn analyze(&self, frame: &RgbImage, ctx: &Context<'_>) -> Deformation {
         measure(&self.phase(frame), self.factor, self.carrier, ctx)
     }

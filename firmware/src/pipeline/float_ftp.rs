@@ -229,19 +229,39 @@ pub struct FloatMap<'a> {
 }
 
 impl FloatFtp {
-    /// Analyses one frame.
+    /// A frame's phase field as the measurement sees it.
+    pub fn field<'a>(&self, frame: &RgbImage, ctx: &super::measure::Context<'a>) -> FloatMap<'a> {
+        FloatMap {
+            field: self.phase(frame),
+            saturated: super::image_ops::saturated_fraction(frame),
+            ref_median: self.ref_median,
+            depth: &ctx.calib.depth.model,
+        }
+    }
+
+    /// Analyses one frame (force and shape only).
     pub fn analyze(
         &self,
         frame: &RgbImage,
         ctx: &super::measure::Context<'_>,
     ) -> super::Deformation {
-        let map = FloatMap {
-            field: self.phase(frame),
-            saturated: super::image_ops::saturated_fraction(frame),
-            ref_median: self.ref_median,
-            depth: &ctx.calib.depth.model,
-        };
-        super::measure::measure(&map, self.factor, self.carrier, ctx)
+        super::measure::measure(&self.field(frame, ctx), self.factor, self.carrier, ctx)
+    }
+
+    /// The reference's grating phase per working pixel, units of 2π/65 536: the analytic
+    /// signal here keeps the carrier, so it is the argument itself.
+    pub fn grating_phase(&self) -> Vec<u16> {
+        self.z_ref
+            .iter()
+            .map(|z| (f64::from(z.arg()) / std::f64::consts::TAU * 65_536.0).round() as i64 as u16)
+            .collect()
+    }
+}
+
+impl FloatMap<'_> {
+    /// Wrapped phase difference at working pixel `i`, rad.
+    pub fn wrapped_rad(&self, i: usize) -> f32 {
+        self.field.wrapped[i]
     }
 }
 

@@ -403,6 +403,7 @@ pub fn measure<M: PhaseMap>(
         offset_rad,
         floor_um: 0,
         tiles: 0,
+        temperature: None,
     };
     // The region is found on |Δφ|: at the centre of a deep press the wrapped phase has
     // wrapped to the other sign, and it must be unwrapped, not seeded from. Only

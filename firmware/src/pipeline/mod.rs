@@ -25,6 +25,8 @@ use image::RgbImage;
 use vistaf_protocol::QualityFlags;
 
 use crate::calibration::{Calibration, CalibrationError};
+use crate::thermal::stripes::Geometry;
+use crate::thermal::Thermometer;
 
 /// Side of a contact tile at the working resolution, pixels.
 pub const TILE_PX: usize = 8;
@@ -110,6 +112,8 @@ pub struct Deformation {
     pub floor_um: i32,
     /// Contact tiles processed.
     pub tiles: usize,
+    /// Temperatures, when the calibration has a colour → temperature model.
+    pub temperature: Option<crate::thermal::Temperature>,
 }
 
 impl std::fmt::Debug for Deformation {
@@ -134,6 +138,13 @@ impl std::fmt::Debug for Deformation {
             .field("offset_rad", &self.offset_rad)
             .field("floor_um", &self.floor_um)
             .field("tiles", &self.tiles)
+            .field(
+                "temperature_c",
+                &self
+                    .temperature
+                    .as_ref()
+                    .map(|t| (t.min_c, t.mean_c, t.max_c, t.contact_c)),
+            )
             .finish()
     }
 }
@@ -149,6 +160,37 @@ pub struct AnalyzerOptions {
     pub band: float_ftp::BandWindow,
 }
 
+/// Adds the frame's temperatures to its force-side result `d`: the FTP's wrapped phase
+/// difference `wrapped(i)` (units) places the stripes, the contact region (depth ≥ half the
+/// peak, read from its core at ≥ ¾ of the peak where that is big enough) gets its own
+/// temperature, and a reading outside the calibration is flagged.
+fn with_temperature(
+    mut d: Deformation,
+    frame: &RgbImage,
+    thermo: &Thermometer,
+    wrapped: impl Fn(usize) -> i32,
+) -> Deformation {
+    if !thermo.has_model() {
+        return d;
+    }
+    let peak_um = d.peak_depth_mm * 1000.0;
+    let region = |frac: f32| -> Vec<bool> {
+        let lim = (peak_um * frac).round() as i32;
+        d.depth_um.iter().map(|&u| u > 0 && u >= lim).collect()
+    };
+    let contact = d.contact.then(|| (region(0.5), region(0.75)));
+    d.temperature = thermo.measure(
+        frame,
+        wrapped,
+        &d.reliable,
+        contact.as_ref().map(|(a, b)| (a.as_slice(), b.as_slice())),
+    );
+    if d.temperature.as_ref().is_some_and(|t| t.out_of_range) {
+        d.flags.insert(vistaf_protocol::Flag::TemperatureOutOfRange);
+    }
+    d
+}
+
 enum Imp {
     Float(float_ftp::FloatFtp),
     Fixed(Box<fixed_ftp::FixedFtp>),
@@ -157,6 +199,7 @@ enum Imp {
 /// A prepared pipeline: reference-side work done, ready for frames.
 pub struct Analyzer {
     imp: Imp,
+    thermo: Thermometer,
     calib: Calibration,
     size: (u32, u32),
     mm_per_px: f32,
@@ -198,9 +241,25 @@ impl Analyzer {
                 reference, &working, &calib,
             )?)),
         };
+        let mm_per_px = calib.unit.grating_period_mm as f32 / c.period_px();
+        let thermo = {
+            let (theta, (w, h, factor), table) = match &imp {
+                Imp::Float(f) => (f.grating_phase(), f.geometry(), false),
+                Imp::Fixed(f) => (f.grating_phase(), f.geometry(), true),
+            };
+            let wc = working.carrier;
+            Thermometer::new(
+                Geometry::new(w, h, factor, wc.fx, wc.fy),
+                theta,
+                calib.temperature.clone(),
+                table,
+                mm_per_px,
+            )
+        };
         Ok(Analyzer {
             imp,
-            mm_per_px: calib.unit.grating_period_mm as f32 / c.period_px(),
+            thermo,
+            mm_per_px,
             period_px: c.period_px(),
             calib,
             size: reference.dimensions(),
@@ -223,6 +282,62 @@ impl Analyzer {
         &self.calib
     }
 
+    /// The frame's force-side result and its colour sums per block (for calibrating
+    /// colour → temperature; no model needed).
+    pub fn colour_sums(
+        &self,
+        frame: &RgbImage,
+    ) -> Result<(Deformation, Vec<crate::thermal::stripes::Sums>), PipelineError> {
+        self.check_size(frame)?;
+        let ctx = self.context();
+        Ok(match &self.imp {
+            Imp::Float(f) => {
+                let map = f.field(frame, &ctx);
+                let d = measure::measure(&map, f.geometry().2, f.carrier(), &ctx);
+                let (s, _) = self.thermo.sums(
+                    frame,
+                    |i| (map.wrapped_rad(i) * measure::UNITS_PER_RAD).round() as i32,
+                    &d.reliable,
+                    None,
+                );
+                (d, s)
+            }
+            Imp::Fixed(f) => {
+                let field = f.phase(frame);
+                let d = measure::measure(&field, f.geometry().2, f.carrier(), &ctx);
+                let (s, _) = self
+                    .thermo
+                    .sums(frame, |i| field.wrapped[i], &d.reliable, None);
+                (d, s)
+            }
+        })
+    }
+
+    /// The temperature side's prepared state.
+    pub fn thermometer(&self) -> &Thermometer {
+        &self.thermo
+    }
+
+    fn check_size(&self, frame: &RgbImage) -> Result<(), PipelineError> {
+        if frame.dimensions() != self.size {
+            return Err(PipelineError::SizeMismatch {
+                w: self.size.0,
+                h: self.size.1,
+                got_w: frame.width(),
+                got_h: frame.height(),
+            });
+        }
+        Ok(())
+    }
+
+    fn context(&self) -> measure::Context<'_> {
+        measure::Context {
+            calib: &self.calib,
+            mm_per_px: self.mm_per_px,
+            ref_saturated_fraction: self.ref_saturation,
+        }
+    }
+
     /// Analyses one frame.
     pub fn analyze(&self, frame: &RgbImage) -> Result<Deformation, PipelineError> {
         if frame.dimensions() != self.size {
@@ -239,8 +354,18 @@ impl Analyzer {
             ref_saturated_fraction: self.ref_saturation,
         };
         Ok(match &self.imp {
-            Imp::Float(f) => f.analyze(frame, &ctx),
-            Imp::Fixed(f) => f.analyze(frame, &ctx),
+            Imp::Float(f) => {
+                let map = f.field(frame, &ctx);
+                let d = measure::measure(&map, f.geometry().2, f.carrier(), &ctx);
+                with_temperature(d, frame, &self.thermo, |i| {
+                    (map.wrapped_rad(i) * measure::UNITS_PER_RAD).round() as i32
+                })
+            }
+            Imp::Fixed(f) => {
+                let field = f.phase(frame);
+                let d = measure::measure(&field, f.geometry().2, f.carrier(), &ctx);
+                with_temperature(d, frame, &self.thermo, |i| field.wrapped[i])
+            }
         })
     }
 }

@@ -1,0 +1,244 @@
+//! Temperature on the simulated reference unit with the shipped calibration, against the
+//! renderer's ground truth: uniform skins at setpoints the calibration kit never used,
+//! indentation shading (cross-talk), heated contacts, temperatures beyond the calibrated
+//! range, and the device path against the float reference.
+#![allow(clippy::unwrap_used)] // tests unwrap: a failure is the test failing
+
+use vistaf_firmware::calibration::Calibration;
+use vistaf_firmware::pipeline::{Analyzer, AnalyzerOptions, Deformation, Implementation};
+use vistaf_firmware::thermal::stripes::pool;
+use vistaf_firmware::thermal::BLACK_POOL;
+use vistaf_hardware::sim::contact::{Contact, Footprint, Indenter};
+use vistaf_hardware::sim::scene::{center_mm, ROOM_C, SPHERE_R_MM};
+use vistaf_hardware::sim::thermal::HeatSource;
+use vistaf_hardware::sim::{Renderer, SensorUnit, SkinState, Truth};
+use vistaf_protocol::Flag;
+
+struct Bench {
+    r: Renderer,
+    fixed: Analyzer,
+    float: Analyzer,
+}
+
+fn bench() -> Bench {
+    let r = Renderer::new(SensorUnit::reference());
+    let (reference, _) = r.render(&SkinState::idle(ROOM_C), 4242);
+    let an = |imp| {
+        Analyzer::new(
+            &reference,
+            Calibration::default_sim(),
+            imp,
+            AnalyzerOptions::default(),
+        )
+        .unwrap()
+    };
+    Bench {
+        fixed: an(Implementation::Fixed),
+        float: an(Implementation::Float),
+        r,
+    }
+}
+
+impl Bench {
+    fn run(&self, s: &SkinState, seed: u64) -> (Deformation, Deformation, Truth) {
+        let (img, truth) = self.r.render(s, seed);
+        (
+            self.fixed.analyze(&img).unwrap(),
+            self.float.analyze(&img).unwrap(),
+            truth,
+        )
+    }
+}
+
+fn press(depth_mm: f32, t_c: f32) -> SkinState {
+    let mut s = SkinState::idle(t_c);
+    s.contacts.push(Contact {
+        indenter: Indenter::Sphere { r_mm: SPHERE_R_MM },
+        center_mm: center_mm(&SensorUnit::reference()),
+        depth_mm,
+    });
+    s
+}
+
+/// Per-setpoint means of the skin's mean temperature at setpoints between the kit's,
+/// two frames each: ≤ 0.3 °C within 22–32 °C, ≤ 1.0 °C over 15–45 °C, on both paths.
+#[test]
+fn uniform_skin_reads_held_out_setpoints() {
+    let b = bench();
+    let setpoints = [
+        16.0f32, 21.0, 22.5, 24.5, 26.5, 28.5, 30.5, 31.5, 36.0, 41.0, 44.0,
+    ];
+    let mut report = Vec::new();
+    for (k, &t) in setpoints.iter().enumerate() {
+        let mut mean = [0.0f32; 2];
+        for rep in 0..2u64 {
+            let (fx, fl, _) = b.run(&SkinState::idle(t), 500 + 10 * k as u64 + rep);
+            for (m, d) in mean.iter_mut().zip([&fx, &fl]) {
+                let temp = d.temperature.as_ref().unwrap();
+                assert!(temp.measured > 100, "{t} °C: {} blocks", temp.measured);
+                assert!(
+                    !d.flags.contains(Flag::TemperatureOutOfRange),
+                    "{t} °C flagged out of range ({:.2}–{:.2})",
+                    temp.min_c,
+                    temp.max_c
+                );
+                *m += temp.mean_c / 2.0;
+            }
+        }
+        let tol = if (22.0..=32.0).contains(&t) { 0.3 } else { 1.0 };
+        for (path, m) in ["fixed", "float"].iter().zip(mean) {
+            assert!(
+                (m - t).abs() <= tol,
+                "{path}: {m:.3} °C at a {t} °C setpoint (tolerance {tol})"
+            );
+        }
+        report.push(format!("{t}: {:+.3}", mean[0] - t));
+    }
+    println!(
+        "uniform skin, device path error per setpoint: {}",
+        report.join(", ")
+    );
+}
+
+/// A 2 mm indentation shades the skin; the contact temperature must not move by more than
+/// 0.5 °C, inside the coloured transition and outside it.
+#[test]
+fn indentation_shading_does_not_move_temperature() {
+    let b = bench();
+    for (k, t) in [24.0f32, 28.0, 31.0, 40.0].into_iter().enumerate() {
+        let (fx, fl, _) = b.run(&press(2.0, t), 900 + k as u64);
+        for d in [&fx, &fl] {
+            assert!(d.contact && d.peak_depth_mm > 1.9, "{d:?}");
+            let temp = d.temperature.as_ref().unwrap();
+            let c = temp.contact_c.unwrap();
+            assert!(
+                (c - t).abs() <= 0.5,
+                "contact reads {c:.3} °C on a {t} °C skin"
+            );
+            assert!(
+                (temp.mean_c - t).abs() <= 0.5,
+                "mean {:.3} at {t}",
+                temp.mean_c
+            );
+        }
+    }
+}
+
+/// A heated sphere's contact temperature within 0.8 °C of the truth (the mean over its
+/// footprint), at several depths and temperatures; and the heat does not move the force.
+#[test]
+fn heated_contact_reads_its_temperature_and_not_its_force() {
+    let b = bench();
+    let c = center_mm(&SensorUnit::reference());
+    for (k, (depth, hot)) in [(0.5f32, 40.0f32), (1.0, 36.0), (1.5, 45.0), (1.0, 30.0)]
+        .into_iter()
+        .enumerate()
+    {
+        let mut s = press(depth, ROOM_C);
+        s.temperature.sources.push(HeatSource::Spot {
+            center_mm: c,
+            footprint: Footprint::Disc {
+                r_mm: (SPHERE_R_MM * depth).sqrt(),
+            },
+            temp_c: hot,
+            spread_mm: 2.0,
+        });
+        let seed = 1300 + k as u64;
+        let (fx, fl, truth) = b.run(&s, seed);
+        let want = truth.contact_temp_c.unwrap();
+        for d in [&fx, &fl] {
+            let got = d.temperature.as_ref().unwrap().contact_c.unwrap();
+            assert!(
+                (got - want).abs() <= 0.8,
+                "{depth} mm at {hot} °C: contact reads {got:.3}, truth {want:.3}"
+            );
+        }
+        let (cold, _, _) = b.run(&press(depth, ROOM_C), seed);
+        assert!(
+            (fx.force_n - cold.force_n).abs() <= 0.05 * cold.force_n.max(1.0),
+            "heat moved the force: {} N heated, {} N at room temperature",
+            fx.force_n,
+            cold.force_n
+        );
+    }
+}
+
+/// Beyond the calibrated range the reading is flagged, not clamped.
+#[test]
+fn temperatures_beyond_the_calibration_are_flagged() {
+    let b = bench();
+    for (k, t) in [5.0f32, 60.0].into_iter().enumerate() {
+        let (fx, fl, _) = b.run(&SkinState::idle(t), 1700 + k as u64);
+        for d in [&fx, &fl] {
+            assert!(
+                d.flags.contains(Flag::TemperatureOutOfRange),
+                "{t} °C not flagged: {:?}",
+                d.temperature
+            );
+        }
+        let m = fx.temperature.as_ref().unwrap().mean_c;
+        assert!(
+            if t > 30.0 { m > 48.0 } else { m < 14.5 },
+            "{t} °C reads {m:.2}: an out-of-range reading is reported, not clamped"
+        );
+    }
+    // A hot spot beyond the range flags the frame; the skin around it still reads true.
+    let c = center_mm(&SensorUnit::reference());
+    let mut s = SkinState::idle(ROOM_C);
+    s.temperature.sources.push(HeatSource::Spot {
+        center_mm: c,
+        footprint: Footprint::Disc { r_mm: 5.0 },
+        temp_c: 65.0,
+        spread_mm: 2.0,
+    });
+    let (fx, _, _) = b.run(&s, 1750);
+    assert!(fx.flags.contains(Flag::TemperatureOutOfRange));
+    let t = fx.temperature.unwrap();
+    assert!(t.max_c > 50.0 && t.min_c < ROOM_C + 1.0, "{t:?}");
+}
+
+/// The device path's integer evaluation (Q16 invariants, tabulated cube root, integer
+/// models and blend) agrees with the float models (exact CIELAB) within 0.05 °C on the
+/// same blocks; and the two whole pipelines (different FTPs placing the stripes) agree.
+#[test]
+fn device_arithmetic_agrees_with_the_float_models() {
+    let b = bench();
+    let th = b.fixed.thermometer();
+    let g = th.geometry().clone();
+    let (mut worst_block, mut worst_path, mut blocks) = (0.0f32, 0.0f32, 0usize);
+    for (k, t) in [18.0f32, 23.3, 25.1, 27.7, 29.2, 31.6, 33.0, 38.0, 46.0]
+        .into_iter()
+        .enumerate()
+    {
+        let (img, _) = b.r.render(&press(1.0, t), 2000 + k as u64);
+        let (_, sums) = b.fixed.colour_sums(&img).unwrap();
+        let pooled = pool(&sums, g.bw, g.bh, BLACK_POOL);
+        for (own, p) in sums.iter().zip(&pooled) {
+            if let (Some(dev), Some(ora)) = (th.read(own, p), th.read_exact(own, p)) {
+                worst_block = worst_block.max((dev.t_c - ora.t_c).abs());
+                blocks += 1;
+            }
+        }
+        let fx = b.fixed.analyze(&img).unwrap().temperature.unwrap();
+        let fl = b.float.analyze(&img).unwrap().temperature.unwrap();
+        for (a, c) in [
+            (fx.mean_c, fl.mean_c),
+            (fx.contact_c.unwrap(), fl.contact_c.unwrap()),
+        ] {
+            worst_path = worst_path.max((a - c).abs());
+        }
+    }
+    println!(
+        "device vs float models: worst {worst_block:.4} °C over {blocks} blocks; \
+         whole paths: worst {worst_path:.4} °C"
+    );
+    assert!(blocks > 1000);
+    assert!(
+        worst_block <= 0.05,
+        "device differs from the models by {worst_block} °C"
+    );
+    assert!(
+        worst_path <= 0.1,
+        "the two pipelines differ by {worst_path} °C"
+    );
+}
