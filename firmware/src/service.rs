@@ -137,12 +137,70 @@ pub fn summary_of(
         centroid: d
             .centroid_px
             .map(|(x, y)| CentroidDeciMm::from_mm(x * mm_per_px, y * mm_per_px)),
-        temp_min_centi_c: TEMP_NOT_MEASURED,
-        temp_mean_centi_c: TEMP_NOT_MEASURED,
-        temp_max_centi_c: TEMP_NOT_MEASURED,
-        contact_temp_centi_c: None,
+        temp_min_centi_c: centi_c(d.temperature.as_ref().map(|t| t.min_c)),
+        temp_mean_centi_c: centi_c(d.temperature.as_ref().map(|t| t.mean_c)),
+        temp_max_centi_c: centi_c(d.temperature.as_ref().map(|t| t.max_c)),
+        contact_temp_centi_c: d
+            .temperature
+            .as_ref()
+            .and_then(|t| t.contact_c)
+            .map(|c| centi_c(Some(c))),
         flags: d.flags,
     }
+}
+
+/// °C → 0.01 °C on the wire, saturating; [`TEMP_NOT_MEASURED`] for nothing or NaN.
+fn centi_c(t: Option<f32>) -> i16 {
+    match t {
+        Some(v) if v.is_finite() => (v * 100.0)
+            .round()
+            .clamp(f32::from(i16::MIN + 1), f32::from(i16::MAX))
+            as i16,
+        _ => TEMP_NOT_MEASURED,
+    }
+}
+
+/// A temperature map tile of at most [`MAP_MAX_CELLS`] cells (means of the measured blocks),
+/// or `None` without a temperature model.
+pub fn temperature_tile(d: &Deformation, seq: u32) -> Option<Map> {
+    let t = d.temperature.as_ref()?;
+    let step = ((t.bw * t.bh) as f32 / MAP_MAX_CELLS as f32)
+        .sqrt()
+        .ceil()
+        .max(1.0) as usize;
+    let (tw, th) = (t.bw.div_ceil(step).min(255), t.bh.div_ceil(step).min(255));
+    let mut cells = heapless::Vec::new();
+    'rows: for ty in 0..th {
+        for tx in 0..tw {
+            let (mut sum, mut n) = (0.0f32, 0u32);
+            for y in ty * step..((ty + 1) * step).min(t.bh) {
+                for x in tx * step..((tx + 1) * step).min(t.bw) {
+                    let v = t.map_c[y * t.bw + x];
+                    if v.is_finite() {
+                        sum += v;
+                        n += 1;
+                    }
+                }
+            }
+            let v = if n > 0 {
+                centi_c(Some(sum / n as f32))
+            } else {
+                MAP_NO_DATA
+            };
+            if cells.push(v).is_err() {
+                break 'rows;
+            }
+        }
+    }
+    Some(Map {
+        seq,
+        kind: MapKind::Temperature,
+        width: tw as u8,
+        height: th as u8,
+        cell_pitch_centi_mm: to_u32(t.block_mm * step as f32, 100.0).min(u32::from(u16::MAX))
+            as u16,
+        cells,
+    })
 }
 
 /// A depth map tile of at most [`MAP_MAX_CELLS`] cells (block maxima of the working map).
@@ -303,7 +361,7 @@ pub fn run(
     let mut streaming = true;
     let mut max_rate_hz = settings.max_rate_hz;
     let mut last_sent: Option<Instant> = None;
-    let mut map_requested = false;
+    let mut map_requested: Option<MapKind> = None;
     let mut last_status = Instant::now();
     let mut reference_at = Instant::now();
     let mut seq = 0u32;
@@ -365,15 +423,19 @@ pub fn run(
                         }),
                     }
                 }
-                HostMsg::RequestMap(MapKind::Depth) => {
-                    map_requested = true;
-                    DeviceMsg::Ack(Command::RequestMap)
-                }
-                HostMsg::RequestMap(MapKind::Temperature) => {
+                HostMsg::RequestMap(MapKind::Temperature)
+                    if analyzer
+                        .as_ref()
+                        .is_some_and(|a| a.calibration().temperature.is_none()) =>
+                {
                     DeviceMsg::Error(vistaf_protocol::DeviceError {
                         code: vistaf_protocol::ErrorCode::UnsupportedCommand,
-                        detail: "temperature maps are not measured by this build".into(),
+                        detail: "the calibration has no temperature model".into(),
                     })
+                }
+                HostMsg::RequestMap(kind) => {
+                    map_requested = Some(kind);
+                    DeviceMsg::Ack(Command::RequestMap)
                 }
                 HostMsg::Start => {
                     streaming = true;
@@ -457,13 +519,20 @@ pub fn run(
             }
             last_sent = Some(Instant::now());
         }
-        if map_requested {
-            tx.send(&DeviceMsg::Map(depth_tile(
-                &d,
-                seq.wrapping_sub(1),
-                a.mm_per_px(),
-            )));
-            map_requested = false;
+        match map_requested.take() {
+            Some(MapKind::Depth) => {
+                tx.send(&DeviceMsg::Map(depth_tile(
+                    &d,
+                    seq.wrapping_sub(1),
+                    a.mm_per_px(),
+                )));
+            }
+            Some(MapKind::Temperature) => {
+                if let Some(m) = temperature_tile(&d, seq.wrapping_sub(1)) {
+                    tx.send(&DeviceMsg::Map(m));
+                }
+            }
+            None => {}
         }
     }
     stop.store(true, Ordering::Relaxed);
