@@ -532,7 +532,7 @@ pub fn fit_temperature(samples: &[Sample]) -> Result<TemperatureModel, ThermalFi
         let all = || samples.iter().flat_map(|s| [f(&s.v), f(&s.pooled)]);
         let lo = all().fold(f64::INFINITY, f64::min);
         let hi = all().fold(f64::NEG_INFINITY, f64::max);
-        let m = 0.25 * (hi - lo).max(1e-3);
+        let m = 0.5 * (hi - lo).max(1e-3);
         [lo - m, hi + m]
     };
     Ok(TemperatureModel {

@@ -363,7 +363,8 @@ pub struct TemperatureModel {
     pub black: PopulationModel,
     /// Calibrated setpoints, °C (lowest, highest): estimates outside are flagged.
     pub range_c: [f64; 2],
-    /// Invariants seen in calibration, widened by a quarter of their span on each side.
+    /// Invariants seen in calibration, widened by half their span on each side (the
+    /// stripes of a steep indentation mix a little more than any calibration frame's).
     pub domain: Domain,
     /// Per-setpoint means of the fused estimate, leave-one-setpoint-out.
     pub held_out: Vec<SetpointError>,
