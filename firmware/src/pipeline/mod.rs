@@ -173,18 +173,23 @@ fn with_temperature(
     if !thermo.has_model() {
         return d;
     }
+    use crate::thermal::stripes::region;
     let peak_um = d.peak_depth_mm * 1000.0;
-    let region = |frac: f32| -> Vec<bool> {
-        let lim = (peak_um * frac).round() as i32;
-        d.depth_um.iter().map(|&u| u > 0 && u >= lim).collect()
-    };
-    let contact = d.contact.then(|| (region(0.5), region(0.75)));
-    d.temperature = thermo.measure(
-        frame,
-        wrapped,
-        &d.reliable,
-        contact.as_ref().map(|(a, b)| (a.as_slice(), b.as_slice())),
+    let (half, core) = (
+        (peak_um * 0.5).round() as i32,
+        (peak_um * 0.75).round() as i32,
     );
+    let regions: Option<Vec<u8>> = d.contact.then(|| {
+        d.depth_um
+            .iter()
+            .map(|&u| match u {
+                u if u > 0 && u >= core => region::CORE,
+                u if u > 0 && u >= half => region::CONTACT,
+                _ => region::NONE,
+            })
+            .collect()
+    });
+    d.temperature = thermo.measure(frame, wrapped, &d.reliable, regions.as_deref());
     if d.temperature.as_ref().is_some_and(|t| t.out_of_range) {
         d.flags.insert(vistaf_protocol::Flag::TemperatureOutOfRange);
     }

@@ -17,10 +17,13 @@
 //! table reads, and per model either its monomials or three multiply-adds per curve segment.
 
 use super::lab::D65;
-use super::model::{ColourModel, TemperatureModel, VarianceTable};
+use super::model::{ColourModel, Population, TemperatureModel, VarianceTable};
 use super::stripes::Sums;
 
 const ONE: i64 = 1 << 16;
+
+/// Largest whitened distance the curve evaluation represents, Q12 (4096 σ).
+const WHITE_MAX: f64 = (1 << 24) as f64;
 
 fn q16(v: f64) -> i64 {
     (v * 65_536.0).round() as i64
@@ -46,16 +49,18 @@ enum Eval {
         coef: Vec<i64>,
     },
     Curve {
-        /// Knots, raw features, Q16.
+        /// Knots, whitened, Q12.
         knots: Vec<Vec<i64>>,
         /// 1/σ per feature, Q16.
         inv_scale: Vec<i64>,
-        /// Whitened segment vectors, Q16.
+        /// Whitened segment vectors, Q12 (σ = 4096).
         d: Vec<Vec<i64>>,
-        /// Their squared lengths, Q32.
-        bb: Vec<i128>,
+        /// Their squared lengths, Q24.
+        bb: Vec<i64>,
         /// Knot temperatures, Q16 °C.
         t: Vec<i64>,
+        /// `e^{−Δ/2}` for Δ = k/32 σ², Q16 (see [`super::model::softmin_weight`]).
+        softmin: Vec<i64>,
     },
 }
 
@@ -84,9 +89,9 @@ impl Table {
         if n == 0 {
             return UNKNOWN_Q16;
         }
-        // Position in Q16 bins.
-        let x = (i128::from(t - self.t0) << 16) / i128::from(self.step);
-        let last = i128::from((n - 1) * ONE);
+        // Position in Q16 bins (|t − t0| < 2¹⁵ °C, so the shift fits).
+        let x = ((t - self.t0).clamp(-(1 << 46), 1 << 46) << 16) / self.step;
+        let last = (n - 1) * ONE;
         let beyond = if x < 0 {
             -x
         } else if x > last {
@@ -94,16 +99,16 @@ impl Table {
         } else {
             0
         };
-        if beyond >= i128::from(ONE / 2) {
+        if beyond >= ONE / 2 {
             return UNKNOWN_Q16;
         }
-        let x = x.clamp(0, last) as i64;
+        let x = x.clamp(0, last);
         let k = (x >> 16).min(n - 1) as usize;
         let f = x & (ONE - 1);
         let next = self.var[(k + 1).min(self.var.len() - 1)];
-        let v = self.var[k] + (((next - self.var[k]) as i128 * i128::from(f)) >> 16) as i64;
-        let keep = i128::from(ONE) - 2 * beyond; // > 0 here
-        ((i128::from(v) << 16) / keep).min(i128::from(UNKNOWN_Q16)) as i64
+        let v = self.var[k] + (((next - self.var[k]) * f) >> 16);
+        let keep = ONE - 2 * beyond; // > 0 here
+        ((v << 16) / keep).min(UNKNOWN_Q16)
     }
 }
 
@@ -131,24 +136,33 @@ impl Pop {
                         w[0].iter()
                             .zip(&w[1])
                             .zip(&c.scale)
-                            .map(|((a, b), s)| q16((b - a) / s))
+                            .map(|((a, b), s)| {
+                                ((b - a) / s * 4096.0).round().clamp(-WHITE_MAX, WHITE_MAX) as i64
+                            })
                             .collect()
                     })
                     .collect();
-                let bb = d
-                    .iter()
-                    .map(|v| v.iter().map(|&x| i128::from(x) * i128::from(x)).sum())
-                    .collect();
+                let bb = d.iter().map(|v| v.iter().map(|&x| x * x).sum()).collect();
                 Eval::Curve {
                     knots: c
                         .knots
                         .iter()
-                        .map(|k| k.iter().map(|&v| q16(v)).collect())
+                        .map(|k| {
+                            k.iter()
+                                .zip(&c.scale)
+                                .map(|(&v, &s)| {
+                                    (v / s * 4096.0).round().clamp(-8.4e6, 8.4e6) as i64
+                                })
+                                .collect()
+                        })
                         .collect(),
                     inv_scale: inv,
                     d,
                     bb,
                     t: c.t_c.iter().map(|&t| q16(t)).collect(),
+                    softmin: (0..=(super::model::SOFTMIN_CUT * 32.0) as usize)
+                        .map(|k| q16(super::model::softmin_weight(k as f64 / 32.0)))
+                        .collect(),
                 }
             }
         };
@@ -190,30 +204,98 @@ impl Pop {
                 d,
                 bb,
                 t,
+                softmin,
             } => {
+                // Whitened values in Q12 (2⁻¹² σ); distances clamped at 4096 σ (far outside
+                // any calibrated colour): squares and dot products stay below 2⁵⁰, and only
+                // the projection's product takes 128 bits (a multiplication, no division).
                 let n = t.len();
-                let (mut best, mut best_t) = (i128::MAX, t.first().copied().unwrap_or(0));
-                for k in 0..n.saturating_sub(1) {
-                    let (mut ab, mut ax) = (0i128, 0i128);
-                    for j in 0..x.len() {
-                        let e = ((x[j] - knots[k][j]) as i128 * i128::from(inv_scale[j])) >> 16;
-                        ab += i128::from(d[k][j]) * e;
-                        ax += e * e;
-                    }
-                    let mut u: i128 = if bb[k] > 0 { (ab << 16) / bb[k] } else { 0 };
-                    if k > 0 {
-                        u = u.max(0);
-                    }
-                    if k + 2 < n {
-                        u = u.min(i128::from(ONE));
-                    }
-                    let dist = ax - ((2 * u * ab) >> 16) + ((((u * u) >> 16) * bb[k]) >> 16);
-                    if dist < best {
-                        best = dist;
-                        best_t = t[k] + ((u * i128::from(t[k + 1] - t[k])) >> 16) as i64;
+                let m = x.len().min(8);
+                // Knots lie within ±2²³ (2048 σ) of the calibrated colours; clamping the
+                // block's whitened features to ±2²⁴ keeps every difference below 2²⁵.
+                let lim = 1i64 << 24;
+                let mut xw = [0i64; 8];
+                for j in 0..m {
+                    xw[j] = (((i128::from(x[j]) * i128::from(inv_scale[j])) >> 20)
+                        .clamp(-i128::from(lim), i128::from(lim)))
+                        as i64;
+                }
+                // The two nearest knots, and the segments meeting at either.
+                let (mut k1, mut k2) = ((i64::MAX, 0usize), (i64::MAX, 0usize));
+                for (k, kn) in knots.iter().enumerate() {
+                    let d2: i64 = xw[..m].iter().zip(kn).map(|(x, c)| (x - c) * (x - c)).sum();
+                    if d2 < k1.0 {
+                        k2 = k1;
+                        k1 = (d2, k);
+                    } else if d2 < k2.0 {
+                        k2 = (d2, k);
                     }
                 }
-                best_t
+                let last = n.saturating_sub(2);
+                let mut segs = [
+                    k1.1.saturating_sub(1),
+                    k1.1.min(last),
+                    k2.1.saturating_sub(1),
+                    k2.1.min(last),
+                ];
+                segs.sort_unstable();
+                let mut found = [(i64::MAX, 0i64); 4];
+                for (i, &k) in segs.iter().enumerate() {
+                    if i > 0 && segs[i - 1] == k {
+                        continue;
+                    }
+                    let (mut ax, mut ab) = (0i64, 0i64);
+                    for ((x, kn), dk) in xw[..m].iter().zip(&knots[k]).zip(&d[k]) {
+                        let e = x - kn;
+                        ab += dk * e;
+                        ax += e * e;
+                    }
+                    let bk = bb[k].max(1);
+                    // u in Q16; the end segments extrapolate without bound.
+                    let mut u = (ab << 8) / (bk >> 8).max(1);
+                    let lo = if k == 0 { i64::MIN } else { 0 };
+                    let hi = if k + 2 == n { i64::MAX } else { ONE };
+                    let dist = if u < lo || u > hi {
+                        u = u.clamp(lo, hi);
+                        if u == 0 {
+                            ax
+                        } else {
+                            ax - 2 * ab + bk
+                        }
+                    } else {
+                        // ab·u = ab²/bb ≤ ax in exact arithmetic; the clamp only guards.
+                        let proj = (i128::from(ab) * i128::from(u)) >> 16;
+                        ax - proj.clamp(0, i128::from(i64::MAX)) as i64
+                    };
+                    found[i] = (
+                        dist,
+                        t[k] + ((i128::from(u) * i128::from(t[k + 1] - t[k])) >> 16) as i64,
+                    );
+                }
+                // Likelihood-weighted mean of the segments' nearest points (see
+                // `Curve::eval`): weights e^{−Δd/2} from a table in 1/32 σ² steps.
+                let best = found.iter().map(|f| f.0).min().unwrap_or(i64::MAX);
+                let (mut sw, mut st) = (0i64, 0i128);
+                for &(dist, ti) in &found {
+                    if dist == i64::MAX {
+                        continue;
+                    }
+                    // Δd is Q24 σ²; the table steps are 1/32 σ² = 2¹⁹; keep 8 fraction bits.
+                    let pos = (dist - best) >> 11;
+                    let k = (pos >> 8) as usize;
+                    if k + 1 >= softmin.len() {
+                        continue;
+                    }
+                    let f = pos & 255;
+                    let w = softmin[k] + (((softmin[k + 1] - softmin[k]) * f) >> 8);
+                    sw += w;
+                    st += i128::from(w) * i128::from(ti);
+                }
+                if sw > 0 {
+                    (st / i128::from(sw)) as i64
+                } else {
+                    t.first().copied().unwrap_or(0)
+                }
             }
         }
     }
@@ -232,22 +314,24 @@ pub struct FixedModel {
 }
 
 /// Invariants of a block in Q16 (r, g, q), or `None` when the coloured stripes are black.
+/// Means first (Q16 linear), so every product fits 64 bits.
 pub fn invariants_q16(s: &Sums) -> Option<[i64; 3]> {
-    let total: u64 = s.coloured.iter().sum();
-    let y = |c: &[u64; 3]| -> u128 {
-        c.iter()
-            .zip(Y_Q16)
-            .map(|(v, w)| u128::from(*v) * w as u128)
-            .sum()
-    };
-    let (yc, yk) = (y(&s.coloured), y(&s.black));
-    if total == 0 || yc == 0 || s.n_black == 0 {
+    if s.n[0] == 0 || s.n[1] == 0 {
         return None;
     }
-    let r = ((u128::from(s.coloured[0]) << 16) / u128::from(total)) as i64;
-    let g = ((u128::from(s.coloured[1]) << 16) / u128::from(total)) as i64;
-    let q = ((yk * u128::from(s.n_coloured)) << 16) / (yc * u128::from(s.n_black));
-    Some([r, g, q.min(i64::MAX as u128) as i64])
+    let mean = |p: usize| s.sum[p].map(|v| (v / u64::from(s.n[p])) as i64);
+    let (c, k) = (mean(0), mean(1));
+    let total: i64 = c.iter().sum();
+    let y = |m: [i64; 3]| -> i64 { m.iter().zip(Y_Q16).map(|(v, w)| v * w).sum() }; // Q32
+    let yc = y(c);
+    if total == 0 || yc == 0 {
+        return None;
+    }
+    Some([
+        (c[0] << 16) / total,
+        (c[1] << 16) / total,
+        (y(k) << 16) / yc,
+    ])
 }
 
 impl FixedModel {
@@ -294,43 +378,48 @@ impl FixedModel {
     }
 
     /// The coloured (from `own`) and black (from `pooled`) estimates, Q16 °C.
+    #[cfg(test)]
     fn estimates(&self, own: [i64; 3], pooled: [i64; 3]) -> (i64, i64) {
-        let fo = self.features(own);
-        let fp = self.features(pooled);
         (
-            self.coloured.eval(&fo),
-            self.black.eval(&[fp[2], fp[0], fp[1]]),
+            self.population(Population::Coloured, own).0,
+            self.population(Population::Black, pooled).0,
         )
     }
 
-    /// Temperature (°C), variance (°C²) and whether it is inside what was calibrated, from a
-    /// block's invariants and its neighbourhood's.
-    pub fn read(&self, own: [i64; 3], pooled: [i64; 3]) -> (f64, f64, bool) {
-        let (tc, tb) = self.estimates(own, pooled);
-        let (vc, vb) = (self.coloured.table.at(tc), self.black.table.at(tb));
-        let w = i128::from(vc) + i128::from(vb);
-        let (t, var) = if w == 0 {
-            ((tc + tb) / 2, 0)
-        } else {
-            (
-                ((i128::from(tc) * i128::from(vb) + i128::from(tb) * i128::from(vc)) / w) as i64,
-                ((i128::from(vc) * i128::from(vb)) / w) as i64,
-            )
+    /// One population's estimate and variance (Q16 °C, Q16 °C²), and whether the invariants
+    /// lie in the calibrated box.
+    pub fn population(&self, p: Population, v: [i64; 3]) -> (i64, i64, bool) {
+        let f = self.features(v);
+        let (pop, t) = match p {
+            Population::Coloured => (&self.coloured, self.coloured.eval(&f)),
+            Population::Black => (&self.black, self.black.eval(&[f[2], f[0], f[1]])),
         };
-        // Two standard deviations (capped like the float model's), Q16: 2·sqrt(var · 2¹⁶).
+        let in_domain = v
+            .iter()
+            .zip(&self.domain)
+            .all(|(x, d)| *x >= d[0] && *x <= d[1]);
+        (t, pop.table.at(t), in_domain)
+    }
+
+    /// Inverse-variance blend of the two populations' estimates: temperature (°C),
+    /// variance (°C²) and whether it is inside what was calibrated.
+    pub fn fuse(&self, c: (i64, i64, bool), b: (i64, i64, bool)) -> (f64, f64, bool) {
+        let ((tc, vc, ic), (tb, vb, ib)) = (c, b);
+        // (tc·vb + tb·vc) / (vc + vb), the weights as Q16 fractions so every product fits
+        // 64 bits.
+        let w = (vc + vb).max(1);
+        let share_b = (vc << 16) / w; // black's weight = vc / (vc + vb)
+        let t = tc + (((tb - tc) * share_b) >> 16);
+        let var = (vb * share_b) >> 16; // vc·vb / (vc + vb)
+                                        // Two standard deviations (capped like the float model's), Q16: 2·sqrt(var · 2¹⁶).
         let sigma = ((var.max(0) as u64).saturating_mul(1 << 16)).isqrt() as i64;
         let two_sigma = 2 * sigma.min(q16(super::model::OUT_OF_RANGE_SIGMA_C));
         let in_range =
             t - two_sigma <= self.range[1] + ONE / 2 && t + two_sigma >= self.range[0] - ONE / 2;
-        let in_domain = [own, pooled].iter().all(|v| {
-            v.iter()
-                .zip(&self.domain)
-                .all(|(x, d)| *x >= d[0] && *x <= d[1])
-        });
         (
             t as f64 / 65_536.0,
             var as f64 / 65_536.0,
-            in_range && in_domain,
+            in_range && ic && ib,
         )
     }
 }
@@ -340,7 +429,6 @@ mod tests {
     use super::*;
     use crate::calibration::Calibration;
     use crate::thermal::lab::Invariants;
-    use crate::thermal::model::Population;
 
     /// Over the whole box of calibrated colours, almost everywhere. (Far from the calibration
     /// curve two of its segments can be nearly equally near, and rounding may pick the other
@@ -373,6 +461,9 @@ mod tests {
                 n += 1;
             }
         }
-        assert!(far * 200 < n, "{far} of {n} estimates differ by more than 0.02 °C");
+        assert!(
+            far * 200 < n,
+            "{far} of {n} estimates differ by more than 0.02 °C"
+        );
     }
 }

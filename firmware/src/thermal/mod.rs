@@ -25,7 +25,7 @@ use image::RgbImage;
 
 use self::fixed::FixedModel;
 use self::lab::Invariants;
-use self::model::TemperatureModel;
+use self::model::{Population, TemperatureModel};
 use self::stripes::{Geometry, Sums};
 
 /// A frame's temperatures.
@@ -71,6 +71,15 @@ enum Eval {
     Float,
     /// Integer arithmetic.
     Fixed(Box<FixedModel>),
+}
+
+/// One population's estimate in the arithmetic of the path that made it.
+#[derive(Debug, Clone, Copy)]
+enum PopEstimate {
+    /// °C, °C², in the calibrated box.
+    Float(f64, f64, bool),
+    /// Q16 °C, Q16 °C², in the calibrated box.
+    Fixed((i64, i64, bool)),
 }
 
 /// One reading: temperature (°C), variance (°C²), and whether it is trusted (inside the
@@ -135,20 +144,21 @@ impl Thermometer {
 
     /// Colour sums of a frame whose wrapped phase difference to the reference is
     /// `wrapped(i)` (units) at working pixel `i`, over the working pixels the FTP found
-    /// `reliable`; `contact` marks the contact region.
+    /// `reliable`; `regions` marks the contact region and its core
+    /// ([`stripes::region`] codes).
     pub fn sums(
         &self,
         frame: &RgbImage,
         wrapped: impl Fn(usize) -> i32,
         reliable: &[bool],
-        contact: Option<&[bool]>,
-    ) -> (Vec<Sums>, Sums) {
+        regions: Option<&[u8]>,
+    ) -> (Vec<Sums>, [Sums; 2]) {
         stripes::accumulate(
             frame,
             &self.geom,
             |i| self.theta_ref[i].wrapping_add(wrapped(i) as u16),
             reliable,
-            contact,
+            regions,
             &self.lin,
         )
     }
@@ -166,30 +176,44 @@ impl Thermometer {
     }
 
     fn read_with(&self, own: &Sums, pooled: &Sums, exact: bool) -> Option<Reading> {
+        let c = self.population(Population::Coloured, own, exact)?;
+        let b = self.population(Population::Black, pooled, exact)?;
+        self.fuse(c, b)
+    }
+
+    /// One population's estimate from sums: (°C, °C², in the calibrated box) in the path's
+    /// own arithmetic (Q16 on the device, `exact` forcing the float models).
+    fn population(&self, p: Population, s: &Sums, exact: bool) -> Option<PopEstimate> {
         let (model, eval) = self.model.as_ref()?;
-        if !own.enough() || !pooled.enough() {
+        if !s.enough() {
             return None;
         }
-        let device = match eval {
-            Eval::Fixed(f) if !exact => Some(f),
-            _ => None,
-        };
-        let (t, var, trusted) = match device {
-            None => {
-                let inv = |s: &Sums| {
-                    let (c, k) = s.means();
-                    Invariants::from_linear(c, k)
-                };
-                let (vo, vp) = (inv(own)?, inv(pooled)?);
-                let e = model.estimate(&vo, &vp);
-                let inside = model.domain.contains(&vo) && model.domain.contains(&vp);
-                (
-                    e.t_c,
-                    e.var_c2,
-                    inside && !model.out_of_range(e.t_c, e.var_c2),
-                )
+        Some(match eval {
+            Eval::Fixed(f) if !exact => {
+                PopEstimate::Fixed(f.population(p, fixed::invariants_q16(s)?))
             }
-            Some(f) => f.read(fixed::invariants_q16(own)?, fixed::invariants_q16(pooled)?),
+            _ => {
+                let (c, k) = s.means();
+                let v = Invariants::from_linear(c, k)?;
+                let (t, var) = model.population(p, &v);
+                PopEstimate::Float(t, var, model.domain.contains(&v))
+            }
+        })
+    }
+
+    /// The inverse-variance blend of a coloured and a black estimate.
+    fn fuse(&self, c: PopEstimate, b: PopEstimate) -> Option<Reading> {
+        let (model, eval) = self.model.as_ref()?;
+        let (t, var, trusted) = match (c, b) {
+            (PopEstimate::Fixed(c), PopEstimate::Fixed(b)) => match eval {
+                Eval::Fixed(f) => f.fuse(c, b),
+                Eval::Float => return None,
+            },
+            (PopEstimate::Float(tc, vc, ic), PopEstimate::Float(tb, vb, ib)) => {
+                let (t, var) = model::fuse(tc, vc, tb, vb);
+                (t, var, ic && ib && !model.out_of_range(t, var))
+            }
+            _ => return None,
         };
         Some(Reading {
             t_c: t as f32,
@@ -198,28 +222,40 @@ impl Thermometer {
         })
     }
 
-    /// Measures a frame (see [`Thermometer::sums`]); `None` without a model. `core`, a
-    /// smaller region inside `contact`, gives the contact temperature when it holds enough
-    /// stripe samples (its edge is where heat spreads into the cooler skin around).
+    /// Measures a frame (see [`Thermometer::sums`]); `None` without a model. The contact's
+    /// core gives the contact temperature when it holds enough stripe samples (the region's
+    /// edge is where heat spreads into the cooler skin around).
     pub fn measure(
         &self,
         frame: &RgbImage,
         wrapped: impl Fn(usize) -> i32,
         reliable: &[bool],
-        contact: Option<(&[bool], &[bool])>,
+        regions: Option<&[u8]>,
     ) -> Option<Temperature> {
         self.model.as_ref()?;
         let g = &self.geom;
-        let (blocks, inside) = self.sums(frame, &wrapped, reliable, contact.map(|c| c.0));
-        let core = contact.map(|c| self.sums(frame, &wrapped, reliable, Some(c.1)).1);
-        let pooled = stripes::pool(&blocks, g.bw, g.bh, BLACK_POOL);
+        let (blocks, [inside, core]) = self.sums(frame, &wrapped, reliable, regions);
+        // The black stripes' estimate on every other block each way (their 3 × 3 pooling
+        // makes neighbours nearly the same), shared by the 2 × 2 blocks it stands for.
+        let (gw, gh) = (g.bw.div_ceil(2), g.bh.div_ceil(2));
+        let black: Vec<Option<PopEstimate>> = (0..gw * gh)
+            .map(|k| {
+                let p =
+                    stripes::pool_at(&blocks, g.bw, g.bh, 2 * (k % gw), 2 * (k / gw), BLACK_POOL);
+                self.population(Population::Black, &p, false)
+            })
+            .collect();
         let mut map_c = vec![f32::NAN; blocks.len()];
         let mut out_of_range = false;
         let (mut sum, mut n) = (0.0f64, 0usize);
         let (mut min_c, mut max_c) = (f32::INFINITY, f32::NEG_INFINITY);
         let mut hottest = None;
-        for (b, (s, p)) in blocks.iter().zip(&pooled).enumerate() {
-            let Some(r) = self.read(s, p) else {
+        for (b, s) in blocks.iter().enumerate() {
+            let (bx, by) = (b % g.bw, b / g.bw);
+            let Some(r) = black[(by / 2) * gw + bx / 2]
+                .and_then(|k| Some((self.population(Population::Coloured, s, false)?, k)))
+                .and_then(|(c, k)| self.fuse(c, k))
+            else {
                 continue;
             };
             map_c[b] = r.t_c;
@@ -232,11 +268,12 @@ impl Thermometer {
                 hottest = Some(b);
             }
         }
-        let region = match core {
-            Some(c) if c.n_coloured >= CORE_SAMPLES && c.n_black >= CORE_SAMPLES => c,
-            _ => inside,
+        let region = if core.n[0] >= CORE_SAMPLES && core.n[1] >= CORE_SAMPLES {
+            core
+        } else {
+            inside
         };
-        let contact_c = contact.and_then(|_| self.read(&region, &region)).map(|r| {
+        let contact_c = regions.and_then(|_| self.read(&region, &region)).map(|r| {
             out_of_range |= !r.trusted;
             r.t_c
         });

@@ -118,7 +118,8 @@ impl Polynomial {
 
 /// The calibration curve: the per-setpoint mean features as knots, joined by straight
 /// segments. A block reads the temperature of the nearest point on the curve (distance in
-/// units of each feature's block-to-block noise), linear beyond the end segments. It has as
+/// units of each feature's block-to-block noise; the segments searched are those at the
+/// two nearest knots), linear beyond the end segments. It has as
 /// many parameters as knots × features, so the parsimony rule only takes it when the
 /// polynomials cannot follow the colour's path.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -134,14 +135,43 @@ pub struct Curve {
 }
 
 impl Curve {
-    /// Temperature of the nearest point on the curve, °C.
+    /// Temperature of the nearest point on the segments that meet at the two nearest knots
+    /// (on a curve sampled as finely as a calibration's, the nearest point of all), °C.
     pub fn eval(&self, x: &[f64]) -> f64 {
         let n = self.t_c.len();
         if n < 2 {
             return self.t_c.first().copied().unwrap_or(f64::NAN);
         }
-        let (mut best, mut best_t) = (f64::INFINITY, f64::NAN);
-        for k in 0..n - 1 {
+        let dist2 = |k: usize| -> f64 {
+            x.iter()
+                .zip(&self.knots[k])
+                .zip(&self.scale)
+                .map(|((v, c), s)| ((v - c) / s).powi(2))
+                .sum()
+        };
+        // The two nearest knots, and the segments meeting at either.
+        let (mut k1, mut k2) = ((f64::INFINITY, 0usize), (f64::INFINITY, 0usize));
+        for k in 0..n {
+            let d = dist2(k);
+            if d < k1.0 {
+                k2 = k1;
+                k1 = (d, k);
+            } else if d < k2.0 {
+                k2 = (d, k);
+            }
+        }
+        let mut segments: Vec<usize> = [k1.1, k2.1]
+            .iter()
+            .flat_map(|&k| [k.saturating_sub(1), k.min(n - 2)])
+            .collect();
+        segments.sort_unstable();
+        segments.dedup();
+        // Each searched segment's nearest point, then their likelihood-weighted mean
+        // (weight e^{−Δd/2} for a squared distance Δd in σ² beyond the nearest): where a
+        // block sits on the inner side of a bend, two segments are about equally near and
+        // the reading moves smoothly between them instead of jumping.
+        let mut found: Vec<(f64, f64)> = Vec::with_capacity(4);
+        for k in segments {
             let (a, b) = (&self.knots[k], &self.knots[k + 1]);
             let (mut ab, mut ax, mut bb) = (0.0, 0.0, 0.0);
             for j in 0..x.len() {
@@ -156,12 +186,20 @@ impl Curve {
             let hi = if k == n - 2 { f64::INFINITY } else { 1.0 };
             u = u.clamp(lo, hi);
             let dist = ax - 2.0 * u * ab + u * u * bb;
-            if dist < best {
-                best = dist;
-                best_t = self.t_c[k] + u * (self.t_c[k + 1] - self.t_c[k]);
-            }
+            found.push((dist, self.t_c[k] + u * (self.t_c[k + 1] - self.t_c[k])));
         }
-        best_t
+        let best = found.iter().map(|f| f.0).fold(f64::INFINITY, f64::min);
+        let (mut sw, mut st) = (0.0, 0.0);
+        for (d, t) in found {
+            let w = softmin_weight(d - best);
+            sw += w;
+            st += w * t;
+        }
+        if sw > 0.0 {
+            st / sw
+        } else {
+            f64::NAN
+        }
     }
 
     /// Whether the stored shapes agree with each other.
@@ -203,6 +241,21 @@ impl Curve {
             scale.join(", "),
             knots.join("; ")
         )
+    }
+}
+
+/// Squared distances (σ²) beyond the nearest at which a segment's weight is cut to zero.
+pub const SOFTMIN_CUT: f64 = 32.0;
+
+/// Weight of a segment `delta` σ² farther than the nearest: `e^{−delta/2}`, zero beyond
+/// [`SOFTMIN_CUT`] (the device tabulates it over that span).
+pub fn softmin_weight(delta: f64) -> f64 {
+    if (0.0..SOFTMIN_CUT).contains(&delta) {
+        (-delta / 2.0).exp()
+    } else if delta < 0.0 {
+        1.0
+    } else {
+        0.0
     }
 }
 
@@ -471,9 +524,10 @@ mod tests {
 
     #[test]
     fn curve_reads_the_nearest_segment_and_extrapolates_at_the_ends() {
+        // Noise far below the segments' length: the nearest segment alone decides.
         let c = Curve {
             features: vec!["x".into(), "y".into()],
-            scale: vec![1.0, 1.0],
+            scale: vec![0.01, 0.01],
             t_c: vec![10.0, 20.0, 30.0],
             knots: vec![vec![0.0, 0.0], vec![1.0, 0.0], vec![1.0, 1.0]],
         };
@@ -482,6 +536,13 @@ mod tests {
         assert!((c.eval(&[1.1, 0.5]) - 25.0).abs() < 1e-9);
         assert!((c.eval(&[1.0, 2.0]) - 40.0).abs() < 1e-9);
         assert!((c.eval(&[-1.0, 0.0]) - 0.0).abs() < 1e-9);
+        // Noise as large as the segments: near the bend both segments count.
+        let wide = Curve {
+            scale: vec![1.0, 1.0],
+            ..c
+        };
+        let t = wide.eval(&[0.9, 0.1]);
+        assert!(t > 19.0 && t < 21.0, "{t}");
     }
 
     #[test]

@@ -26,17 +26,14 @@ pub fn linear_q16() -> [u32; 256] {
     linear_table().map(|v| (v * 65_536.0).round() as u32)
 }
 
-/// Colour sums of one block (or of the contact region), linear Q16 (64-bit sums: a contact region may hold 10⁵ samples).
+/// Colour sums of one block (or of the contact region), linear Q16 (64-bit sums: a contact
+/// region may hold 10⁵ samples). Index 0 is the coloured stripes, 1 the black.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Sums {
-    /// Σ linear R, G, B over coloured-stripe centres.
-    pub coloured: [u64; 3],
-    /// Number of coloured-stripe samples.
-    pub n_coloured: u32,
-    /// Σ linear R, G, B over black-stripe centres.
-    pub black: [u64; 3],
-    /// Number of black-stripe samples.
-    pub n_black: u32,
+    /// Σ linear R, G, B over stripe centres, per population.
+    pub sum: [[u64; 3]; 2],
+    /// Samples per population.
+    pub n: [u32; 2],
 }
 
 impl Sums {
@@ -45,27 +42,58 @@ impl Sums {
 
     /// Whether both populations were seen often enough.
     pub fn enough(&self) -> bool {
-        self.n_coloured >= Self::MIN_SAMPLES && self.n_black >= Self::MIN_SAMPLES
+        self.n[0] >= Self::MIN_SAMPLES && self.n[1] >= Self::MIN_SAMPLES
     }
 
     /// Adds another block's sums.
     pub fn add(&mut self, o: &Sums) {
-        for k in 0..3 {
-            self.coloured[k] += o.coloured[k];
-            self.black[k] += o.black[k];
+        for p in 0..2 {
+            for k in 0..3 {
+                self.sum[p][k] += o.sum[p][k];
+            }
+            self.n[p] += o.n[p];
         }
-        self.n_coloured += o.n_coloured;
-        self.n_black += o.n_black;
+    }
+
+    /// Adds one sample of population `p` (linear Q16 R, G, B).
+    #[inline]
+    fn sample(&mut self, p: usize, c: [u32; 3]) {
+        let s = &mut self.sum[p];
+        s[0] += u64::from(c[0]);
+        s[1] += u64::from(c[1]);
+        s[2] += u64::from(c[2]);
+        self.n[p] += 1;
     }
 
     /// Mean linear colours (coloured, black), 0…1.
     pub fn means(&self) -> ([f64; 3], [f64; 3]) {
-        let m = |s: [u64; 3], n: u32| s.map(|v| v as f64 / 65_536.0 / f64::from(n.max(1)));
-        (
-            m(self.coloured, self.n_coloured),
-            m(self.black, self.n_black),
-        )
+        let m = |p: usize| self.sum[p].map(|v| v as f64 / 65_536.0 / f64::from(self.n[p].max(1)));
+        (m(0), m(1))
     }
+}
+
+/// Where a working pixel lies relative to the contact, for [`accumulate`].
+pub mod region {
+    /// Not in the contact region.
+    pub const NONE: u8 = 0;
+    /// In the contact region.
+    pub const CONTACT: u8 = 1;
+    /// In the contact region's core.
+    pub const CORE: u8 = 2;
+}
+
+/// Population of a phase (units ≫ 6): 0 coloured, 1 black, 2 neither (near an edge).
+fn class_table() -> [u8; 1024] {
+    std::array::from_fn(|k| {
+        let t = i32::from(((k as u32) << 6) as u16 as i16);
+        if t.abs() < KEEP_UNITS {
+            0
+        } else if t.abs() >= 32_768 - KEEP_UNITS {
+            1
+        } else {
+            2
+        }
+    })
 }
 
 /// Where the blocks are and how the phase advances between input pixels.
@@ -86,6 +114,12 @@ pub struct Geometry {
     /// Phase of input pixel `k` (0…factor−1) of a working pixel, relative to the working
     /// pixel's centre, on the sampled input row; units.
     pub offsets: Vec<i32>,
+    /// Phase of every input pixel (row-major, `factor × factor`) of a working pixel,
+    /// relative to its centre; units. The contact region is read at full density.
+    pub offsets_all: Vec<i32>,
+    /// Working rows advanced between the rows a block reads: a third of a block, so every
+    /// block reads three rows (the black stripes are pooled over nine blocks anyway).
+    pub row_step: usize,
 }
 
 impl Geometry {
@@ -98,10 +132,12 @@ impl Geometry {
         let c = (f as f64 - 1.0) / 2.0; // the working pixel's centre, input pixels
         let row = (f / 2) as f64 - c; // the sampled input row, relative to that centre
         let units = |cycles: f64| (cycles * 65_536.0).round() as i32;
-        let offsets = (0..f)
-            .map(|k| {
-                units(f64::from(fx) / f as f64 * (k as f64 - c) + f64::from(fy) / f as f64 * row)
-            })
+        let at = |kx: f64, ky: f64| {
+            units(f64::from(fx) / f as f64 * (kx - c) + f64::from(fy) / f as f64 * ky)
+        };
+        let offsets = (0..f).map(|k| at(k as f64, row)).collect();
+        let offsets_all = (0..f * f)
+            .map(|k| at((k % f) as f64, (k / f) as f64 - c))
             .collect();
         Geometry {
             w,
@@ -111,6 +147,8 @@ impl Geometry {
             bw: w.div_ceil(block_px),
             bh: h.div_ceil(block_px),
             offsets,
+            offsets_all,
+            row_step: (block_px / 3).max(1),
         }
     }
 
@@ -126,81 +164,140 @@ impl Geometry {
     }
 }
 
-/// Sums colours per block (and over `contact`, working pixels in the contact region).
-/// `theta(i)` is the frame's grating phase at working pixel `i`, units; only working pixels
-/// where `reliable` (the FTP trusted their phase: away from the image edge, with fringe
-/// contrast) are read, since elsewhere the stripes cannot be told apart.
+/// Sums colours per block, and over the contact region and its core (`regions`, one
+/// [`region`] code per working pixel). `theta(i)` is the frame's grating phase at working
+/// pixel `i`, units; only working pixels where `reliable` (the FTP trusted their phase: away
+/// from the image edge, with fringe contrast) are read, since elsewhere the stripes cannot
+/// be told apart. Blocks read one input row of every [`Geometry::row_step`]-th working row;
+/// the contact region, small and what a user asks about most, reads every input pixel.
 pub fn accumulate(
     frame: &RgbImage,
     g: &Geometry,
     theta: impl Fn(usize) -> u16,
     reliable: &[bool],
-    contact: Option<&[bool]>,
+    regions: Option<&[u8]>,
     lin: &[u32; 256],
-) -> (Vec<Sums>, Sums) {
+) -> (Vec<Sums>, [Sums; 2]) {
+    // The inner loop is specialised for the common factors, so it unrolls.
+    match (g.factor, regions) {
+        (1, None) => run::<1, false>(frame, g, theta, reliable, &[], lin),
+        (2, None) => run::<2, false>(frame, g, theta, reliable, &[], lin),
+        (3, None) => run::<3, false>(frame, g, theta, reliable, &[], lin),
+        (4, None) => run::<4, false>(frame, g, theta, reliable, &[], lin),
+        (1, Some(r)) => run::<1, true>(frame, g, theta, reliable, r, lin),
+        (2, Some(r)) => run::<2, true>(frame, g, theta, reliable, r, lin),
+        (3, Some(r)) => run::<3, true>(frame, g, theta, reliable, r, lin),
+        (4, Some(r)) => run::<4, true>(frame, g, theta, reliable, r, lin),
+        (_, r) => run::<0, true>(frame, g, theta, reliable, r.unwrap_or(&[]), lin),
+    }
+}
+
+/// [`accumulate`] for factor `F` (0: any, read from `g`), with or without contact regions.
+fn run<const F: usize, const REGIONS: bool>(
+    frame: &RgbImage,
+    g: &Geometry,
+    theta: impl Fn(usize) -> u16,
+    reliable: &[bool],
+    regions: &[u8],
+    lin: &[u32; 256],
+) -> (Vec<Sums>, [Sums; 2]) {
+    let f = if F == 0 { g.factor } else { F };
     let mut blocks = vec![Sums::default(); g.bw * g.bh];
-    let mut inside = Sums::default();
+    let mut contact = [Sums::default(); 2];
+    let class = class_table();
+    let offsets: Vec<u16> = g.offsets.iter().map(|&o| o as u16).collect();
     let width = frame.width() as usize;
     let raw: &[u8] = frame.as_raw();
+    let offsets_all: Vec<u16> = g.offsets_all.iter().map(|&o| o as u16).collect();
+    let f3 = 3 * f;
+    let stride = width * 3;
+    // One sample: its population, or None at a stripe edge or a saturated channel.
+    let classify = |t: u16, p: &[u8]| -> Option<(usize, [u32; 3])> {
+        let pop = class[usize::from(t >> 6)];
+        if pop > 1 || p[0].max(p[1]).max(p[2]) == 255 {
+            return None;
+        }
+        Some((
+            usize::from(pop),
+            [
+                lin[usize::from(p[0])],
+                lin[usize::from(p[1])],
+                lin[usize::from(p[2])],
+            ],
+        ))
+    };
     for yw in 0..g.h {
-        let y = yw * g.factor + g.factor / 2;
-        let line = &raw[y * width * 3..(y + 1) * width * 3];
+        let on_grid = yw % g.row_step == 0;
+        let row = yw * g.w..(yw + 1) * g.w;
+        let row_has = REGIONS && regions[row.clone()].iter().any(|&r| r != region::NONE);
+        if !on_grid && !row_has {
+            continue;
+        }
+        let y = yw * f + f / 2;
+        let line = &raw[y * stride..y * stride + g.w * f3];
         let brow = &mut blocks[(yw / g.block_px) * g.bw..(yw / g.block_px + 1) * g.bw];
-        for xw in 0..g.w {
-            let i = yw * g.w + xw;
-            if !reliable[i] {
-                continue;
-            }
-            let t0 = i32::from(theta(i));
-            let in_contact = contact.is_some_and(|c| c[i]);
-            let acc = &mut brow[xw / g.block_px];
-            for (k, off) in g.offsets.iter().enumerate() {
-                let t = i32::from((t0 + off) as u16 as i16);
-                let coloured = t.abs() < KEEP_UNITS;
-                if !coloured && t.abs() <= 32_768 - KEEP_UNITS {
+        let rel = &reliable[row.clone()];
+        // Block by block along the row: no division per pixel.
+        for (bx, acc) in brow.iter_mut().enumerate() {
+            let x0 = bx * g.block_px;
+            let x1 = (x0 + g.block_px).min(g.w);
+            for xw in x0..x1 {
+                let i = row.start + xw;
+                let reg = if row_has { regions[i] } else { region::NONE };
+                if !rel[xw] || (!on_grid && reg == region::NONE) {
                     continue;
                 }
-                let p = &line[(xw * g.factor + k) * 3..(xw * g.factor + k) * 3 + 3];
-                if p[0] == 255 || p[1] == 255 || p[2] == 255 {
-                    continue;
-                }
-                let c = [lin[p[0] as usize], lin[p[1] as usize], lin[p[2] as usize]];
-                let add = |s: &mut Sums| {
-                    let (sum, n) = if coloured {
-                        (&mut s.coloured, &mut s.n_coloured)
-                    } else {
-                        (&mut s.black, &mut s.n_black)
-                    };
-                    for (a, v) in sum.iter_mut().zip(c) {
-                        *a += u64::from(v);
+                let t0 = theta(i);
+                if on_grid {
+                    let px = &line[xw * f3..(xw + 1) * f3];
+                    for k in 0..f {
+                        if let Some((pop, c)) =
+                            classify(t0.wrapping_add(offsets[k]), &px[3 * k..3 * k + 3])
+                        {
+                            acc.sample(pop, c);
+                        }
                     }
-                    *n += 1;
-                };
-                add(acc);
-                if in_contact {
-                    add(&mut inside);
+                }
+                if reg != region::NONE {
+                    // Every input pixel of a contact working pixel.
+                    for ky in 0..f {
+                        let base = (yw * f + ky) * stride + xw * f3;
+                        let px = &raw[base..base + f3];
+                        for kx in 0..f {
+                            let t = t0.wrapping_add(offsets_all[ky * f + kx]);
+                            if let Some((pop, c)) = classify(t, &px[3 * kx..3 * kx + 3]) {
+                                contact[0].sample(pop, c);
+                                if reg == region::CORE {
+                                    contact[1].sample(pop, c);
+                                }
+                            }
+                        }
+                    }
                 }
             }
         }
     }
-    (blocks, inside)
+    (blocks, contact)
+}
+
+/// Block (`bx`, `by`)'s sums pooled with its neighbours within `r` blocks (a (2r+1)²
+/// window, clipped at the edges).
+pub fn pool_at(blocks: &[Sums], bw: usize, bh: usize, bx: usize, by: usize, r: usize) -> Sums {
+    let mut o = Sums::default();
+    for y in by.saturating_sub(r)..(by + r + 1).min(bh) {
+        for x in bx.saturating_sub(r)..(bx + r + 1).min(bw) {
+            o.add(&blocks[y * bw + x]);
+        }
+    }
+    o
 }
 
 /// Each block's sums pooled with its neighbours within `r` blocks (a (2r+1)² window,
 /// clipped at the edges).
 pub fn pool(blocks: &[Sums], bw: usize, bh: usize, r: usize) -> Vec<Sums> {
-    let mut out = vec![Sums::default(); blocks.len()];
-    for by in 0..bh {
-        for bx in 0..bw {
-            let o = &mut out[by * bw + bx];
-            for y in by.saturating_sub(r)..(by + r + 1).min(bh) {
-                for x in bx.saturating_sub(r)..(bx + r + 1).min(bw) {
-                    o.add(&blocks[y * bw + x]);
-                }
-            }
-        }
-    }
-    out
+    (0..bw * bh)
+        .map(|b| pool_at(blocks, bw, bh, b % bw, b / bw, r))
+        .collect()
 }
 
 #[cfg(test)]
@@ -222,15 +319,13 @@ mod tests {
     #[test]
     fn pooling_sums_the_neighbourhood() {
         let one = Sums {
-            coloured: [1, 2, 3],
-            n_coloured: 1,
-            black: [4, 5, 6],
-            n_black: 2,
+            sum: [[1, 2, 3], [4, 5, 6]],
+            n: [1, 2],
         };
         let p = pool(&vec![one; 12], 4, 3, 1);
-        assert_eq!(p[0].n_coloured, 4); // corner: 2 × 2
-        assert_eq!(p[5].n_coloured, 9); // inside: 3 × 3
-        assert_eq!(p[5].black, [36, 45, 54]);
+        assert_eq!(p[0].n[0], 4); // corner: 2 × 2
+        assert_eq!(p[5].n[0], 9); // inside: 3 × 3
+        assert_eq!(p[5].sum[1], [36, 45, 54]);
     }
 
     #[test]
@@ -252,7 +347,7 @@ mod tests {
         let lin = linear_q16();
         let (blocks, inside) =
             accumulate(&img, &g, |i| theta[i], &vec![true; theta.len()], None, &lin);
-        assert_eq!(inside, Sums::default());
+        assert_eq!(inside, [Sums::default(); 2]);
         for b in &blocks {
             assert!(b.enough());
             let (c, k) = b.means();

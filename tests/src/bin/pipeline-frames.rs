@@ -7,8 +7,9 @@
 //!
 //! The difference of the two totals divided by 10 is the per-frame cost without setup
 //! (`scripts/instructions.sh` does exactly that). Arguments: `float|fixed`, frame count,
-//! input width and height (the reference unit's 16 px period is kept), and optionally
-//! `idle` to analyse no-contact frames.
+//! input width and height (the reference unit's 16 px period is kept), optionally `idle`
+//! to analyse no-contact frames, and optionally `no-temperature` to leave the calibration's
+//! temperature model out (the difference is what temperature costs).
 
 use vistaf_firmware::calibration::Calibration;
 use vistaf_firmware::pipeline::{Analyzer, AnalyzerOptions, Implementation};
@@ -21,6 +22,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let w: u32 = args.get(3).map_or(Ok(640), |s| s.parse())?;
     let h: u32 = args.get(4).map_or(Ok(480), |s| s.parse())?;
     let idle = args.get(5).is_some_and(|s| s == "idle");
+    let no_temperature = args.get(6).is_some_and(|s| s == "no-temperature");
     let unit = SensorUnit {
         width_px: w,
         height_px: h,
@@ -38,7 +40,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         force_calibration: true,
         ..Default::default()
     };
-    let a = Analyzer::new(&reference, Calibration::default_sim(), imp, opts)?;
+    let mut calib = Calibration::default_sim();
+    if no_temperature {
+        calib.temperature = None;
+    }
+    let a = Analyzer::new(&reference, calib, imp, opts)?;
     let mut peak = 0.0;
     for _ in 0..n {
         peak += a.analyze(&frame)?.peak_depth_mm;
