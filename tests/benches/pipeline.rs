@@ -59,6 +59,13 @@ fn pipeline(c: &mut Criterion) {
         g.bench_function(format!("{imp:?}_no_contact"), |b| {
             b.iter(|| a.analyze(black_box(&idle)).unwrap())
         });
+        // The temperature stage alone: the same frame without the temperature model.
+        let mut bare = Calibration::default_sim();
+        bare.temperature = None;
+        let a = Analyzer::new(&reference, bare, imp, AnalyzerOptions::default()).unwrap();
+        g.bench_function(format!("{imp:?}_press_1.9mm_without_temperature"), |b| {
+            b.iter(|| a.analyze(black_box(&frame)).unwrap())
+        });
     }
     g.finish();
 }
