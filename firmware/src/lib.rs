@@ -8,6 +8,7 @@
 pub mod calibrate;
 pub mod calibration;
 pub mod fit;
+pub mod maps;
 pub mod pipeline;
 pub mod service;
 pub mod source_spec;

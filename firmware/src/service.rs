@@ -361,7 +361,8 @@ pub fn run(
     let mut streaming = true;
     let mut max_rate_hz = settings.max_rate_hz;
     let mut last_sent: Option<Instant> = None;
-    let mut map_requested: Option<MapKind> = None;
+    // Maps asked for, sent with the next analysed frame: [depth, temperature].
+    let mut maps_requested = [false; 2];
     let mut last_status = Instant::now();
     let mut reference_at = Instant::now();
     let mut seq = 0u32;
@@ -434,7 +435,7 @@ pub fn run(
                     })
                 }
                 HostMsg::RequestMap(kind) => {
-                    map_requested = Some(kind);
+                    maps_requested[usize::from(kind == MapKind::Temperature)] = true;
                     DeviceMsg::Ack(Command::RequestMap)
                 }
                 HostMsg::Start => {
@@ -519,20 +520,17 @@ pub fn run(
             }
             last_sent = Some(Instant::now());
         }
-        match map_requested.take() {
-            Some(MapKind::Depth) => {
-                tx.send(&DeviceMsg::Map(depth_tile(
-                    &d,
-                    seq.wrapping_sub(1),
-                    a.mm_per_px(),
-                )));
+        if std::mem::take(&mut maps_requested[0]) {
+            tx.send(&DeviceMsg::Map(depth_tile(
+                &d,
+                seq.wrapping_sub(1),
+                a.mm_per_px(),
+            )));
+        }
+        if std::mem::take(&mut maps_requested[1]) {
+            if let Some(m) = temperature_tile(&d, seq.wrapping_sub(1)) {
+                tx.send(&DeviceMsg::Map(m));
             }
-            Some(MapKind::Temperature) => {
-                if let Some(m) = temperature_tile(&d, seq.wrapping_sub(1)) {
-                    tx.send(&DeviceMsg::Map(m));
-                }
-            }
-            None => {}
         }
     }
     stop.store(true, Ordering::Relaxed);

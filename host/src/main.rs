@@ -11,7 +11,7 @@ use vistaf_host::link::{Link, LinkSpec};
 use vistaf_host::multi::{DeviceStats, Event, MultiReader};
 use vistaf_host::record::{message_json, Recorder};
 use vistaf_host::HostError;
-use vistaf_protocol::{schema, DeviceMsg, Summary};
+use vistaf_protocol::{schema, DeviceMsg, HostMsg, MapKind, Summary};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -113,10 +113,10 @@ fn main() {
 
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
-        Cmd::Monitor { ports, run } => stream(&ports, &run, None, true),
+        Cmd::Monitor { ports, run } => stream(&ports, &run, None, true, &mut |_, _| {}),
         Cmd::Record { ports, out, run } => {
             let rec = Recorder::create(&out)?;
-            stream(&ports, &run, Some(rec), false)
+            stream(&ports, &run, Some(rec), false, &mut |_, _| {})
         }
         Cmd::Decode { file, json: _ } => decode(&file),
         Cmd::Info { port, timeout_ms } => {
@@ -210,7 +210,50 @@ fn demo(frames: usize, out: &std::path::Path) -> Result<()> {
         duration_s: Some(frames as f64 / 30.0 + 20.0),
         no_handshake: false,
     };
-    let result = stream(&[format!("serial:{port}")], &args, Some(rec), true);
+    // Maps at peak contact: whenever the force passes its maximum so far by 10 %, ask for
+    // both maps (they come from the next frame); keep the last pair.
+    let host_end = serialport::new(&port, 921_600)
+        .timeout(Duration::from_millis(100))
+        .open_native()
+        .context("opening the pseudo-terminal")?;
+    let commands = host_end
+        .try_clone_native()
+        .context("opening the pseudo-terminal for commands")?;
+    let name = format!("serial:{port}");
+    let mut client = Client::new(Link::from_serial(name.clone(), host_end)?);
+    greet(&mut client, &name)?;
+    let mut commander = Client::new(Link::new(name, std::io::empty(), commands));
+    let mut peak_mn = 500u32;
+    let mut peak = PeakMaps::default();
+    let mut frames_json = Vec::new();
+    let mut hook = |_: usize, r: &vistaf_host::client::Received| match &r.msg {
+        DeviceMsg::Summary(s) => {
+            frames_json.push(summary_brief(s));
+            if s.force_mn > peak_mn + peak_mn / 10 {
+                peak_mn = s.force_mn;
+                peak.force_mn = s.force_mn;
+                for kind in [MapKind::Depth, MapKind::Temperature] {
+                    if let Err(e) = commander.send(&HostMsg::RequestMap(kind)) {
+                        eprintln!("requesting a map: {e}");
+                    }
+                }
+            }
+        }
+        DeviceMsg::Map(m) => match m.kind {
+            MapKind::Depth => peak.depth = Some(m.clone()),
+            MapKind::Temperature => peak.temperature = Some(m.clone()),
+        },
+        _ => {}
+    };
+    let result = stream_clients(vec![client], &args, Some(rec), true, &mut hook);
+    for (name, map) in [
+        ("depth_at_peak.png", &peak.depth),
+        ("temperature_at_peak.png", &peak.temperature),
+    ] {
+        if let Some(m) = map {
+            vistaf_firmware::maps::wire_map_png(m, &out.join(name))?;
+        }
+    }
     stop.store(true, std::sync::atomic::Ordering::Relaxed);
     let counters = device
         .join()
@@ -223,10 +266,23 @@ fn demo(frames: usize, out: &std::path::Path) -> Result<()> {
             "frames_dropped": counters.dropped, "summaries_sent": counters.sent,
         },
         "calibration": {
-            "phase_to_depth": { "equation": calibration.depth.equation, "cv_rmse_mm": calibration.depth.cv_rmse, "in_sample_rmse_mm": calibration.depth.in_sample_rmse },
-            "force": calibration.force.as_ref().map(|f| serde_json::json!({ "equation": f.equation, "cv_rmse_n": f.cv_rmse, "in_sample_rmse_n": f.in_sample_rmse })),
+            "id": format!("{:08x}", calibration.id()),
+            "phase_to_depth": { "equation": calibration.depth.equation, "model": calibration.depth.model, "cv_rmse_mm": calibration.depth.cv_rmse, "in_sample_rmse_mm": calibration.depth.in_sample_rmse },
+            "force": calibration.force.as_ref().map(|f| serde_json::json!({ "equation": f.equation, "model": f.model, "cv_rmse_n": f.cv_rmse, "in_sample_rmse_n": f.in_sample_rmse })),
+            "temperature": calibration.temperature.as_ref().map(|t| serde_json::json!({
+                "coloured": { "equation": t.coloured.equation, "cv_rmse_c": t.coloured.cv_rmse_c, "in_sample_rmse_c": t.coloured.in_sample_rmse_c, "fit_range_c": t.coloured.fit_range_c },
+                "black": { "equation": t.black.equation, "cv_rmse_c": t.black.cv_rmse_c, "in_sample_rmse_c": t.black.in_sample_rmse_c, "fit_range_c": t.black.fit_range_c },
+                "held_out_rmse_c": { "22_32": t.cv_rmse_transition_c, "all": t.cv_rmse_c },
+                "range_c": t.range_c,
+            })),
+        },
+        "peak_contact": {
+            "force_n": f64::from(peak.force_mn) / 1000.0,
+            "depth_map": peak.depth.as_ref().map(|_| "depth_at_peak.png"),
+            "temperature_map": peak.temperature.as_ref().map(|_| "temperature_at_peak.png"),
         },
         "summaries": "summaries.jsonl",
+        "frames": frames_json,
     });
     std::fs::write(
         out.join("session.json"),
@@ -235,6 +291,29 @@ fn demo(frames: usize, out: &std::path::Path) -> Result<()> {
     .with_context(|| format!("writing {}", out.join("session.json").display()))?;
     eprintln!("session: {}", out.display());
     result
+}
+
+/// The maps the demo kept from its strongest press.
+#[derive(Default)]
+struct PeakMaps {
+    force_mn: u32,
+    depth: Option<vistaf_protocol::Map>,
+    temperature: Option<vistaf_protocol::Map>,
+}
+
+/// A summary's physical values for the session file.
+fn summary_brief(s: &Summary) -> serde_json::Value {
+    let si = s.si();
+    let finite = |v: f32| v.is_finite().then_some(v);
+    serde_json::json!({
+        "seq": s.seq,
+        "force_n": si.force_n,
+        "depth_mm": si.peak_depth_mm,
+        "contact_area_mm2": si.contact_area_mm2,
+        "temp_mean_c": finite(si.temp_mean_c),
+        "contact_temp_c": si.contact_temp_c,
+        "flags": s.flags.iter().map(|f| f.name()).collect::<Vec<_>>(),
+    })
 }
 
 fn open_client(port: &str) -> Result<Client> {
@@ -293,30 +372,55 @@ fn decode(file: &str) -> Result<()> {
     }
 }
 
-fn stream(ports: &[String], run: &RunArgs, mut rec: Option<Recorder>, live: bool) -> Result<()> {
+/// Reads the links until `run` says stop, recording to `rec`, with a live readout when
+/// `live`; `hook` sees every message (device index, message).
+fn stream(
+    ports: &[String],
+    run: &RunArgs,
+    rec: Option<Recorder>,
+    live: bool,
+    hook: &mut dyn FnMut(usize, &vistaf_host::client::Received),
+) -> Result<()> {
     let mut clients = Vec::new();
     for p in ports {
         let mut c = open_client(p)?;
         if !run.no_handshake && matches!(p.parse::<LinkSpec>()?, LinkSpec::Serial { .. }) {
-            let hello = c.handshake(DEFAULT_TIMEOUT).map_err(|e| match e {
-                HostError::Timeout { .. } => anyhow::anyhow!(
-                    "{e}: is a vistaf skin on {p}? (--no-handshake skips this check)"
-                ),
-                other => other.into(),
-            })?;
-            eprintln!(
-                "{}: skin {} firmware {}.{}.{}, {}×{} px",
-                c.name(),
-                hello.serial,
-                hello.firmware.major,
-                hello.firmware.minor,
-                hello.firmware.patch,
-                hello.frame_width_px,
-                hello.frame_height_px
-            );
+            greet(&mut c, p)?;
         }
         clients.push(c);
     }
+    stream_clients(clients, run, rec, live, hook)
+}
+
+/// Shakes hands with a skin and prints who it is.
+fn greet(c: &mut Client, port: &str) -> Result<()> {
+    let hello = c.handshake(DEFAULT_TIMEOUT).map_err(|e| match e {
+        HostError::Timeout { .. } => {
+            anyhow::anyhow!("{e}: is a vistaf skin on {port}? (--no-handshake skips this check)")
+        }
+        other => other.into(),
+    })?;
+    eprintln!(
+        "{}: skin {} firmware {}.{}.{}, {}×{} px",
+        c.name(),
+        hello.serial,
+        hello.firmware.major,
+        hello.firmware.minor,
+        hello.firmware.patch,
+        hello.frame_width_px,
+        hello.frame_height_px
+    );
+    Ok(())
+}
+
+/// [`stream`] over links already open.
+fn stream_clients(
+    clients: Vec<Client>,
+    run: &RunArgs,
+    mut rec: Option<Recorder>,
+    live: bool,
+    hook: &mut dyn FnMut(usize, &vistaf_host::client::Received),
+) -> Result<()> {
     let mut reader = MultiReader::spawn(clients);
     let mut view = Monitor::new(reader.stats().len(), live);
     let started = Instant::now();
@@ -340,6 +444,7 @@ fn stream(ports: &[String], run: &RunArgs, mut rec: Option<Recorder>, live: bool
         };
         match event {
             Event::Message { device, received } => {
+                hook(device, &received);
                 if let Some(rec) = rec.as_mut() {
                     let name = reader.stats()[device].name.clone();
                     rec.record(&name, &received)?;

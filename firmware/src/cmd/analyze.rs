@@ -129,9 +129,12 @@ fn write_outputs(
             .file_stem()
             .map_or_else(|| name.clone(), |s| s.to_string_lossy().into_owned());
         let png = dir.join(format!("{stem}_depth.png"));
-        crate::cmd::maps::depth_png(d, &png)?;
+        vistaf_firmware::maps::depth_png(d, &png)?;
         if let Some(t) = &d.temperature {
-            crate::cmd::maps::temperature_png(t, &dir.join(format!("{stem}_temperature.png")))?;
+            vistaf_firmware::maps::temperature_png(
+                t,
+                &dir.join(format!("{stem}_temperature.png")),
+            )?;
         }
     }
     let c = analyzer.calibration();

@@ -3,7 +3,7 @@
 pub mod analyze;
 pub mod calibrate;
 pub mod common;
-pub mod maps;
+
 pub mod paper;
 pub mod record;
 pub mod run;

@@ -1,10 +1,12 @@
-//! Colour-mapped map images with a colour bar.
+//! Colour-mapped map images with a colour bar: depth and temperature maps for `analyze
+//! --out` and the demo's session folder.
 
 use std::path::Path;
 
 use anyhow::{Context, Result};
 use image::{Rgb, RgbImage};
-use vistaf_firmware::pipeline::Deformation;
+
+use crate::pipeline::Deformation;
 
 /// A perceptually ordered colour map (viridis, 5 anchors, linear between).
 pub fn viridis(t: f32) -> Rgb<u8> {
@@ -68,7 +70,7 @@ pub fn map_png(
 
 /// The temperature map as PNG: one cell per block, the bar spanning the frame's coldest to
 /// hottest block (at least 2 °C wide).
-pub fn temperature_png(t: &vistaf_firmware::thermal::Temperature, path: &Path) -> Result<()> {
+pub fn temperature_png(t: &crate::thermal::Temperature, path: &Path) -> Result<()> {
     let (lo, hi) = if t.min_c.is_finite() {
         let mid = (t.min_c + t.max_c) / 2.0;
         let half = ((t.max_c - t.min_c) / 2.0).max(1.0);
@@ -85,4 +87,38 @@ pub fn temperature_png(t: &vistaf_firmware::thermal::Temperature, path: &Path) -
 pub fn depth_png(d: &Deformation, path: &Path) -> Result<()> {
     let v: Vec<f32> = d.depth_um.iter().map(|&u| u as f32 / 1000.0).collect();
     map_png(&v, d.w, d.h, 0.0, d.peak_depth_mm.max(0.1), d.factor, path)
+}
+
+/// A map received over the wire as PNG (cells in µm or 0.01 °C; [`vistaf_protocol::msg::MAP_NO_DATA`]
+/// cells grey), scaled to its own range.
+pub fn wire_map_png(m: &vistaf_protocol::Map, path: &Path) -> Result<()> {
+    let (w, h) = (usize::from(m.width), usize::from(m.height));
+    let scale = match m.kind {
+        vistaf_protocol::MapKind::Depth => 1000.0,
+        vistaf_protocol::MapKind::Temperature => 100.0,
+    };
+    let v: Vec<f32> = m
+        .cells
+        .iter()
+        .map(|&c| {
+            if c == vistaf_protocol::msg::MAP_NO_DATA {
+                f32::NAN
+            } else {
+                f32::from(c) / scale
+            }
+        })
+        .collect();
+    let finite = v.iter().copied().filter(|x| x.is_finite());
+    let lo = finite.clone().fold(f32::INFINITY, f32::min);
+    let hi = finite.fold(f32::NEG_INFINITY, f32::max);
+    let (lo, hi) = match m.kind {
+        vistaf_protocol::MapKind::Depth => (0.0, hi.max(0.1)),
+        vistaf_protocol::MapKind::Temperature if lo.is_finite() => {
+            let mid = (lo + hi) / 2.0;
+            let half = ((hi - lo) / 2.0).max(1.0);
+            (mid - half, mid + half)
+        }
+        vistaf_protocol::MapKind::Temperature => (20.0, 40.0),
+    };
+    map_png(&v, w, h, lo, hi, (480 / h.max(1)).clamp(2, 32), path)
 }
