@@ -7,6 +7,7 @@
 
 pub mod calibrate;
 pub mod calibration;
+pub mod config;
 pub mod fit;
 pub mod maps;
 pub mod pipeline;

@@ -10,16 +10,21 @@
 //!   loop holds one frame; a newer frame evicts the waiting one, and every eviction is
 //!   counted (`Status.frames_dropped`), so the pipeline always works on the newest image.
 //! * The reference is taken once the image is stable: the mean absolute luminance change
-//!   between consecutive frames must fall below [`STABLE_DN`] (measured, not a sleep).
+//!   between consecutive frames must fall below `reference.stable_dn` (measured, not a
+//!   sleep). It drifts as the skin creeps and the light ages: a frame without contact whose
+//!   registration offset or mean brightness has moved beyond the policy's limits counts as
+//!   drifted. After `reference.auto_after_s` without contact a drifted reference is renewed;
+//!   with auto re-referencing off, summaries carry `stale_reference` until the host sends
+//!   `CaptureReference`.
+//! * Camera lost (a transient source error): one `Error(CameraLost)` and `RunState::CameraLost`
+//!   in `Status` while the source retries with back-off; frames resuming count in
+//!   `Status.camera_restarts`.
 //! * Host commands are decoded on their own thread and handled between frames: `Ping`,
 //!   `GetInfo`, `CaptureReference`, `SetRate`, `SetLed`, `RequestMap`, `Start`, `Stop`.
 //! * A `Hello` goes out at start and on request; a `Status` every second.
 //! * A bad frame (wrong size, undecodable) is counted and skipped; a failing link write is
 //!   counted and the service keeps running (the host may come back).
 //!
-//! Not yet here: TOML configuration, automatic re-referencing on drift, camera-loss status
-//! reporting beyond the source's own reconnect, and the temperature fields (sent as
-//! [`vistaf_protocol::msg::TEMP_NOT_MEASURED`]).
 
 use std::io::{Read, Write};
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
@@ -40,14 +45,9 @@ use vistaf_protocol::{
 };
 
 use crate::calibration::Calibration;
+pub use crate::config::ReferencePolicy;
 use crate::pipeline::image_ops::gray_down_q8;
 use crate::pipeline::{Analyzer, AnalyzerOptions, Deformation, Implementation};
-
-/// Mean absolute luminance change between frames (8-bit steps) below which the image is
-/// stable enough to be the reference.
-pub const STABLE_DN: f32 = 1.5;
-/// Frames after which the reference is taken even if the image never settled.
-pub const STABLE_MAX_FRAMES: u32 = 60;
 
 /// Service settings.
 #[derive(Debug, Clone)]
@@ -66,6 +66,8 @@ pub struct Settings {
     pub max_rate_hz: u16,
     /// LED ring at start.
     pub led: LedConfig,
+    /// When the reference is taken and renewed.
+    pub reference: ReferencePolicy,
 }
 
 /// Counters at the end of a run.
@@ -83,6 +85,12 @@ pub struct Counters {
     pub sent: u32,
     /// Link writes that failed.
     pub link_errors: u32,
+    /// References taken (the first one included).
+    pub references: u32,
+    /// Times frames resumed after the camera was lost.
+    pub camera_restarts: u32,
+    /// Summaries flagged `stale_reference`.
+    pub stale: u32,
 }
 
 fn firmware_version() -> FirmwareVersion {
@@ -243,6 +251,17 @@ pub fn depth_tile(d: &Deformation, seq: u32, mm_per_px: f32) -> Map {
     }
 }
 
+/// Mean of a sparse sample of the image's channels (every 31st byte), 0–255: enough to
+/// see the light change.
+fn brightness(img: &RgbImage) -> f32 {
+    let raw: &[u8] = img.as_raw();
+    let (sum, n) = raw
+        .iter()
+        .step_by(31)
+        .fold((0u64, 0u64), |(s, n), &v| (s + u64::from(v), n + 1));
+    sum as f32 / n.max(1) as f32
+}
+
 fn mean_abs_diff(a: &[u16], b: &[u16]) -> f32 {
     let s: u64 = a
         .iter()
@@ -295,18 +314,37 @@ pub fn run(
     let evict = frame_rx.clone();
     let captured = Arc::new(AtomicU32::new(0));
     let dropped = Arc::new(AtomicU32::new(0));
-    let (cap_stop, cap_n, cap_drop) = (stop.clone(), captured.clone(), dropped.clone());
+    let restarts = Arc::new(AtomicU32::new(0));
+    // Camera lost / back: reported once per outage.
+    let (lost_tx, lost_rx) = bounded::<Option<String>>(16);
+    let (cap_stop, cap_n, cap_drop, cap_restarts) = (
+        stop.clone(),
+        captured.clone(),
+        dropped.clone(),
+        restarts.clone(),
+    );
     let capture = std::thread::spawn(move || -> Option<String> {
+        let mut lost = false;
         while !cap_stop.load(Ordering::Relaxed) {
             let frame = match source.next_frame() {
                 Ok(Some(f)) => f,
                 Ok(None) => return None,
                 Err(e) if e.is_transient() => {
-                    eprintln!("vistaf-skin: {e} (retrying)");
+                    if !lost {
+                        lost = true;
+                        let _ = lost_tx.try_send(Some(e.to_string()));
+                    }
+                    // A source without its own back-off must not spin.
+                    std::thread::sleep(Duration::from_millis(20));
                     continue;
                 }
                 Err(e) => return Some(e.to_string()),
             };
+            if lost {
+                lost = false;
+                cap_restarts.fetch_add(1, Ordering::Relaxed);
+                let _ = lost_tx.try_send(None);
+            }
             cap_n.fetch_add(1, Ordering::Relaxed);
             match frame_tx.try_send(frame) {
                 Ok(()) => {}
@@ -366,6 +404,14 @@ pub fn run(
     let mut last_status = Instant::now();
     let mut reference_at = Instant::now();
     let mut seq = 0u32;
+    let policy = settings.reference;
+    // Reference brightness (mean of a sparse sample), and when contact was last seen.
+    let mut ref_brightness = 0.0f32;
+    let mut calm_since = Instant::now();
+    let mut camera_lost = false;
+    // Whether the last frame without contact found the reference drifted; contact frames
+    // cannot tell, so they keep the verdict.
+    let mut drifted = false;
     let opts = AnalyzerOptions {
         force_calibration: settings.force_calibration,
         ..Default::default()
@@ -381,7 +427,7 @@ pub fn run(
             bad_frames: c.bad,
             link_frames_dropped: link_dropped.load(Ordering::Relaxed),
             reference_age_ms: ref_at.elapsed().as_millis().min(u128::from(u32::MAX)) as u32,
-            camera_restarts: 0,
+            camera_restarts: u16::try_from(restarts.load(Ordering::Relaxed)).unwrap_or(u16::MAX),
         })
     };
     loop {
@@ -449,8 +495,23 @@ pub fn run(
             };
             tx.send(&reply);
         }
+        while let Ok(event) = lost_rx.try_recv() {
+            camera_lost = event.is_some();
+            if let Some(detail) = event {
+                tx.send(&DeviceMsg::Error(vistaf_protocol::DeviceError {
+                    code: vistaf_protocol::ErrorCode::CameraLost,
+                    detail: detail
+                        .chars()
+                        .take(vistaf_protocol::msg::ERROR_DETAIL_MAX_LEN)
+                        .collect(),
+                }));
+            }
+            last_status = Instant::now() - Duration::from_secs(2); // report the state now
+        }
         if last_status.elapsed() >= Duration::from_secs(1) {
-            let state = if analyzer.is_none() {
+            let state = if camera_lost {
+                RunState::CameraLost
+            } else if analyzer.is_none() {
                 RunState::Referencing
             } else if streaming {
                 RunState::Streaming
@@ -483,23 +544,27 @@ pub fn run(
             let (g, _, _, _) = gray_down_q8(&img, 4);
             let stable = last_gray
                 .as_ref()
-                .is_some_and(|p| p.len() == g.len() && mean_abs_diff(p, &g) < STABLE_DN);
+                .is_some_and(|p| p.len() == g.len() && mean_abs_diff(p, &g) < policy.stable_dn);
             settle += 1;
             last_gray = Some(g);
-            if stable || settle >= STABLE_MAX_FRAMES {
+            if stable || settle >= policy.max_wait_frames {
                 analyzer = Some(Analyzer::new(
                     &img,
                     settings.calibration.clone(),
                     settings.pipeline,
                     opts,
                 )?);
+                c.references += 1;
+                drifted = false;
+                ref_brightness = brightness(&img);
                 reference_at = Instant::now();
+                calm_since = Instant::now();
                 tx.send(&status(&c, RunState::Streaming, max_rate_hz, reference_at));
             }
             continue;
         };
         let t0 = Instant::now();
-        let d = match a.analyze(&img) {
+        let mut d = match a.analyze(&img) {
             Ok(d) => d,
             Err(_) => {
                 c.bad += 1;
@@ -507,6 +572,24 @@ pub fn run(
             }
         };
         c.processed += 1;
+        // Reference drift, judged on frames without contact.
+        let mut renew = false;
+        if d.contact {
+            calm_since = Instant::now();
+        } else {
+            let b = brightness(&img);
+            drifted = d.offset_rad.abs() > policy.drift_rad
+                || (b / ref_brightness.max(1e-3) - 1.0).abs() > policy.drift_brightness;
+        }
+        if drifted {
+            let auto = policy.auto_after_s > 0.0;
+            if auto && !d.contact && calm_since.elapsed().as_secs_f32() >= policy.auto_after_s {
+                renew = true;
+            } else {
+                d.flags.insert(vistaf_protocol::Flag::StaleReference);
+                c.stale += 1;
+            }
+        }
         let latency_us = u32::try_from(t0.elapsed().as_micros()).unwrap_or(u32::MAX);
         let due = max_rate_hz == 0
             || last_sent.is_none_or(|t| {
@@ -532,6 +615,18 @@ pub fn run(
                 tx.send(&DeviceMsg::Map(m));
             }
         }
+        if renew {
+            // The next stable frames become the new reference.
+            analyzer = None;
+            last_gray = None;
+            settle = 0;
+            tx.send(&status(
+                &c,
+                RunState::Referencing,
+                max_rate_hz,
+                reference_at,
+            ));
+        }
     }
     stop.store(true, Ordering::Relaxed);
     let _ = led.off();
@@ -540,6 +635,7 @@ pub fn run(
     c.captured = captured.load(Ordering::Relaxed);
     c.dropped = dropped.load(Ordering::Relaxed);
     c.link_errors = tx.errors;
+    c.camera_restarts = restarts.load(Ordering::Relaxed);
     tx.send(&status(&c, RunState::Stopped, max_rate_hz, reference_at));
     if let Some(e) = failure {
         anyhow::bail!("source failed: {e}");

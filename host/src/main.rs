@@ -180,6 +180,7 @@ fn demo(frames: usize, out: &std::path::Path) -> Result<()> {
         frames: Some(frames as u64),
         max_rate_hz: 0,
         led: LedConfig::default(),
+        reference: Default::default(),
     };
     let source = open(
         &SourceSpec::Sim("demo".into()),

@@ -51,6 +51,7 @@ fn summaries_cross_a_pty_in_order_and_match_the_scene() {
         frames: None,
         max_rate_hz: 0,
         led: LedConfig::default(),
+        reference: Default::default(),
     };
     let stop = Arc::new(AtomicBool::new(false));
     let device_stop = stop.clone();

@@ -1,28 +1,44 @@
 //! `vistaf-skin run`: the service.
 
 use std::io::Write;
+use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
 use anyhow::{bail, Context, Result};
+use vistaf_firmware::calibration::Calibration;
+use vistaf_firmware::config::Config;
+use vistaf_firmware::pipeline::Implementation;
 use vistaf_firmware::service::{run as serve, Settings};
 use vistaf_firmware::source_spec::{open, OpenOptions, SourceSpec};
-use vistaf_hardware::led::{LedConfig, MemoryLedRing};
+use vistaf_hardware::led::{LedRing, MemoryLedRing};
 
-/// Service options.
+/// Service options. Each overrides the same key of `--config`; without either, the
+/// built-in default (the reference build) applies.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// camera:/dev/videoN, camera-serial:SERIAL, camera-name:NAME, set:DIR or sim:SCENE.
-    #[arg(long, default_value = "camera:/dev/video0")]
-    pub source: SourceSpec,
-    /// serial:PATH[@BAUD], file:PATH or stdout.
-    #[arg(long, default_value = "serial:/dev/ttyGS0@921600")]
-    pub link: String,
+    /// TOML configuration file (see firmware/deploy/skin.toml).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// camera:/dev/videoN, camera-serial:SERIAL, camera-name:NAME, set:DIR or sim:SCENE
+    /// [default: camera:/dev/video0].
+    #[arg(long)]
+    pub source: Option<SourceSpec>,
+    /// serial:PATH[@BAUD], file:PATH or stdout [default: serial:/dev/ttyGS0@921600].
+    #[arg(long)]
+    pub link: Option<String>,
     /// Stop after this many processed frames.
     #[arg(long)]
     pub frames: Option<u64>,
-    #[command(flatten)]
-    pub pipe: super::common::PipelineArgs,
+    /// Calibration file [default: the simulated reference unit's].
+    #[arg(long)]
+    pub calibration: Option<PathBuf>,
+    /// Use a calibration made for another grating period or image size.
+    #[arg(long)]
+    pub force_calibration: bool,
+    /// float (rustfft reference) or fixed (device path) [default: fixed].
+    #[arg(long)]
+    pub pipeline: Option<Implementation>,
     /// Pace sets and simulated scenes at this rate (frames per second).
     #[arg(long)]
     pub fps: Option<f32>,
@@ -32,9 +48,16 @@ pub struct Args {
     /// Frames a simulated scene lasts.
     #[arg(long, default_value_t = 120)]
     pub sim_frames: usize,
-    /// Serial of this skin, sent in Hello.
-    #[arg(long, default_value = "VSK-SIM")]
-    pub serial: String,
+    /// Serial of this skin, sent in Hello [default: VSK-SIM].
+    #[arg(long)]
+    pub serial: Option<String>,
+    /// Summary rate limit, Hz (0: every frame) [default: 0].
+    #[arg(long)]
+    pub max_rate_hz: Option<u16>,
+    /// Seconds without contact before a drifted reference is renewed (0: never; summaries
+    /// then carry stale_reference) [default: 30].
+    #[arg(long)]
+    pub auto_reference_s: Option<f32>,
 }
 
 /// The device's side of a link: where frames go, and where commands come from (if anywhere).
@@ -72,33 +95,94 @@ pub fn open_link(spec: &str) -> Result<LinkEnds> {
 
 /// Runs the command until the source ends, `--frames`, or SIGTERM/SIGINT.
 pub fn run(a: &Args) -> Result<()> {
-    let calibration = a.pipe.calibration()?;
+    let cfg = match &a.config {
+        Some(p) => Config::load(p)?,
+        None => Config::default(),
+    };
+    let source: SourceSpec = match (&a.source, &cfg.source) {
+        (Some(s), _) => s.clone(),
+        (None, Some(s)) => s.parse().context("config key `source`")?,
+        (None, None) => "camera:/dev/video0".parse()?,
+    };
+    let link = a
+        .link
+        .clone()
+        .or(cfg.link.clone())
+        .unwrap_or_else(|| "serial:/dev/ttyGS0@921600".into());
+    let pipeline = match (a.pipeline, &cfg.pipeline) {
+        (Some(p), _) => p,
+        (None, Some(p)) => p.parse().map_err(|e: String| anyhow::anyhow!(e))?,
+        (None, None) => Implementation::Fixed,
+    };
+    let calibration = match a.calibration.as_ref().or(cfg.calibration.as_ref()) {
+        Some(p) => Calibration::load(p)?,
+        None => Calibration::default_sim(),
+    };
+    let mut reference = cfg.reference;
+    if let Some(s) = a.auto_reference_s {
+        if !(s.is_finite() && s >= 0.0) {
+            bail!("--auto-reference-s {s}: seconds ≥ 0 (0: never)");
+        }
+        reference.auto_after_s = s;
+    }
     let opts = OpenOptions {
         sim_frames: a.sim_frames,
         unit_seed: a.unit_seed,
-        fps: a.fps,
+        fps: a.fps.or(cfg.fps),
         ..OpenOptions::default()
     };
-    let source = open(&a.source, &opts)?;
-    let (writer, reader) = open_link(&a.link)?;
+    let source = open(&source, &opts)?;
+    let (writer, reader) = open_link(&link)?;
     let stop = Arc::new(AtomicBool::new(false));
     for sig in [signal_hook::consts::SIGTERM, signal_hook::consts::SIGINT] {
         signal_hook::flag::register(sig, stop.clone()).context("installing signal handlers")?;
     }
     let settings = Settings {
-        serial: a.serial.clone(),
+        serial: a
+            .serial
+            .clone()
+            .or(cfg.serial.clone())
+            .unwrap_or_else(|| "VSK-SIM".into()),
         calibration,
-        force_calibration: a.pipe.force_calibration,
-        pipeline: a.pipe.pipeline,
-        frames: a.frames,
-        max_rate_hz: 0,
-        led: LedConfig::default(),
+        force_calibration: a.force_calibration || cfg.force_calibration.unwrap_or(false),
+        pipeline,
+        frames: a.frames.or(cfg.frames),
+        max_rate_hz: a.max_rate_hz.or(cfg.max_rate_hz).unwrap_or(0),
+        led: cfg.led.led_config(),
+        reference,
     };
-    let mut led = MemoryLedRing::default();
-    let c = serve(source, writer, reader, &mut led, &settings, stop)?;
+    let mut led = led_ring(&cfg.led)?;
+    let c = serve(source, writer, reader, led.as_mut(), &settings, stop)?;
     eprintln!(
-        "vistaf-skin: {} frames captured, {} processed, {} dropped (newest wins), {} bad, {} summaries sent, {} link errors",
-        c.captured, c.processed, c.dropped, c.bad, c.sent, c.link_errors
+        "vistaf-skin: {} frames captured, {} processed, {} dropped (newest wins), {} bad, \
+         {} summaries sent ({} stale), {} link errors, {} references, {} camera restarts",
+        c.captured,
+        c.processed,
+        c.dropped,
+        c.bad,
+        c.sent,
+        c.stale,
+        c.link_errors,
+        c.references,
+        c.camera_restarts
     );
     Ok(())
+}
+
+/// The LED ring the configuration names: the WS2812 ring on SPI0 in a `rpi` build, an
+/// in-memory stand-in otherwise (with a note when SPI0 was asked for).
+fn led_ring(l: &vistaf_firmware::config::LedSection) -> Result<Box<dyn LedRing>> {
+    match l.ring.as_str() {
+        #[cfg(feature = "rpi")]
+        "spi0" => Ok(Box::new(vistaf_hardware::led::open_pi_ring(l.count)?)),
+        #[cfg(not(feature = "rpi"))]
+        "spi0" => {
+            eprintln!(
+                "vistaf-skin: this build has no SPI LED driver (built without the rpi feature); \
+                 the ring stays dark"
+            );
+            Ok(Box::new(MemoryLedRing::default()))
+        }
+        _ => Ok(Box::new(MemoryLedRing::default())),
+    }
 }

@@ -35,6 +35,10 @@ pub const SCENES: &[(&str, &str)] = &[
         "no contact, skin shifted 0…3 px against the camera",
     ),
     (
+        "creep",
+        "no contact, the skin creeping 0…1.5 px and the light fading 6 %",
+    ),
+    (
         "demo",
         "idle, press a heated sphere, slide it, release, press E, heated bar",
     ),
@@ -167,6 +171,13 @@ pub fn states(name: &str, unit: &SensorUnit, frames: usize) -> Option<Vec<SkinSt
             let mut s = SkinState::idle(ROOM_C);
             let t = frac(i, n);
             s.shift_px = (3.0 * t, 2.0 * t);
+            s
+        }),
+        "creep" => one(&|i| {
+            let mut s = SkinState::idle(ROOM_C);
+            let t = frac(i, n);
+            s.shift_px = (1.5 * t, 0.5 * t);
+            s.exposure_scale = 1.0 - 0.06 * t;
             s
         }),
         "demo" => demo(unit, n),
