@@ -40,7 +40,23 @@ fn main() {
         Cmd::Run(a) => cmd::run::run(a),
     };
     if let Err(e) = result {
-        eprintln!("vistaf-skin: {e:#}");
+        eprintln!("vistaf-skin: {}", causes(&e));
         std::process::exit(1);
     }
+}
+
+/// The error and its causes, each once: a cause whose text the message already carries (an
+/// error that prints its source) is not repeated.
+fn causes(e: &anyhow::Error) -> String {
+    let mut msg = String::new();
+    for c in e.chain() {
+        let t = c.to_string();
+        if !msg.contains(&t) {
+            if !msg.is_empty() {
+                msg.push_str(": ");
+            }
+            msg.push_str(&t);
+        }
+    }
+    msg
 }

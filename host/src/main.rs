@@ -106,7 +106,7 @@ struct RunArgs {
 fn main() {
     let cli = Cli::parse();
     if let Err(e) = run(cli) {
-        eprintln!("vistaf-host: {e:#}");
+        eprintln!("vistaf-host: {}", causes(&e));
         std::process::exit(1);
     }
 }
@@ -592,4 +592,20 @@ impl Monitor {
         let _ = out.write_all(text.as_bytes());
         let _ = out.flush();
     }
+}
+
+/// The error and its causes, each once: a cause whose text the message already carries (an
+/// error that prints its source) is not repeated.
+fn causes(e: &anyhow::Error) -> String {
+    let mut msg = String::new();
+    for c in e.chain() {
+        let t = c.to_string();
+        if !msg.contains(&t) {
+            if !msg.is_empty() {
+                msg.push_str(": ");
+            }
+            msg.push_str(&t);
+        }
+    }
+    msg
 }
