@@ -9,7 +9,9 @@ use vistaf_protocol::frame::{DEVICE_FRAME_MAX, HOST_FRAME_MAX, SUMMARY_FRAME_MAX
 use vistaf_protocol::*;
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(512))]
+    #![proptest_config(ProptestConfig::with_cases(
+        std::env::var("PROPTEST_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(512)
+    ))]
 
     #[test]
     fn device_messages_round_trip(msg in common::arb_device_msg()) {

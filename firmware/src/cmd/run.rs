@@ -170,11 +170,19 @@ pub fn run(a: &Args) -> Result<()> {
 }
 
 /// The LED ring the configuration names: the WS2812 ring on SPI0 in a `rpi` build, an
-/// in-memory stand-in otherwise (with a note when SPI0 was asked for).
+/// in-memory stand-in otherwise or when SPI0 cannot be opened (with the reason on stderr,
+/// which the journal keeps).
 fn led_ring(l: &vistaf_firmware::config::LedSection) -> Result<Box<dyn LedRing>> {
     match l.ring.as_str() {
+        // A missing ring must not keep the skin from reporting: say why, run dark.
         #[cfg(feature = "rpi")]
-        "spi0" => Ok(Box::new(vistaf_hardware::led::open_pi_ring(l.count)?)),
+        "spi0" => match vistaf_hardware::led::open_pi_ring(l.count) {
+            Ok(ring) => Ok(Box::new(ring)),
+            Err(e) => {
+                eprintln!("vistaf-skin: LED ring: {e}; running without it");
+                Ok(Box::new(MemoryLedRing::default()))
+            }
+        },
         #[cfg(not(feature = "rpi"))]
         "spi0" => {
             eprintln!(
