@@ -414,6 +414,18 @@ impl Calibration {
         Ok(())
     }
 
+    /// The deepest indentation the calibration saw, mm (from the indenter's shape
+    /// signature, else the monotone depth model's last knot).
+    pub fn calibrated_depth_mm(&self) -> Option<f64> {
+        if let Some(d) = self.shape.as_ref().and_then(|s| s.depth_mm.last()) {
+            return Some(*d);
+        }
+        match &self.depth.model {
+            DepthModel::Monotone { d_mm, .. } => d_mm.last().copied(),
+            _ => None,
+        }
+    }
+
     /// Reads a calibration file.
     pub fn load(path: &Path) -> Result<Calibration, CalibrationError> {
         let p = path.display().to_string();

@@ -67,11 +67,11 @@ fn saturation_flags_over_exposure() {
 }
 
 #[test]
-fn a_shift_beyond_a_quarter_period_flags_misregistration() {
+fn a_shift_near_half_a_period_flags_misregistration() {
     let mut s = SkinState::idle(ROOM_C);
-    s.shift_px = (6.0, 0.0); // 6 px of a 16 px period: 2.4 rad
+    s.shift_px = (7.5, 0.0); // 7.5 px of a 16 px period: 2.9 rad, nearly ambiguous
     both(&s, Flag::Misregistration, true);
-    s.shift_px = (2.0, 1.0);
+    s.shift_px = (5.0, 1.0); // compensated exactly
     both(&s, Flag::Misregistration, false);
 }
 

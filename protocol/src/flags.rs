@@ -34,11 +34,13 @@ pub enum Flag {
     TemperatureOutOfRange = 5,
     /// The reference frame has drifted from the no-contact image and was not refreshed.
     StaleReference = 6,
+    /// The indentation is deeper than the calibration covers (reported extrapolated).
+    DepthOutOfRange = 7,
 }
 
 impl Flag {
     /// Every flag, in bit order.
-    pub const ALL: [Flag; 7] = [
+    pub const ALL: [Flag; 8] = [
         Flag::LowContrast,
         Flag::PhaseSlope,
         Flag::UnwrapFailure,
@@ -46,6 +48,7 @@ impl Flag {
         Flag::OverExposure,
         Flag::TemperatureOutOfRange,
         Flag::StaleReference,
+        Flag::DepthOutOfRange,
     ];
 
     /// The flag's bit in [`QualityFlags`].
@@ -63,6 +66,7 @@ impl Flag {
             Flag::OverExposure => "over_exposure",
             Flag::TemperatureOutOfRange => "temperature_out_of_range",
             Flag::StaleReference => "stale_reference",
+            Flag::DepthOutOfRange => "depth_out_of_range",
         }
     }
 

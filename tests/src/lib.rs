@@ -6,6 +6,8 @@
 //!
 //! The helpers here read a fixture's ground truth so tests can score the pipeline.
 
+pub mod charts;
+
 use std::path::{Path, PathBuf};
 
 use vistaf_hardware::frameset::FrameSet;

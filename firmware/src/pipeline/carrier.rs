@@ -62,8 +62,9 @@ pub enum CarrierError {
 }
 
 /// Fewest pixels per period the pipeline accepts at the working resolution (Nyquist is 2;
-/// below ~2.5 the band-pass cannot separate the first order from its aliases).
-pub const MIN_PERIOD_PX: f32 = 2.5;
+/// the stability sweep reads depths within tolerance at 4 px and garbage at 3 and 2.5 px,
+/// so finer gratings are refused rather than measured).
+pub const MIN_PERIOD_PX: f32 = 3.5;
 
 /// The two 1-D transforms of a 2-D FFT: along rows (length w) and columns (length h).
 pub type Plan2 = (

@@ -26,8 +26,17 @@ pub const UNWRAP_TRIGGER_RAD: f32 = 0.6 * std::f32::consts::PI;
 /// A pixel is unreliable when its fringe amplitude is below this fraction of the
 /// reference's median.
 pub const RELIABLE_AMPLITUDE: f32 = 0.3;
-/// Low contrast: the frame's median fringe amplitude below this fraction of the reference's.
-pub const LOW_CONTRAST_RATIO: f32 = 0.45;
+/// Low contrast: the frame's median fringe amplitude below this fraction of the reference's
+/// (the stability sweep: depth is still within tolerance at 0.35 of the unit's contrast
+/// and lost at 0.25).
+pub const LOW_CONTRAST_RATIO: f32 = 0.32;
+/// Phase noise (1σ per working pixel) above which the fringes count as too weak for the
+/// sensor's noise, rad. The stability sweep: depth stays within tolerance up to 0.021 rad
+/// (12× the reference build's sensor noise) and starts to leave it at 0.027 rad (16×); a
+/// 2.5 mm press reads 0.019 rad (its residual raises the estimate).
+pub const NOISY_RAD: f32 = 0.024;
+/// Depth beyond the deepest calibrated indentation by this factor is flagged.
+pub const DEPTH_RANGE_SLACK: f64 = 1.1;
 /// Phase-slope flag: local phase slope above this fraction of the band half-width.
 pub const SLOPE_LIMIT: f32 = 0.55;
 /// A region whose opposite-signed phase exceeds this fraction of its indentation-signed
@@ -39,8 +48,9 @@ pub const BAND_LOSS_FRACTION: f32 = 0.01;
 /// Phase-slope flag: a contact area below this fraction of the calibrated indenter's area at
 /// the same depth.
 pub const SHARPNESS_RATIO: f64 = 0.7;
-/// Misregistration flag: a global offset beyond this, rad (a quarter period).
-pub const MISREGISTRATION_RAD: f32 = std::f32::consts::FRAC_PI_2;
+/// Misregistration flag: a global offset beyond this, rad (0.4 of a period: up to there the
+/// offset is removed exactly; towards half a period it becomes ambiguous).
+pub const MISREGISTRATION_RAD: f32 = 0.8 * std::f32::consts::PI;
 /// Over-exposure flag: more than this fraction of newly saturated pixels.
 pub const OVER_EXPOSED_FRACTION: f32 = 0.002;
 /// Residues in the contact region tolerated before the unwrap is distrusted.
@@ -385,6 +395,10 @@ pub fn measure<M: PhaseMap>(
         flags.insert(Flag::Misregistration);
     }
     let noise_rad = noise as f32 / UNITS_PER_RAD;
+    // Fringes too weak for the sensor's noise.
+    if noise_rad > NOISY_RAD {
+        flags.insert(Flag::LowContrast);
+    }
     let empty = |flags| Deformation {
         w,
         h,
@@ -472,12 +486,14 @@ pub fn measure<M: PhaseMap>(
     let u_units: Vec<i32> = u.iter().map(|p| p.units()).collect();
     // Beyond the band the demodulator cannot even report the slope; what it shows is the
     // fringe amplitude falling (by the filter's response at the local frequency offset).
-    // Deformed pixels whose amplitude fell below half the reference's, or that became
-    // unreliable, mean the spectrum has left the band there.
+    // Deformed pixels whose amplitude fell below half the reference's (after the frame's
+    // overall contrast change, so a dimmer or washed-out frame does not count), or that
+    // became unreliable, mean the spectrum has left the band there.
     let (mut lost, mut seen) = (0usize, 0usize);
+    let (fm, rm) = (u64::from(med_frame.max(1)), u64::from(med_ref));
     for i in (0..n).filter(|&i| deformed[i] && inside(i)) {
         seen += 1;
-        if !reliable[i] || u64::from(map.amp_frame(i)) * 2 < u64::from(map.amp_ref(i)) {
+        if !reliable[i] || u64::from(map.amp_frame(i)) * 2 * rm < u64::from(map.amp_ref(i)) * fm {
             lost += 1;
         }
     }
@@ -492,6 +508,14 @@ pub fn measure<M: PhaseMap>(
     }
     if unreached > 0 || n_res > MAX_RESIDUES {
         flags.insert(Flag::UnwrapFailure);
+    }
+    // Deeper than the calibration saw: the depth model extrapolates.
+    if ctx
+        .calib
+        .calibrated_depth_mm()
+        .is_some_and(|d| f64::from(feats.peak_mm) > DEPTH_RANGE_SLACK * d)
+    {
+        flags.insert(Flag::DepthOutOfRange);
     }
     let force_n = force_of(ctx.calib, &feats, integrated);
     Deformation {

@@ -60,6 +60,11 @@ pub struct Temperature {
 /// is the wide, coarse one. The coloured stripes are read per block.
 pub const BLACK_POOL: usize = 1;
 
+/// Blocks that must read outside the calibration (at least; or 1 % of the measured ones)
+/// for the frame to be flagged: a single block out of range is noise, a hot or cold object
+/// covers several. The contact region's own reading is flagged on its own.
+pub const OUT_OF_RANGE_BLOCKS: usize = 2;
+
 /// Fewest samples of each population in the contact core before the whole contact region
 /// is used instead.
 const CORE_SAMPLES: u32 = 24;
@@ -246,7 +251,9 @@ impl Thermometer {
             })
             .collect();
         let mut map_c = vec![f32::NAN; blocks.len()];
-        let mut out_of_range = false;
+        // Blocks read outside the calibration: one is noise, a hot or cold object covers
+        // several (see `OUT_OF_RANGE_BLOCKS`).
+        let mut outside = 0usize;
         let (mut sum, mut n) = (0.0f64, 0usize);
         let (mut min_c, mut max_c) = (f32::INFINITY, f32::NEG_INFINITY);
         let mut hottest = None;
@@ -259,7 +266,7 @@ impl Thermometer {
                 continue;
             };
             map_c[b] = r.t_c;
-            out_of_range |= !r.trusted;
+            outside += usize::from(!r.trusted);
             sum += f64::from(r.t_c);
             n += 1;
             min_c = min_c.min(r.t_c);
@@ -273,6 +280,7 @@ impl Thermometer {
         } else {
             inside
         };
+        let mut out_of_range = outside >= OUT_OF_RANGE_BLOCKS.max(n / 100);
         let contact_c = regions.and_then(|_| self.read(&region, &region)).map(|r| {
             out_of_range |= !r.trusted;
             r.t_c

@@ -8,8 +8,10 @@
 //! The difference of the two totals divided by 10 is the per-frame cost without setup
 //! (`scripts/instructions.sh` does exactly that). Arguments: `float|fixed`, frame count,
 //! input width and height (the reference unit's 16 px period is kept), optionally `idle`
-//! to analyse no-contact frames, and optionally `no-temperature` to leave the calibration's
-//! temperature model out (the difference is what temperature costs).
+//! to analyse no-contact frames, optionally `no-temperature` to leave the calibration's
+//! temperature model out (the difference is what temperature costs; `with-temperature`
+//! keeps it), then the downsampling factor (`auto` or a number) and the float path's band
+//! window (`matched` or `hann`).
 
 use vistaf_firmware::calibration::Calibration;
 use vistaf_firmware::pipeline::{Analyzer, AnalyzerOptions, Implementation};
@@ -23,6 +25,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let h: u32 = args.get(4).map_or(Ok(480), |s| s.parse())?;
     let idle = args.get(5).is_some_and(|s| s == "idle");
     let no_temperature = args.get(6).is_some_and(|s| s == "no-temperature");
+    let factor: Option<usize> = match args.get(7).map(String::as_str) {
+        None | Some("auto") => None,
+        Some(f) => Some(f.parse()?),
+    };
+    let band = if args.get(8).is_some_and(|s| s == "hann") {
+        vistaf_firmware::pipeline::float_ftp::BandWindow::Hann
+    } else {
+        vistaf_firmware::pipeline::float_ftp::BandWindow::Matched
+    };
     let unit = SensorUnit {
         width_px: w,
         height_px: h,
@@ -38,7 +49,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (frame, _) = r.render(&state, 2);
     let opts = AnalyzerOptions {
         force_calibration: true,
-        ..Default::default()
+        factor,
+        band,
     };
     let mut calib = Calibration::default_sim();
     if no_temperature {

@@ -1,0 +1,369 @@
+//! Stability sweeps: along each axis where a method can fail, error against flag rate.
+
+use vistaf_firmware::calibration::Calibration;
+use vistaf_firmware::pipeline::{Analyzer, AnalyzerOptions, Deformation, Implementation};
+use vistaf_hardware::sim::scene::{ROOM_C, SPHERE_R_MM};
+use vistaf_hardware::sim::{Renderer, SensorUnit, SkinState};
+use vistaf_protocol::Flag;
+
+use super::{depth_tolerance_mm, press, temperature_tolerance_c};
+
+/// One frame of a sweep.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Point {
+    /// The axis value.
+    pub x: f32,
+    /// Error in units of its tolerance (≤ 1: within tolerance).
+    pub error: f32,
+    /// Whether the frame carried a relevant flag (or was refused with an error).
+    pub flagged: bool,
+}
+
+/// A sweep along one axis.
+#[derive(Debug, Clone)]
+pub struct Sweep {
+    /// Short name (file names).
+    pub name: &'static str,
+    /// What the axis is, with its unit.
+    pub axis: &'static str,
+    /// What the error measures.
+    pub error: &'static str,
+    /// The specified envelope along the axis: outside it a flag is expected even where the
+    /// reading happens to be right (a temperature beyond the calibration, say).
+    pub envelope: (f32, f32),
+    /// Frames.
+    pub points: Vec<Point>,
+}
+
+/// The flag rule's outcome on a sweep.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Check {
+    /// Frames out of tolerance.
+    pub out: usize,
+    /// Of those, flagged.
+    pub out_flagged: usize,
+    /// Frames within tolerance and inside the envelope.
+    pub inside: usize,
+    /// Of those, flagged.
+    pub inside_flagged: usize,
+}
+
+impl Check {
+    /// Flag rate out of tolerance (1 when there is nothing out of tolerance).
+    pub fn recall(&self) -> f32 {
+        if self.out == 0 {
+            1.0
+        } else {
+            self.out_flagged as f32 / self.out as f32
+        }
+    }
+
+    /// False-flag rate within tolerance.
+    pub fn false_rate(&self) -> f32 {
+        if self.inside == 0 {
+            0.0
+        } else {
+            self.inside_flagged as f32 / self.inside as f32
+        }
+    }
+
+    /// Whether the rule holds: ≥ 95 % flagged out of tolerance, ≤ 2 % falsely flagged.
+    pub fn holds(&self) -> bool {
+        self.recall() >= 0.95 && self.false_rate() <= 0.02
+    }
+}
+
+impl Sweep {
+    /// The rule's outcome.
+    pub fn check(&self) -> Check {
+        let mut c = Check {
+            out: 0,
+            out_flagged: 0,
+            inside: 0,
+            inside_flagged: 0,
+        };
+        for p in &self.points {
+            if p.error > 1.0 {
+                c.out += 1;
+                c.out_flagged += usize::from(p.flagged);
+            } else if p.x >= self.envelope.0 && p.x <= self.envelope.1 {
+                c.inside += 1;
+                c.inside_flagged += usize::from(p.flagged);
+            }
+        }
+        c
+    }
+}
+
+/// The sweep bench: the reference build cropped to 320×240 (its 16 px period kept), the
+/// shipped calibration, the device path.
+struct Bench {
+    unit: SensorUnit,
+    r: Renderer,
+    a: Analyzer,
+}
+
+impl Bench {
+    fn new(unit: SensorUnit) -> Option<Bench> {
+        let r = Renderer::new(unit.clone());
+        let (reference, _) = r.render(&SkinState::idle(ROOM_C), 11);
+        let a = Analyzer::new(
+            &reference,
+            Calibration::default_sim(),
+            Implementation::Fixed,
+            AnalyzerOptions {
+                force_calibration: true,
+                ..Default::default()
+            },
+        )
+        .ok()?;
+        Some(Bench { unit, r, a })
+    }
+
+    fn run(&self, s: &SkinState, seed: u64) -> (Option<Deformation>, vistaf_hardware::sim::Truth) {
+        let (img, truth) = self.r.render(s, seed);
+        (self.a.analyze(&img).ok(), truth)
+    }
+}
+
+fn small_unit() -> SensorUnit {
+    SensorUnit {
+        width_px: 320,
+        height_px: 240,
+        ..SensorUnit::reference()
+    }
+}
+
+/// Force-and-shape flags (everything but the temperature range).
+fn shape_flagged(d: &Deformation) -> bool {
+    d.flags.iter().any(|f| f != Flag::TemperatureOutOfRange)
+}
+
+/// A depth sweep point: peak depth error over its tolerance.
+fn depth_point(b: &Bench, x: f32, s: &SkinState, seed: u64) -> Point {
+    let (d, truth) = b.run(s, seed);
+    match d {
+        Some(d) => Point {
+            x,
+            error: (d.peak_depth_mm - truth.peak_depth_mm).abs()
+                / depth_tolerance_mm(truth.peak_depth_mm),
+            flagged: shape_flagged(&d),
+        },
+        None => Point {
+            x,
+            error: f32::INFINITY,
+            flagged: true,
+        },
+    }
+}
+
+/// Frames per axis value.
+pub const SEEDS: u64 = 3;
+
+/// Every sweep; `progress(done, total)` after each axis value.
+pub fn sweeps(mut progress: impl FnMut(usize, usize)) -> Vec<Sweep> {
+    let mut out = Vec::new();
+    let Some(b) = Bench::new(small_unit()) else {
+        return out;
+    };
+    let axes = 8;
+    let mut done = 0;
+    let mut step = |out: &mut Vec<Sweep>, s: Sweep| {
+        done += 1;
+        progress(done, axes);
+        out.push(s);
+    };
+    let seeds = |k: usize| (0..SEEDS).map(move |i| 1000 * k as u64 + i);
+
+    // 1. Indentation depth, past the carrier band.
+    let depths = [
+        0.1f32, 0.3, 0.6, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0,
+    ];
+    let mut pts = Vec::new();
+    for (k, &d) in depths.iter().enumerate() {
+        for seed in seeds(k) {
+            pts.push(depth_point(&b, d, &press(&b.unit, SPHERE_R_MM, d), seed));
+        }
+    }
+    step(
+        &mut out,
+        Sweep {
+            name: "depth",
+            envelope: (0.1, 2.5),
+            axis: "indentation depth, 10 mm sphere (mm)",
+            error: "peak depth error / (3 % + 0.02 mm)",
+            points: pts,
+        },
+    );
+
+    // 2. Steepness: sharper spheres at 1 mm.
+    let radii = [10.0f32, 6.0, 4.0, 3.0, 2.0, 1.5, 1.0, 0.7, 0.5];
+    let mut pts = Vec::new();
+    for (k, &r) in radii.iter().enumerate() {
+        for seed in seeds(k + 20) {
+            pts.push(depth_point(&b, 1.0 / r, &press(&b.unit, r, 1.0), seed));
+        }
+    }
+    step(
+        &mut out,
+        Sweep {
+            name: "steepness",
+            envelope: (0.0, 0.2),
+            axis: "curvature of a sphere pressed 1 mm (1/radius, 1/mm)",
+            error: "peak depth error / (3 % + 0.02 mm)",
+            points: pts,
+        },
+    );
+
+    // 3. Sensor noise, 4. fringe contrast, 6. over-exposure: a 1 mm press.
+    for (k, (name, axis, envelope, values, set)) in [
+        (
+            "noise",
+            "sensor noise (× the unit's)",
+            (1.0f32, 8.0f32),
+            vec![1.0f32, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0, 16.0],
+            (|s: &mut SkinState, v: f32| s.noise_scale = v) as fn(&mut SkinState, f32),
+        ),
+        (
+            "contrast",
+            "fringe contrast (× the unit's)",
+            (0.35, 1.0),
+            vec![1.0, 0.7, 0.5, 0.35, 0.25, 0.15, 0.1, 0.05],
+            |s, v| s.contrast_scale = v,
+        ),
+        (
+            "exposure",
+            "exposure (× the unit's)",
+            (1.0, 1.6),
+            vec![1.0, 1.2, 1.4, 1.6, 1.8, 2.0, 2.5, 3.0],
+            |s, v| s.exposure_scale = v,
+        ),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let mut pts = Vec::new();
+        for (j, &v) in values.iter().enumerate() {
+            for seed in seeds(100 * (k + 3) + j) {
+                let mut s = press(&b.unit, SPHERE_R_MM, 1.0);
+                set(&mut s, v);
+                pts.push(depth_point(&b, v, &s, seed));
+            }
+        }
+        step(
+            &mut out,
+            Sweep {
+                name,
+                envelope,
+                axis,
+                error: "peak depth error / (3 % + 0.02 mm)",
+                points: pts,
+            },
+        );
+    }
+
+    // 5. Misregistration: the skin shifted against the camera, no contact.
+    let shifts = [0.0f32, 0.5, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0];
+    let mut pts = Vec::new();
+    for (k, &sh) in shifts.iter().enumerate() {
+        for seed in seeds(700 + k) {
+            let mut s = SkinState::idle(ROOM_C);
+            s.shift_px = (sh, 0.3 * sh);
+            let (d, _) = b.run(&s, seed);
+            pts.push(match d {
+                Some(d) => Point {
+                    x: sh,
+                    error: (d.peak_depth_mm / 0.02).max(d.force_n / 0.05),
+                    flagged: shape_flagged(&d),
+                },
+                None => Point {
+                    x: sh,
+                    error: f32::INFINITY,
+                    flagged: true,
+                },
+            });
+        }
+    }
+    step(
+        &mut out,
+        Sweep {
+            name: "misregistration",
+            envelope: (0.0, 6.4),
+            axis: "skin shift against the camera, no contact (px; period 16 px)",
+            error: "max(depth / 0.02 mm, force / 0.05 N)",
+            points: pts,
+        },
+    );
+
+    // 7. Temperature beyond the calibrated range (15–47.5 °C).
+    let temps = [
+        5.0f32, 10.0, 13.0, 15.0, 20.0, 27.0, 35.0, 45.0, 50.0, 55.0, 60.0, 65.0,
+    ];
+    let mut pts = Vec::new();
+    for (k, &t) in temps.iter().enumerate() {
+        for seed in seeds(800 + k) {
+            let (d, _) = b.run(&SkinState::idle(t), seed);
+            pts.push(
+                match d
+                    .as_ref()
+                    .and_then(|d| d.temperature.as_ref().map(|x| (d, x)))
+                {
+                    Some((d, temp)) => Point {
+                        x: t,
+                        error: (temp.mean_c - t).abs() / temperature_tolerance_c(t),
+                        flagged: d.flags.contains(Flag::TemperatureOutOfRange),
+                    },
+                    None => Point {
+                        x: t,
+                        error: f32::INFINITY,
+                        flagged: true,
+                    },
+                },
+            );
+        }
+    }
+    step(
+        &mut out,
+        Sweep {
+            name: "temperature",
+            envelope: (15.0, 47.5),
+            axis: "uniform skin temperature (°C; calibrated 15–47.5)",
+            error: "mean temperature error / tolerance (0.3 °C in 22–32, else 1 °C)",
+            points: pts,
+        },
+    );
+
+    // 8. Grating period down to Nyquist: units of ever finer stripes, each with its own
+    // reference and the shipped calibration forced onto it.
+    let periods = [16.0f32, 12.0, 9.0, 7.0, 6.0, 5.0, 4.0, 3.0, 2.5];
+    let mut pts = Vec::new();
+    for (k, &p) in periods.iter().enumerate() {
+        let u = SensorUnit {
+            period_px: p,
+            ..small_unit()
+        };
+        let bench = Bench::new(u);
+        for seed in seeds(900 + k) {
+            pts.push(match &bench {
+                Some(bb) => depth_point(bb, p, &press(&bb.unit, SPHERE_R_MM, 1.0), seed),
+                // Refused (no usable grating): an error, not a number.
+                None => Point {
+                    x: p,
+                    error: f32::INFINITY,
+                    flagged: true,
+                },
+            });
+        }
+    }
+    step(
+        &mut out,
+        Sweep {
+            name: "period",
+            envelope: (5.0, 30.0),
+            axis: "grating period in the image (px)",
+            error: "peak depth error / (3 % + 0.02 mm), 1 mm press",
+            points: pts,
+        },
+    );
+    out
+}
