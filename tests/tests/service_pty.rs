@@ -38,6 +38,18 @@ fn summaries_cross_a_pty_in_order_and_match_the_scene() {
         });
         states.push(s);
     }
+    // Then beyond the calibration (2.5 mm deep at most): the flag must appear there, and
+    // only there.
+    let beyond = 3;
+    for _ in 0..beyond {
+        let mut s = SkinState::idle(ROOM_C);
+        s.contacts.push(Contact {
+            indenter: Indenter::Sphere { r_mm: SPHERE_R_MM },
+            center_mm: center_mm(&unit),
+            depth_mm: 4.0,
+        });
+        states.push(s);
+    }
     // Paced at 30 frames/s so the commands below meet a running stream.
     let source = SimSource::new("press", unit, states, Some(30.0), 7);
     let (master, slave) = TTYPort::pair().unwrap();
@@ -107,8 +119,21 @@ fn summaries_cross_a_pty_in_order_and_match_the_scene() {
         summaries.windows(2).all(|w| w[1].seq == w[0].seq + 1),
         "in order, no gaps"
     );
-    // The last summaries are the deepest presses; each must match its scene depth.
-    let tail = &summaries[summaries.len() - 10..];
+    // The last summaries press beyond the calibration: flagged.
+    let (inside, outside) = summaries.split_at(summaries.len() - beyond);
+    for s in outside {
+        assert_eq!(
+            s.flags.iter().collect::<Vec<_>>(),
+            vec![vistaf_protocol::Flag::DepthOutOfRange],
+            "{s:?}"
+        );
+    }
+    assert!(
+        inside.iter().all(|s| s.flags.is_empty()),
+        "no flag inside the envelope"
+    );
+    // The summaries before are the deepest calibrated presses; each must match its depth.
+    let tail = &inside[inside.len() - 10..];
     for (s, want) in tail.iter().zip(&depths[depths.len() - 10..]) {
         let got = s.peak_depth_um as f32 / 1000.0;
         assert!(
