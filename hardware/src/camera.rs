@@ -210,10 +210,14 @@ pub fn list_nodes() -> Vec<Node> {
         let name = read_trim(&sys.join("name")).unwrap_or_default();
         // device → USB interface; its parent is the USB device, which has the serial.
         let serial = read_trim(&sys.join("device/../serial"));
+        // Touch sensors (V4L2_CAP_TOUCH) report VIDEO_CAPTURE too; they are not cameras.
         let captures_video = Device::with_path(&path)
             .ok()
             .and_then(|d| query_caps(&d).ok())
-            .is_some_and(|f| f.contains(v4l::capability::Flags::VIDEO_CAPTURE));
+            .is_some_and(|f| {
+                f.contains(v4l::capability::Flags::VIDEO_CAPTURE)
+                    && !f.contains(v4l::capability::Flags::TOUCH)
+            });
         nodes.push(Node {
             path,
             name,
@@ -236,6 +240,8 @@ fn query_caps(dev: &Device) -> std::io::Result<v4l::capability::Flags> {
 /// An open, streaming V4L2 camera.
 pub struct Camera {
     path: PathBuf,
+    /// Bytes per line the driver uses (may exceed width × bytes per pixel).
+    stride: usize,
     format: SourceFormat,
     stream: Stream<'static>,
     _dev: Device,
@@ -265,6 +271,16 @@ fn gone(path: &Path, e: &std::io::Error) -> SourceError {
 }
 
 impl Camera {
+    /// Frames the driver dropped (gaps in its sequence numbers).
+    pub fn driver_dropped(&self) -> u64 {
+        self.driver_dropped
+    }
+
+    /// Filled buffers skipped because a newer one was already waiting (newest wins).
+    pub fn stale_skipped(&self) -> u64 {
+        self.stale_skipped
+    }
+
     /// Finds, opens and starts the camera.
     pub fn open(sel: &Selector, req: &CaptureRequest) -> Result<Camera, SourceError> {
         let path = match sel {
@@ -324,6 +340,7 @@ impl Camera {
         stream.set_timeout(Duration::from_secs(2));
         Ok(Camera {
             path,
+            stride: got.stride as usize,
             format: SourceFormat {
                 width: got.width,
                 height: got.height,
@@ -361,7 +378,7 @@ impl FrameSource for Camera {
                 self.stale_skipped += 1;
                 continue;
             }
-            break (buf[..used].to_vec(), seq);
+            break (unpad(&buf[..used], &self.format, self.stride), seq);
         };
         if let Some(last) = self.last_seq {
             self.driver_dropped += u64::from(seq.wrapping_sub(last).saturating_sub(1));
@@ -377,6 +394,26 @@ impl FrameSource for Camera {
             seq: self.seq - 1,
         }))
     }
+}
+
+/// A frame's bytes without the driver's line padding: packed formats whose lines are
+/// longer than their pixels (`bytesperline` > width × bytes per pixel) are repacked.
+pub fn unpad(data: &[u8], f: &SourceFormat, stride: usize) -> Vec<u8> {
+    let bpp = match f.pixel {
+        PixelFormat::Rgb8 => 3,
+        PixelFormat::Gray8 => 1,
+        PixelFormat::Yuyv => 2,
+        _ => return data.to_vec(),
+    };
+    let line = f.width as usize * bpp;
+    if stride <= line || data.len() < stride * (f.height as usize).saturating_sub(1) + line {
+        return data.to_vec();
+    }
+    data.chunks(stride)
+        .take(f.height as usize)
+        .flat_map(|row| &row[..line.min(row.len())])
+        .copied()
+        .collect()
 }
 
 /// `POLLIN` without a libc dependency of our own.
@@ -399,6 +436,20 @@ mod tests {
                 sizes: vec![(640, 480), (320, 240), (1280, 720)],
             },
         ]
+    }
+
+    #[test]
+    fn padded_lines_are_repacked() {
+        let f = SourceFormat {
+            width: 2,
+            height: 2,
+            pixel: PixelFormat::Yuyv,
+            interval: None,
+        };
+        // 4 bytes of pixels and 4 of padding per line.
+        let data = [1, 2, 3, 4, 0, 0, 0, 0, 5, 6, 7, 8, 0, 0, 0, 0];
+        assert_eq!(unpad(&data, &f, 8), vec![1, 2, 3, 4, 5, 6, 7, 8]);
+        assert_eq!(unpad(&data[..8], &f, 4), data[..8].to_vec());
     }
 
     #[test]

@@ -59,7 +59,15 @@ pub enum CarrierError {
     /// The peak sits where no usable grating can be (period below 2.5 px).
     #[error("grating period {0:.2} px is below what the camera can resolve")]
     TooFine(f32),
+    /// The strongest periodic pattern repeats too few times across the image to be the
+    /// skin's grating (a test pattern, colour bars, a scene).
+    #[error("no grating found: the strongest periodic pattern ({0:.1} px) repeats only {1:.1} times across the image (a skin's grating repeats {MIN_PERIODS_ACROSS} or more)")]
+    TooCoarse(f32, f32),
 }
+
+/// Fewest grating periods across the image's longer side: every specified unit (320 to
+/// 800 px wide, periods of 7 to 30 px) has at least 10.7.
+pub const MIN_PERIODS_ACROSS: f32 = 10.0;
 
 /// Fewest pixels per period the pipeline accepts at the working resolution (Nyquist is 2;
 /// the stability sweep reads depths within tolerance at 4 px and garbage at 3 and 2.5 px,
@@ -191,6 +199,10 @@ pub fn estimate(gray: &[f32], w: usize, h: usize) -> Result<Carrier, CarrierErro
     };
     if c.period_px() < MIN_PERIOD_PX {
         return Err(CarrierError::TooFine(c.period_px()));
+    }
+    let across = w.max(h) as f32 / c.period_px();
+    if across < MIN_PERIODS_ACROSS {
+        return Err(CarrierError::TooCoarse(c.period_px(), across));
     }
     Ok(c)
 }

@@ -188,7 +188,8 @@ pub fn accumulate(
         (2, Some(r)) => run::<2, true>(frame, g, theta, reliable, r, lin),
         (3, Some(r)) => run::<3, true>(frame, g, theta, reliable, r, lin),
         (4, Some(r)) => run::<4, true>(frame, g, theta, reliable, r, lin),
-        (_, r) => run::<0, true>(frame, g, theta, reliable, r.unwrap_or(&[]), lin),
+        (_, None) => run::<0, false>(frame, g, theta, reliable, &[], lin),
+        (_, Some(r)) => run::<0, true>(frame, g, theta, reliable, r, lin),
     }
 }
 
@@ -314,6 +315,35 @@ mod tests {
         let half = (65_536.0 / 15.0 * 0.5f64).round() as i32;
         assert_eq!(g.offsets, vec![-half, half]);
         assert_eq!(g.block_center_px(0), (8.0, 8.0));
+    }
+
+    /// Any factor, with or without a contact region (the specialised and the general loop
+    /// read the same pixels).
+    #[test]
+    fn every_factor_reads_the_same_stripes() {
+        let img = RgbImage::from_fn(200, 100, |x, _| {
+            if (f64::from(x) * std::f64::consts::TAU / 20.0).cos() > 0.0 {
+                image::Rgb([180, 60, 60])
+            } else {
+                image::Rgb([30, 30, 30])
+            }
+        });
+        let lin = linear_q16();
+        for f in 1..=6 {
+            let (w, h) = (200 / f, 100 / f);
+            let g = Geometry::new(w, h, f, f as f32 / 20.0, 0.0);
+            let theta = |i: usize| {
+                let x = (i % w) as f64 * f as f64 + (f as f64 - 1.0) / 2.0 + 0.5;
+                (x / 20.0 * 65_536.0).round() as i64 as u16
+            };
+            let rel = vec![true; w * h];
+            let regions = vec![region::CONTACT; w * h];
+            let (plain, none) = accumulate(&img, &g, theta, &rel, None, &lin);
+            let (with, contact) = accumulate(&img, &g, theta, &rel, Some(&regions), &lin);
+            assert_eq!(plain, with, "factor {f}");
+            assert_eq!(none, [Sums::default(); 2]);
+            assert!(contact[0].n[0] > 0 && contact[0].n[1] > 0, "factor {f}");
+        }
     }
 
     #[test]

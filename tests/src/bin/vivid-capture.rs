@@ -1,0 +1,201 @@
+//! The camera code against a real V4L2 driver: run inside the `vivid` VM that
+//! `tests/vivid/run.sh` boots (static build, it is the VM's only program). Prints one
+//! `VIVID-CHECK name: ok|FAIL detail` line per check and `VIVID-RESULT PASS|FAIL` last.
+//!
+//! Checks: list the nodes; open by path and by driver name; negotiate YUYV and MJPEG (vivid
+//! offers no MJPEG: the fallback must say what it chose) at two sizes; stream with the
+//! newest-frame policy and count driver drops and stale buffers; convert frames to RGB and
+//! run the pipeline on them (vivid's test pattern has no grating: a clear refusal or a
+//! low-contrast flag, never a panic); unbind the driver through sysfs and rebind it, with a
+//! clear error while it is gone and a resumed stream after.
+
+#[cfg(not(feature = "v4l-test"))]
+fn main() {}
+
+#[cfg(feature = "v4l-test")]
+fn main() {
+    vivid::main();
+}
+
+#[cfg(feature = "v4l-test")]
+mod vivid {
+    use std::time::{Duration, Instant};
+
+    use vistaf_firmware::calibration::Calibration;
+    use vistaf_firmware::pipeline::{Analyzer, AnalyzerOptions, Implementation};
+    use vistaf_hardware::camera::{list_nodes, Camera, CaptureRequest, Selector};
+    use vistaf_hardware::frame::PixelFormat;
+    use vistaf_hardware::source::{FrameSource, Reconnect};
+    use vistaf_protocol::Flag;
+
+    struct Report {
+        failed: bool,
+    }
+
+    impl Report {
+        fn check(&mut self, name: &str, r: Result<String, String>) {
+            match r {
+                Ok(detail) => println!("VIVID-CHECK {name}: ok {detail}"),
+                Err(detail) => {
+                    self.failed = true;
+                    println!("VIVID-CHECK {name}: FAIL {detail}");
+                }
+            }
+        }
+    }
+
+    fn stream(cam: &mut Camera, n: usize) -> Result<String, String> {
+        let t0 = Instant::now();
+        let mut got = 0;
+        for _ in 0..n {
+            match cam.next_frame() {
+                Ok(Some(f)) => {
+                    f.to_rgb().map_err(|e| format!("converting: {e}"))?;
+                    got += 1;
+                }
+                Ok(None) => break,
+                Err(e) => return Err(format!("after {got} frames: {e}")),
+            }
+        }
+        Ok(format!(
+            "{got} frames in {:.1} s, {} dropped by the driver, {} stale skipped",
+            t0.elapsed().as_secs_f32(),
+            cam.driver_dropped(),
+            cam.stale_skipped()
+        ))
+    }
+
+    pub fn main() {
+        let mut r = Report { failed: false };
+        let nodes = list_nodes();
+        r.check(
+            "list",
+            nodes
+                .iter()
+                .any(|n| n.name.contains("vivid") && n.captures_video)
+                .then(|| {
+                    format!(
+                        "{} nodes: {:?}",
+                        nodes.len(),
+                        nodes
+                            .iter()
+                            .map(|n| n.path.display().to_string())
+                            .collect::<Vec<_>>()
+                    )
+                })
+                .ok_or_else(|| format!("no vivid capture node among {nodes:?}")),
+        );
+        let req = |w, h, formats: Vec<PixelFormat>| CaptureRequest {
+            width: w,
+            height: h,
+            fps: 30,
+            formats,
+        };
+        let path = Selector::Path("/dev/video0".into());
+        for (w, h) in [(320, 240), (640, 480)] {
+            let name = format!("yuyv-{w}x{h}");
+            match Camera::open(&path, &req(w, h, vec![PixelFormat::Yuyv])) {
+                Ok(mut cam) => {
+                    let f = cam.format();
+                    let neg = format!("negotiated {:?} {}×{}", f.pixel, f.width, f.height);
+                    r.check(&name, stream(&mut cam, 20).map(|s| format!("{neg}; {s}")));
+                }
+                Err(e) => r.check(&name, Err(e.to_string())),
+            }
+        }
+        match Camera::open(
+            &Selector::Name("vivid".into()),
+            &req(640, 480, vec![PixelFormat::Mjpeg, PixelFormat::Yuyv]),
+        ) {
+            Ok(cam) => {
+                let f = cam.format();
+                r.check(
+                    "by-name-mjpeg-preferred",
+                    Ok(format!(
+                        "opened {}, negotiated {:?} {}×{} (MJPEG offered: {})",
+                        cam.name(),
+                        f.pixel,
+                        f.width,
+                        f.height,
+                        f.pixel == PixelFormat::Mjpeg
+                    )),
+                );
+            }
+            Err(e) => r.check("by-name-mjpeg-preferred", Err(e.to_string())),
+        }
+        // The pipeline on vivid's pattern: no grating.
+        let pipeline = (|| -> Result<String, String> {
+            let mut cam = Camera::open(&path, &req(640, 480, vec![PixelFormat::Yuyv]))
+                .map_err(|e| e.to_string())?;
+            let mut frame = || -> Result<image::RgbImage, String> {
+                cam.next_frame()
+                    .map_err(|e| e.to_string())?
+                    .ok_or("stream ended")?
+                    .into_rgb()
+                    .map_err(|e| e.to_string())
+            };
+            let reference = frame()?;
+            match Analyzer::new(
+                &reference,
+                Calibration::default_sim(),
+                Implementation::Fixed,
+                AnalyzerOptions {
+                    force_calibration: true,
+                    ..Default::default()
+                },
+            ) {
+                Err(e) => Ok(format!("refused with a clear error: {e}")),
+                Ok(a) => {
+                    let mut flagged = 0;
+                    for _ in 0..5 {
+                        let d = a.analyze(&frame()?).map_err(|e| e.to_string())?;
+                        flagged += usize::from(d.flags.contains(Flag::LowContrast));
+                    }
+                    if flagged == 5 {
+                        Ok("5 of 5 frames flagged low_contrast".into())
+                    } else {
+                        Err(format!("only {flagged} of 5 frames flagged low_contrast"))
+                    }
+                }
+            }
+        })();
+        r.check("pipeline", pipeline);
+        // Unbind and rebind the driver under a running, reconnecting source.
+        let rebind = (|| -> Result<String, String> {
+            let open = || {
+                Camera::open(
+                    &Selector::Name("vivid".into()),
+                    &req(320, 240, vec![PixelFormat::Yuyv]),
+                )
+            };
+            let mut src = Reconnect::new(open).map_err(|e| e.to_string())?;
+            src.min_backoff = Duration::from_millis(50);
+            src.max_backoff = Duration::from_millis(400);
+            for _ in 0..3 {
+                src.next_frame().map_err(|e| e.to_string())?;
+            }
+            let drv = "/sys/bus/platform/drivers/vivid";
+            std::fs::write(format!("{drv}/unbind"), "vivid.0")
+                .map_err(|e| format!("unbind: {e}"))?;
+            let lost = match src.next_frame() {
+                Err(e) if e.is_transient() => e.to_string(),
+                other => return Err(format!("no error while unbound: {other:?}")),
+            };
+            std::fs::write(format!("{drv}/bind"), "vivid.0").map_err(|e| format!("bind: {e}"))?;
+            let deadline = Instant::now() + Duration::from_secs(20);
+            loop {
+                match src.next_frame() {
+                    Ok(Some(_)) => break,
+                    _ if Instant::now() > deadline => return Err("no frame after rebinding".into()),
+                    _ => {}
+                }
+            }
+            Ok(format!(
+                "while unbound: \"{lost}\"; resumed after {} reopen(s)",
+                src.reopened
+            ))
+        })();
+        r.check("unbind-rebind", rebind);
+        println!("VIVID-RESULT {}", if r.failed { "FAIL" } else { "PASS" });
+    }
+}
