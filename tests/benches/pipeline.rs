@@ -39,6 +39,7 @@ fn pipeline(c: &mut Criterion) {
         calib: &calib,
         mm_per_px: 0.125,
         ref_saturated_fraction: 0.0,
+        unwrap: Default::default(),
     };
     let (_, _, factor) = fixed.geometry();
     let carrier = fixed.carrier();

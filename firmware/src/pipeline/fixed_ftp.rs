@@ -192,6 +192,7 @@ pub struct FixedFtp {
     atan: [u16; 257],
     trig: Vec<[i16; 2]>,
     lut: DepthLut,
+    rows_only: bool,
 }
 
 /// |z| approximated as max + ⅜·min (within 7 %): enough for reliability and ordering.
@@ -207,6 +208,17 @@ impl FixedFtp {
         reference: &RgbImage,
         working: &carrier::Working,
         calib: &Calibration,
+    ) -> Result<FixedFtp, PipelineError> {
+        FixedFtp::with_filter(reference, working, calib, false)
+    }
+
+    /// As [`FixedFtp::new`]; `rows_only` low-passes along rows only (a 1-D band-pass per
+    /// row instead of 2-D: a trade-off configuration, cheaper and noisier).
+    pub fn with_filter(
+        reference: &RgbImage,
+        working: &carrier::Working,
+        calib: &Calibration,
+        rows_only: bool,
     ) -> Result<FixedFtp, PipelineError> {
         let (factor, carrier) = (working.factor, working.carrier);
         let (gray, w, h, _) = gray_down_q8(reference, factor);
@@ -245,6 +257,7 @@ impl FixedFtp {
             atan: atan_table(),
             trig,
             lut: DepthLut::new(calib),
+            rows_only,
         };
         f.z_ref = f.analytic(&gray);
         f.amp_ref = f.z_ref.iter().map(|&z| amp(z)).collect();
@@ -277,7 +290,9 @@ impl FixedFtp {
         let mut tmp = Vec::new();
         for buf in [&mut re, &mut im] {
             box2(buf, w, h, self.lx, true, &mut tmp);
-            box2(buf, w, h, self.ly, false, &mut tmp);
+            if !self.rows_only {
+                box2(buf, w, h, self.ly, false, &mut tmp);
+            }
         }
         re.into_iter().zip(im).map(|(a, b)| [a, b]).collect()
     }

@@ -65,6 +65,21 @@ pub struct Context<'a> {
     pub mm_per_px: f32,
     /// Fraction of the reference's pixels with a saturated channel.
     pub ref_saturated_fraction: f32,
+    /// When to unwrap the contact region's phase.
+    pub unwrap: Unwrap,
+}
+
+/// When the contact region's phase is unwrapped (a trade-off axis: cost against depth
+/// beyond half a turn of phase).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Unwrap {
+    /// Only when the wrapped difference can have wrapped (the default).
+    #[default]
+    WhenNeeded,
+    /// On every frame with contact.
+    Always,
+    /// Never: deep presses read wrong (and the slope flags say so).
+    Never,
 }
 
 /// Features of a depth map.
@@ -432,7 +447,12 @@ pub fn measure<M: PhaseMap>(
         .map(|i| phi[i].units().abs())
         .max()
         .unwrap_or(0);
-    let (u, unreached, n_res) = if max_abs > trigger {
+    let unwrap = match ctx.unwrap {
+        Unwrap::WhenNeeded => max_abs > trigger,
+        Unwrap::Always => true,
+        Unwrap::Never => false,
+    };
+    let (u, unreached, n_res) = if unwrap {
         let quality: Vec<u32> = (0..n)
             .map(|i| map.amp_frame(i).min(map.amp_ref(i)))
             .collect();

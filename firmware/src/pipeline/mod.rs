@@ -158,6 +158,10 @@ pub struct AnalyzerOptions {
     pub force_calibration: bool,
     /// Band-pass window of the float path.
     pub band: float_ftp::BandWindow,
+    /// When to unwrap the contact region's phase.
+    pub unwrap: measure::Unwrap,
+    /// Device path: low-pass along rows only (a 1-D band-pass per row) instead of 2-D.
+    pub rows_only: bool,
 }
 
 /// Adds the frame's temperatures to its force-side result `d`: the FTP's wrapped phase
@@ -204,6 +208,7 @@ enum Imp {
 /// A prepared pipeline: reference-side work done, ready for frames.
 pub struct Analyzer {
     imp: Imp,
+    unwrap: measure::Unwrap,
     thermo: Thermometer,
     calib: Calibration,
     size: (u32, u32),
@@ -242,8 +247,11 @@ impl Analyzer {
             Implementation::Float => {
                 Imp::Float(float_ftp::FloatFtp::new(reference, &working, opts.band)?)
             }
-            Implementation::Fixed => Imp::Fixed(Box::new(fixed_ftp::FixedFtp::new(
-                reference, &working, &calib,
+            Implementation::Fixed => Imp::Fixed(Box::new(fixed_ftp::FixedFtp::with_filter(
+                reference,
+                &working,
+                &calib,
+                opts.rows_only,
             )?)),
         };
         let mm_per_px = calib.unit.grating_period_mm as f32 / c.period_px();
@@ -263,6 +271,7 @@ impl Analyzer {
         };
         Ok(Analyzer {
             imp,
+            unwrap: opts.unwrap,
             thermo,
             mm_per_px,
             period_px: c.period_px(),
@@ -340,6 +349,7 @@ impl Analyzer {
             calib: &self.calib,
             mm_per_px: self.mm_per_px,
             ref_saturated_fraction: self.ref_saturation,
+            unwrap: self.unwrap,
         }
     }
 
@@ -357,6 +367,7 @@ impl Analyzer {
             calib: &self.calib,
             mm_per_px: self.mm_per_px,
             ref_saturated_fraction: self.ref_saturation,
+            unwrap: self.unwrap,
         };
         Ok(match &self.imp {
             Imp::Float(f) => {

@@ -10,8 +10,9 @@
 //! input width and height (the reference unit's 16 px period is kept), optionally `idle`
 //! to analyse no-contact frames, optionally `no-temperature` to leave the calibration's
 //! temperature model out (the difference is what temperature costs; `with-temperature`
-//! keeps it), then the downsampling factor (`auto` or a number) and the float path's band
-//! window (`matched` or `hann`).
+//! keeps it), then the downsampling factor (`auto` or a number), the float path's band
+//! window (`matched` or `hann`), when to unwrap (`when-needed`, `always`, `never`) and the
+//! device path's filter (`2d` or `rows`).
 
 use vistaf_firmware::calibration::Calibration;
 use vistaf_firmware::pipeline::{Analyzer, AnalyzerOptions, Implementation};
@@ -47,10 +48,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         scene::states("sweep-depth", &unit, 5).ok_or("scene")?[3].clone()
     };
     let (frame, _) = r.render(&state, 2);
+    let unwrap = match args.get(9).map(String::as_str) {
+        Some("always") => vistaf_firmware::pipeline::measure::Unwrap::Always,
+        Some("never") => vistaf_firmware::pipeline::measure::Unwrap::Never,
+        _ => vistaf_firmware::pipeline::measure::Unwrap::WhenNeeded,
+    };
     let opts = AnalyzerOptions {
         force_calibration: true,
         factor,
         band,
+        unwrap,
+        rows_only: args.get(10).is_some_and(|s| s == "rows"),
     };
     let mut calib = Calibration::default_sim();
     if no_temperature {

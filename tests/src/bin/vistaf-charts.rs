@@ -193,6 +193,12 @@ fn count_instructions(rows: &mut [tradeoff::Row]) -> Result<()> {
                     } else {
                         "matched"
                     },
+                    match c.unwrap {
+                        vistaf_firmware::pipeline::measure::Unwrap::Always => "always",
+                        vistaf_firmware::pipeline::measure::Unwrap::Never => "never",
+                        vistaf_firmware::pipeline::measure::Unwrap::WhenNeeded => "when-needed",
+                    },
+                    if c.rows_only { "rows" } else { "2d" },
                 ])
                 .output()
                 .context("running valgrind (is it installed?)")?;

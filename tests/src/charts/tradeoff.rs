@@ -4,6 +4,7 @@ use std::time::Instant;
 
 use vistaf_firmware::calibration::Calibration;
 use vistaf_firmware::pipeline::float_ftp::BandWindow;
+use vistaf_firmware::pipeline::measure::Unwrap;
 use vistaf_firmware::pipeline::{Analyzer, AnalyzerOptions, Implementation};
 use vistaf_hardware::sim::contact::Footprint;
 use vistaf_hardware::sim::scene::{center_mm, ROOM_C, SPHERE_R_MM};
@@ -25,6 +26,10 @@ pub struct Config {
     pub band: BandWindow,
     /// Whether temperature is measured.
     pub temperature: bool,
+    /// When the phase is unwrapped.
+    pub unwrap: Unwrap,
+    /// Device path: 1-D band-pass along rows instead of 2-D.
+    pub rows_only: bool,
 }
 
 /// The configurations compared.
@@ -35,11 +40,28 @@ pub fn configs() -> Vec<Config> {
         factor,
         band,
         temperature,
+        unwrap: Unwrap::WhenNeeded,
+        rows_only: false,
     };
     use BandWindow::{Hann, Matched};
     use Implementation::{Fixed, Float};
+    let rows = Config {
+        rows_only: true,
+        ..c("fixed ÷2, 1-D rows", Fixed, None, Matched, true)
+    };
+    let always = Config {
+        unwrap: Unwrap::Always,
+        ..c("fixed ÷2, always unwrap", Fixed, None, Matched, true)
+    };
+    let never = Config {
+        unwrap: Unwrap::Never,
+        ..c("fixed ÷2, never unwrap", Fixed, None, Matched, true)
+    };
     vec![
         c("fixed ÷2 (default)", Fixed, None, Matched, true),
+        rows,
+        always,
+        never,
         c("fixed ÷1", Fixed, Some(1), Matched, true),
         c("fixed ÷4", Fixed, Some(4), Matched, true),
         c("fixed ÷8", Fixed, Some(8), Matched, true),
@@ -80,7 +102,7 @@ enum Case {
 fn bench_set(unit: &SensorUnit) -> Vec<(SkinState, Case)> {
     let sphere = vistaf_hardware::sim::contact::Indenter::Sphere { r_mm: SPHERE_R_MM };
     let mut v = Vec::new();
-    for d in [0.3f32, 1.0, 2.0] {
+    for d in [0.3f32, 1.0, 2.0, 2.5] {
         v.push((
             press(unit, SPHERE_R_MM, d),
             Case::Press {
@@ -132,6 +154,8 @@ pub fn measure(mut progress: impl FnMut(usize, usize)) -> Vec<Row> {
         let opts = AnalyzerOptions {
             factor: c.factor,
             band: c.band,
+            unwrap: c.unwrap,
+            rows_only: c.rows_only,
             ..Default::default()
         };
         let row = match Analyzer::new(&reference, calib, c.imp, opts) {
