@@ -5,7 +5,7 @@
 #![allow(clippy::unwrap_used)] // tests unwrap: a failure is the test failing
 
 use std::sync::atomic::AtomicBool;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use serialport::{SerialPort, TTYPort};
@@ -16,9 +16,35 @@ use vistaf_hardware::led::{LedConfig, MemoryLedRing};
 use vistaf_hardware::sim::contact::{Contact, Indenter};
 use vistaf_hardware::sim::scene::{center_mm, ROOM_C, SPHERE_R_MM};
 use vistaf_hardware::sim::{SensorUnit, SimSource, SkinState};
+use vistaf_hardware::source::FrameSource;
 use vistaf_host::client::{Client, Next};
 use vistaf_host::link::{Link, LinkSpec};
 use vistaf_protocol::{DeviceMsg, MapKind};
+
+/// A source that notes when each frame it delivers was captured.
+struct Timed {
+    inner: SimSource,
+    log: Arc<Mutex<Vec<(u64, Instant)>>>,
+}
+
+impl FrameSource for Timed {
+    fn format(&self) -> vistaf_hardware::source::SourceFormat {
+        self.inner.format()
+    }
+    fn name(&self) -> String {
+        self.inner.name()
+    }
+    fn next_frame(
+        &mut self,
+    ) -> Result<Option<vistaf_hardware::frame::Frame>, vistaf_hardware::source::SourceError> {
+        let f = self.inner.next_frame()?;
+        if let Some(f) = &f {
+            let us = u64::try_from(f.timestamp.as_micros()).unwrap();
+            self.log.lock().unwrap().push((us, Instant::now()));
+        }
+        Ok(f)
+    }
+}
 
 #[test]
 fn summaries_cross_a_pty_in_order_and_match_the_scene() {
@@ -50,8 +76,13 @@ fn summaries_cross_a_pty_in_order_and_match_the_scene() {
         });
         states.push(s);
     }
-    // Paced at 30 frames/s so the commands below meet a running stream.
-    let source = SimSource::new("press", unit, states, Some(30.0), 7);
+    // Paced at 30 frames/s so the commands below meet a running stream; every delivered
+    // frame's capture time is noted, to measure capture-to-host latency.
+    let captured: Arc<Mutex<Vec<(u64, Instant)>>> = Arc::default();
+    let source = Timed {
+        inner: SimSource::new("press", unit, states, Some(30.0), 7),
+        log: captured.clone(),
+    };
     let (master, slave) = TTYPort::pair().unwrap();
     let path = slave.name().unwrap();
     let reader = master.try_clone_native().unwrap();
@@ -92,6 +123,7 @@ fn summaries_cross_a_pty_in_order_and_match_the_scene() {
     assert!(map.is_consistent() && map.cells.len() <= vistaf_protocol::msg::MAP_MAX_CELLS);
 
     let mut summaries = Vec::new();
+    let mut received = Vec::new();
     let deadline = Instant::now() + Duration::from_secs(30);
     while Instant::now() < deadline {
         match host
@@ -100,6 +132,7 @@ fn summaries_cross_a_pty_in_order_and_match_the_scene() {
         {
             Next::Message(r) => {
                 if let DeviceMsg::Summary(s) = r.msg {
+                    received.push(Instant::now());
                     summaries.push(s);
                 }
             }
@@ -144,4 +177,29 @@ fn summaries_cross_a_pty_in_order_and_match_the_scene() {
         assert!(s.force_mn > 0);
     }
     assert_eq!(host.drops().total(), 0);
+
+    // Capture-to-host latency (a measurement, reported, not asserted: time on a shared
+    // machine is not a test).
+    let log = captured.lock().unwrap();
+    let mut lat: Vec<f64> = summaries
+        .iter()
+        .zip(&received)
+        .filter_map(|(s, at)| {
+            let (_, t) = log.iter().find(|(us, _)| *us == s.capture_us)?;
+            Some(at.duration_since(*t).as_secs_f64() * 1e3)
+        })
+        .collect();
+    assert_eq!(
+        lat.len(),
+        summaries.len(),
+        "every summary traced to its frame"
+    );
+    lat.sort_by(f64::total_cmp);
+    println!(
+        "capture-to-host latency over a pty, {} summaries: p50 {:.1} ms, p95 {:.1} ms, max {:.1} ms",
+        lat.len(),
+        lat[lat.len() / 2],
+        lat[lat.len() * 95 / 100],
+        lat[lat.len() - 1]
+    );
 }
