@@ -27,8 +27,8 @@ use image::RgbImage;
 
 use super::carrier::{self, Carrier};
 use super::image_ops::gray_down_q8;
-use super::measure::{measure, Context, PhaseMap, UNITS_PER_RAD};
-use super::{Deformation, PipelineError};
+use super::measure::{PhaseMap, UNITS_PER_RAD};
+use super::PipelineError;
 use crate::calibration::Calibration;
 
 /// `atan(k/256)` for k = 0…256, in phase units (2π = 65 536).
@@ -341,11 +341,6 @@ impl FixedFtp {
                 (mix + arg * 65_536.0).round().rem_euclid(65_536.0) as u16
             })
             .collect()
-    }
-
-    /// Analyses one frame (force and shape only).
-    pub fn analyze(&self, frame: &RgbImage, ctx: &Context<'_>) -> Deformation {
-        measure(&self.phase(frame), self.factor, self.carrier, ctx)
     }
 }
 

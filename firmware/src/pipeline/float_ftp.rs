@@ -239,15 +239,6 @@ impl FloatFtp {
         }
     }
 
-    /// Analyses one frame (force and shape only).
-    pub fn analyze(
-        &self,
-        frame: &RgbImage,
-        ctx: &super::measure::Context<'_>,
-    ) -> super::Deformation {
-        super::measure::measure(&self.field(frame, ctx), self.factor, self.carrier, ctx)
-    }
-
     /// The reference's grating phase per working pixel, units of 2π/65 536: the analytic
     /// signal here keeps the carrier, so it is the argument itself.
     pub fn grating_phase(&self) -> Vec<u16> {

@@ -302,27 +302,35 @@ impl Analyzer {
         &self,
         frame: &RgbImage,
     ) -> Result<(Deformation, Vec<crate::thermal::stripes::Sums>), PipelineError> {
+        self.run(frame, |d, wrapped| {
+            let (s, _) = self.thermo.sums(frame, |i| wrapped[i], &d.reliable, None);
+            (d, s)
+        })
+    }
+
+    /// Phase and measurement of a frame on either path; `then` gets the force-side result
+    /// and the wrapped phase difference per working pixel (units).
+    fn run<R>(
+        &self,
+        frame: &RgbImage,
+        then: impl FnOnce(Deformation, &[i32]) -> R,
+    ) -> Result<R, PipelineError> {
         self.check_size(frame)?;
         let ctx = self.context();
         Ok(match &self.imp {
             Imp::Float(f) => {
                 let map = f.field(frame, &ctx);
-                let d = measure::measure(&map, f.geometry().2, f.carrier(), &ctx);
-                let (s, _) = self.thermo.sums(
-                    frame,
-                    |i| (map.wrapped_rad(i) * measure::UNITS_PER_RAD).round() as i32,
-                    &d.reliable,
-                    None,
-                );
-                (d, s)
+                let (w, h, factor) = f.geometry();
+                let d = measure::measure(&map, factor, f.carrier(), &ctx);
+                let wrapped: Vec<i32> = (0..w * h)
+                    .map(|i| (map.wrapped_rad(i) * measure::UNITS_PER_RAD).round() as i32)
+                    .collect();
+                then(d, &wrapped)
             }
             Imp::Fixed(f) => {
                 let field = f.phase(frame);
                 let d = measure::measure(&field, f.geometry().2, f.carrier(), &ctx);
-                let (s, _) = self
-                    .thermo
-                    .sums(frame, |i| field.wrapped[i], &d.reliable, None);
-                (d, s)
+                then(d, &field.wrapped)
             }
         })
     }
@@ -355,33 +363,8 @@ impl Analyzer {
 
     /// Analyses one frame.
     pub fn analyze(&self, frame: &RgbImage) -> Result<Deformation, PipelineError> {
-        if frame.dimensions() != self.size {
-            return Err(PipelineError::SizeMismatch {
-                w: self.size.0,
-                h: self.size.1,
-                got_w: frame.width(),
-                got_h: frame.height(),
-            });
-        }
-        let ctx = measure::Context {
-            calib: &self.calib,
-            mm_per_px: self.mm_per_px,
-            ref_saturated_fraction: self.ref_saturation,
-            unwrap: self.unwrap,
-        };
-        Ok(match &self.imp {
-            Imp::Float(f) => {
-                let map = f.field(frame, &ctx);
-                let d = measure::measure(&map, f.geometry().2, f.carrier(), &ctx);
-                with_temperature(d, frame, &self.thermo, |i| {
-                    (map.wrapped_rad(i) * measure::UNITS_PER_RAD).round() as i32
-                })
-            }
-            Imp::Fixed(f) => {
-                let field = f.phase(frame);
-                let d = measure::measure(&field, f.geometry().2, f.carrier(), &ctx);
-                with_temperature(d, frame, &self.thermo, |i| field.wrapped[i])
-            }
+        self.run(frame, |d, wrapped| {
+            with_temperature(d, frame, &self.thermo, |i| wrapped[i])
         })
     }
 }
