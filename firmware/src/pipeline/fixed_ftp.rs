@@ -31,10 +31,13 @@ use super::measure::{PhaseMap, UNITS_PER_RAD};
 use super::PipelineError;
 use crate::calibration::Calibration;
 
-/// `atan(k/256)` for k = 0…256, in phase units (2π = 65 536).
-fn atan_table() -> [u16; 257] {
-    std::array::from_fn(|k| {
-        ((k as f64 / 256.0).atan() * 65_536.0 / std::f64::consts::TAU).round() as u16
+/// `atan(k/256)` for k = 0…256, in phase units (2π = 65 536), built once.
+pub fn atan_table() -> &'static [u16; 257] {
+    static TABLE: std::sync::OnceLock<[u16; 257]> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        std::array::from_fn(|k| {
+            ((k as f64 / 256.0).atan() * 65_536.0 / std::f64::consts::TAU).round() as u16
+        })
     })
 }
 
@@ -70,65 +73,89 @@ pub fn atan2_units(y: i64, x: i64, table: &[u16; 257]) -> i32 {
     i32::from(a as i16)
 }
 
-/// One running-sum box pass of length `len` over `src` (a line of `n` samples), edge-
-/// replicated, `before` samples to the left of each output; normalised by `recip` (Q16).
-#[inline]
-fn box_line(src: &[i32], dst: &mut [i32], len: usize, before: usize, recip: i64) {
-    let n = src.len();
-    let at = |k: isize| src[k.clamp(0, n as isize - 1) as usize];
-    let mut sum: i64 = (0..len)
-        .map(|k| i64::from(at(k as isize - before as isize)))
-        .sum();
-    let after = (len - before) as isize;
-    // Edges (clamped reads) and the interior (direct reads) in one loop with a fast path.
-    for (i, d) in dst.iter_mut().enumerate() {
-        *d = ((sum * recip) >> 16) as i32;
-        let (add, sub) = (i as isize + after, i as isize - before as isize);
-        let (a, b) = if sub >= 0 && (add as usize) < n {
-            (src[add as usize], src[sub as usize])
-        } else {
-            (at(add), at(sub))
-        };
-        sum += i64::from(a) - i64::from(b);
+/// The centred triangle low-pass of length `2·len − 1` (two cascaded boxes of length
+/// `len`, the same response as two running-sum box passes) along rows or columns, by the
+/// cascaded-integrator-comb structure: two running integrators and the comb
+/// `I₂[k+len−1] − 2·I₂[k−1] + I₂[k−len−1]`. Two additions per sample and a comb of three
+/// taps, whatever `len`, and no normalisation: the phase does not depend on the gain, and
+/// every amplitude test compares amplitudes of the same gain. Lines are zero-padded at both
+/// ends (the measurement's margin excludes the pixels that see the padding).
+///
+/// Arithmetic wraps: the integrators overflow, and the comb's result is still exact as long
+/// as it fits in an `i32` ([`headroom_shift`] scales the input so that it does). Columns
+/// are filtered a whole row at a time, so that pass reads memory in order and vectorises.
+struct Cic {
+    len: usize,
+}
+
+impl Cic {
+    /// Filters every row of `buf` (`w × h`) along x, using `work` for one row of `I₂`.
+    fn rows(&self, buf: &mut [i32], w: usize, work: &mut Vec<i32>) {
+        let l = self.len;
+        // work[k] = I₂ at sample k − (l + 1); zero for k ≤ l.
+        work.clear();
+        work.resize(w + 2 * l, 0);
+        for row in buf.chunks_exact_mut(w) {
+            let (mut i1, mut i2) = (0i32, 0i32);
+            let (head, tail) = work[l + 1..].split_at_mut(w);
+            for (slot, v) in head.iter_mut().zip(row.iter()) {
+                i1 = i1.wrapping_add(*v);
+                i2 = i2.wrapping_add(i1);
+                *slot = i2;
+            }
+            // Past the end the input is zero: I₁ stays, I₂ keeps growing by it.
+            for slot in tail.iter_mut() {
+                i2 = i2.wrapping_add(i1);
+                *slot = i2;
+            }
+            for (x, out) in row.iter_mut().enumerate() {
+                *out = work[x + 2 * l]
+                    .wrapping_sub(work[x + l].wrapping_mul(2))
+                    .wrapping_add(work[x]);
+            }
+        }
+    }
+
+    /// Filters every column of `buf` (`w × h`) along y, a whole row of columns at a time;
+    /// `work` holds `I₂` for `h + 2·len` rows.
+    fn columns(&self, buf: &mut [i32], w: usize, h: usize, work: &mut Vec<i32>) {
+        let l = self.len;
+        work.clear();
+        work.resize(w * (h + 2 * l), 0);
+        let mut i1 = vec![0i32; w];
+        let mut i2 = vec![0i32; w];
+        for k in l + 1..h + 2 * l {
+            let y = k - (l + 1);
+            if y < h {
+                for (a, v) in i1.iter_mut().zip(&buf[y * w..(y + 1) * w]) {
+                    *a = a.wrapping_add(*v);
+                }
+            }
+            for (b, a) in i2.iter_mut().zip(&i1) {
+                *b = b.wrapping_add(*a);
+            }
+            work[k * w..(k + 1) * w].copy_from_slice(&i2);
+        }
+        for (y, out) in buf.chunks_exact_mut(w).enumerate() {
+            let (r0, r1, r2) = (y * w, (y + l) * w, (y + 2 * l) * w);
+            for (x, o) in out.iter_mut().enumerate() {
+                *o = work[r2 + x]
+                    .wrapping_sub(work[r1 + x].wrapping_mul(2))
+                    .wrapping_add(work[r0 + x]);
+            }
+        }
     }
 }
 
-/// Two passes of a running-sum box of length `len` along rows (`along_x`) or columns of
-/// `buf` (`w × h`), edge-replicated, normalised by a Q16 reciprocal. Columns are processed
-/// a whole row at a time, so memory is read in order.
-fn box2(buf: &mut [i32], w: usize, h: usize, len: usize, along_x: bool, tmp: &mut Vec<i32>) {
-    let len = len.max(1);
-    let recip = (((1u64 << 16) + len as u64 / 2) / len as u64) as i64;
-    tmp.resize(buf.len(), 0);
-    // An even box is off-centre by half a sample; the second pass leans the other way, so
-    // the cascade is centred.
-    for before in [len / 2, (len - 1) / 2] {
-        if along_x {
-            for (src, dst) in buf.chunks_exact(w).zip(tmp.chunks_exact_mut(w)) {
-                box_line(src, dst, len, before, recip);
-            }
-        } else {
-            let row = |y: isize| y.clamp(0, h as isize - 1) as usize * w;
-            let mut sum: Vec<i64> = vec![0; w];
-            for k in 0..len {
-                let r = row(k as isize - before as isize);
-                for (s, v) in sum.iter_mut().zip(&buf[r..r + w]) {
-                    *s += i64::from(*v);
-                }
-            }
-            let after = (len - before) as isize;
-            for y in 0..h {
-                for (d, s) in tmp[y * w..(y + 1) * w].iter_mut().zip(&sum) {
-                    *d = ((s * recip) >> 16) as i32;
-                }
-                let (ra, rs) = (row(y as isize + after), row(y as isize - before as isize));
-                for ((s, a), b) in sum.iter_mut().zip(&buf[ra..ra + w]).zip(&buf[rs..rs + w]) {
-                    *s += i64::from(*a) - i64::from(*b);
-                }
-            }
-        }
-        buf.copy_from_slice(tmp);
+/// Right shift of the mixed samples that keeps the triangle filters' results within an
+/// `i32`: their gain is `lx²·ly²` on samples of at most 65 280.
+fn headroom_shift(lx: usize, ly: usize) -> u32 {
+    let gain = (lx * lx * ly * ly) as u64 * 65_280;
+    let mut shift = 0;
+    while (gain >> shift) > i32::MAX as u64 {
+        shift += 1;
     }
+    shift
 }
 
 /// Phase → depth table: depth (µm) every [`DepthLut::STEP`] phase units, linear between.
@@ -186,20 +213,21 @@ pub struct FixedFtp {
     mix: Vec<[i16; 2]>,
     lx: usize,
     ly: usize,
-    z_ref: Vec<[i32; 2]>,
+    shift: u32,
+    re_ref: Vec<i32>,
+    im_ref: Vec<i32>,
     amp_ref: Vec<u32>,
     ref_median: u32,
-    atan: [u16; 257],
-    trig: Vec<[i16; 2]>,
+    atan: &'static [u16; 257],
     lut: DepthLut,
     rows_only: bool,
 }
 
 /// |z| approximated as max + ⅜·min (within 7 %): enough for reliability and ordering.
-fn amp(z: [i32; 2]) -> u32 {
-    let (a, b) = (z[0].unsigned_abs(), z[1].unsigned_abs());
+fn amp(re: i32, im: i32) -> u32 {
+    let (a, b) = (u64::from(re.unsigned_abs()), u64::from(im.unsigned_abs()));
     let (hi, lo) = if a > b { (a, b) } else { (b, a) };
-    hi + ((3 * lo) >> 3)
+    (hi + ((3 * lo) >> 3)).min(u64::from(u32::MAX)) as u32
 }
 
 impl FixedFtp {
@@ -234,15 +262,7 @@ impl FixedFtp {
             })
             .collect();
         let (lx, ly) = super::float_ftp::box_lengths(&carrier);
-        let trig = (0..4096)
-            .map(|k| {
-                let a = std::f64::consts::TAU * k as f64 / 4096.0;
-                [
-                    (a.cos() * 32_767.0).round() as i16,
-                    (a.sin() * 32_767.0).round() as i16,
-                ]
-            })
-            .collect();
+        let shift = headroom_shift(lx, if rows_only { 1 } else { ly });
         let mut f = FixedFtp {
             w,
             h,
@@ -251,16 +271,22 @@ impl FixedFtp {
             mix,
             lx,
             ly,
-            z_ref: Vec::new(),
+            shift,
+            re_ref: Vec::new(),
+            im_ref: Vec::new(),
             amp_ref: Vec::new(),
             ref_median: 0,
             atan: atan_table(),
-            trig,
             lut: DepthLut::new(calib),
             rows_only,
         };
-        f.z_ref = f.analytic(&gray);
-        f.amp_ref = f.z_ref.iter().map(|&z| amp(z)).collect();
+        (f.re_ref, f.im_ref) = f.analytic(&gray);
+        f.amp_ref = f
+            .re_ref
+            .iter()
+            .zip(&f.im_ref)
+            .map(|(&a, &b)| amp(a, b))
+            .collect();
         let mut a = f.amp_ref.clone();
         let k = a.len() / 2;
         f.ref_median = a.select_nth_unstable(k).1.to_owned();
@@ -277,27 +303,30 @@ impl FixedFtp {
         self.carrier
     }
 
-    /// The analytic signal of a Q8 luminance image, `[re, im]` in luminance Q8 units.
-    fn analytic(&self, gray: &[u16]) -> Vec<[i32; 2]> {
+    /// The analytic signal of a Q8 luminance image as (re, im) planes, in luminance Q8
+    /// units times the filters' gain over `2^shift`.
+    fn analytic(&self, gray: &[u16]) -> (Vec<i32>, Vec<i32>) {
         let (w, h) = (self.w, self.h);
+        let sh = 15 + self.shift;
         let mut re: Vec<i32> = Vec::with_capacity(w * h);
         let mut im: Vec<i32> = Vec::with_capacity(w * h);
         for (g, m) in gray.iter().zip(&self.mix) {
             let g = i32::from(*g);
-            re.push((g * i32::from(m[0])) >> 15);
-            im.push(-((g * i32::from(m[1])) >> 15));
+            re.push((g * i32::from(m[0])) >> sh);
+            im.push(-((g * i32::from(m[1])) >> sh));
         }
-        let mut tmp = Vec::new();
+        let mut work = Vec::new();
         for buf in [&mut re, &mut im] {
-            box2(buf, w, h, self.lx, true, &mut tmp);
+            Cic { len: self.lx }.rows(buf, w, &mut work);
             if !self.rows_only {
-                box2(buf, w, h, self.ly, false, &mut tmp);
+                Cic { len: self.ly }.columns(buf, w, h, &mut work);
             }
         }
-        re.into_iter().zip(im).map(|(a, b)| [a, b]).collect()
+        (re, im)
     }
 
-    /// Wrapped phase difference (units) and frame amplitude per working pixel.
+    /// The frame's analytic signal; its phase difference to the reference is computed per
+    /// pixel where the measurement asks for it (a coarse grid and the contact region).
     pub fn phase(&self, frame: &RgbImage) -> FixedField<'_> {
         let (gray, w, h, saturated) = gray_down_q8(frame, self.factor);
         assert_eq!(
@@ -305,26 +334,12 @@ impl FixedFtp {
             (self.w, self.h),
             "frame size differs from the reference"
         );
-        let z = self.analytic(&gray);
-        let mut wrapped = Vec::with_capacity(w * h);
-        let mut amp_frame = Vec::with_capacity(w * h);
-        for (zf, zr) in z.iter().zip(&self.z_ref) {
-            let (a, b, c, d) = (
-                i64::from(zf[0]),
-                i64::from(zf[1]),
-                i64::from(zr[0]),
-                i64::from(zr[1]),
-            );
-            wrapped.push(atan2_units(b * c - a * d, a * c + b * d, &self.atan));
-            amp_frame.push(amp(*zf));
-        }
-        let saturated_fraction =
-            saturated as f32 / (frame.width() as f32 * frame.height() as f32).max(1.0);
+        let (re, im) = self.analytic(&gray);
         FixedField {
             ftp: self,
-            wrapped,
-            amp_frame,
-            saturated_fraction,
+            re,
+            im,
+            saturated_fraction: saturated,
         }
     }
 
@@ -332,27 +347,27 @@ impl FixedFtp {
     /// phase plus the demodulated signal's argument.
     pub fn grating_phase(&self) -> Vec<u16> {
         let (fx, fy) = (f64::from(self.carrier.fx), f64::from(self.carrier.fy));
-        self.z_ref
+        self.re_ref
             .iter()
+            .zip(&self.im_ref)
             .enumerate()
-            .map(|(i, z)| {
+            .map(|(i, (&re, &im))| {
                 let mix = (fx * (i % self.w) as f64 + fy * (i / self.w) as f64) * 65_536.0;
-                let arg = f64::from(z[1]).atan2(f64::from(z[0])) / std::f64::consts::TAU;
+                let arg = f64::from(im).atan2(f64::from(re)) / std::f64::consts::TAU;
                 (mix + arg * 65_536.0).round().rem_euclid(65_536.0) as u16
             })
             .collect()
     }
 }
 
-/// A frame's phase on the device path.
+/// A frame on the device path: its analytic signal, whose phase difference to the
+/// reference's is computed where it is read.
 #[derive(Debug)]
 pub struct FixedField<'a> {
     ftp: &'a FixedFtp,
-    /// Wrapped phase difference, units.
-    pub wrapped: Vec<i32>,
-    /// Frame amplitude.
-    pub amp_frame: Vec<u32>,
-    /// Fraction of input pixels with a saturated channel.
+    re: Vec<i32>,
+    im: Vec<i32>,
+    /// Fraction of the sampled input pixels with a saturated channel.
     pub saturated_fraction: f32,
 }
 
@@ -361,27 +376,21 @@ impl PhaseMap for FixedField<'_> {
     fn size(&self) -> (usize, usize) {
         (self.ftp.w, self.ftp.h)
     }
+    /// `arg(z · conj z_ref)` in phase units: the product in 64 bits, then the integer
+    /// `atan2`.
     fn wrapped(&self, i: usize) -> i32 {
-        self.wrapped[i]
+        let (a, b) = (i64::from(self.re[i]), i64::from(self.im[i]));
+        let (c, d) = (i64::from(self.ftp.re_ref[i]), i64::from(self.ftp.im_ref[i]));
+        atan2_units(b * c - a * d, a * c + b * d, self.ftp.atan)
     }
     fn amp_frame(&self, i: usize) -> u32 {
-        self.amp_frame[i]
+        amp(self.re[i], self.im[i])
     }
     fn amp_ref(&self, i: usize) -> u32 {
         self.ftp.amp_ref[i]
     }
     fn amp_ref_median(&self) -> u32 {
         self.ftp.ref_median
-    }
-    fn mean_direction(&self, keep: &dyn Fn(usize) -> bool) -> i32 {
-        let (mut s, mut c) = (0i64, 0i64);
-        for i in (0..self.wrapped.len()).filter(|&i| keep(i)) {
-            let t = self.ftp.trig[((self.wrapped[i].wrapping_add(8) as u32 >> 4) & 4095) as usize];
-            let a = i64::from(self.amp_frame[i]);
-            c += a * i64::from(t[0]);
-            s += a * i64::from(t[1]);
-        }
-        atan2_units(s, c, &self.ftp.atan)
     }
     fn saturated_fraction(&self) -> f32 {
         self.saturated_fraction
@@ -403,7 +412,7 @@ mod tests {
             let a = std::f64::consts::TAU * k as f64 / 3600.0 - std::f64::consts::PI;
             for r in [1.0, 37.0, 1e4, 3e9] {
                 let (y, x) = ((a.sin() * r).round() as i64, (a.cos() * r).round() as i64);
-                let got = f64::from(atan2_units(y, x, &t)) / 65_536.0 * std::f64::consts::TAU;
+                let got = f64::from(atan2_units(y, x, t)) / 65_536.0 * std::f64::consts::TAU;
                 let want = (y as f64).atan2(x as f64);
                 let mut e = (got - want).abs();
                 e = e.min((e - std::f64::consts::TAU).abs());
@@ -413,22 +422,35 @@ mod tests {
             }
         }
         assert!(worst < 2e-4, "worst error {worst} rad");
-        assert_eq!(atan2_units(0, 0, &t), 0);
+        assert_eq!(atan2_units(0, 0, t), 0);
     }
 
     #[test]
-    fn box_filter_keeps_constants_and_nulls_its_period() {
-        let (w, h) = (40, 3);
+    fn triangle_filter_keeps_constants_and_nulls_its_period() {
+        let (w, h, l) = (40, 30, 8);
+        let gain = (l * l) as i32;
+        let mut work = Vec::new();
         let mut flat = vec![1000i32; w * h];
-        let mut tmp = Vec::new();
-        box2(&mut flat, w, h, 8, true, &mut tmp);
-        assert!(flat.iter().all(|&v| (v - 1000).abs() <= 1), "{flat:?}");
+        Cic { len: l }.rows(&mut flat, w, &mut work);
+        for x in l..w - l {
+            assert_eq!(flat[w + x], 1000 * gain, "x={x}");
+        }
         let mut wave: Vec<i32> = (0..w * h)
             .map(|i| (1000.0 * (std::f64::consts::TAU * (i % w) as f64 / 8.0).cos()) as i32)
             .collect();
-        box2(&mut wave, w, h, 8, true, &mut tmp);
-        for x in 8..32 {
-            assert!(wave[w + x].abs() <= 2, "x={x}: {}", wave[w + x]);
+        Cic { len: l }.rows(&mut wave, w, &mut work);
+        for x in l..w - l {
+            assert!(wave[w + x].abs() <= 2 * gain, "x={x}: {}", wave[w + x]);
         }
+        // Columns: the same filter along y, and the headroom shift keeps the largest
+        // input inside an i32 through both.
+        let mut col: Vec<i32> = (0..w * h).map(|i| 500 + (i / w) as i32).collect();
+        Cic { len: 4 }.columns(&mut col, w, h, &mut work);
+        for y in 4..h - 4 {
+            assert_eq!(col[y * w + 3], (500 + y as i32) * 16, "y={y}");
+        }
+        let s = headroom_shift(64, 64);
+        let worst = (65_280u64 >> s) * 64u64.pow(4);
+        assert!(worst <= i32::MAX as u64);
     }
 }

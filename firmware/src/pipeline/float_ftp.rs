@@ -273,15 +273,6 @@ impl super::measure::PhaseMap for FloatMap<'_> {
     fn amp_ref_median(&self) -> u32 {
         self.ref_median
     }
-    fn mean_direction(&self, keep: &dyn Fn(usize) -> bool) -> f32 {
-        let (mut s, mut c) = (0.0f64, 0.0f64);
-        for i in (0..self.field.wrapped.len()).filter(|&i| keep(i)) {
-            let a = f64::from(self.field.amp_frame[i]);
-            s += a * f64::from(self.field.wrapped[i]).sin();
-            c += a * f64::from(self.field.wrapped[i]).cos();
-        }
-        s.atan2(c) as f32
-    }
     fn saturated_fraction(&self) -> f32 {
         self.saturated
     }

@@ -18,8 +18,12 @@ use crate::calibration::{Calibration, ForceFeature};
 pub const CONTACT_SIGMAS: f32 = 6.0;
 /// …and at least this much, rad (a floor for very clean frames).
 pub const MIN_CONTACT_RAD: f32 = 0.02;
-/// Pixels above threshold a tile needs to count as contact.
-pub const TILE_MIN_PIXELS: usize = 3;
+/// Step of the coarse grid, working pixels each way: registration, noise, contrast and
+/// contact detection read the phase every `GRID`-th pixel (the analytic signal is smooth
+/// over a carrier period, 6–12 working pixels); the contact region is read at every pixel.
+pub const GRID: usize = 2;
+/// Coarse samples above threshold a tile needs to count as contact (of the 16 a tile has).
+pub const TILE_MIN_SAMPLES: usize = 2;
 /// Unwrap only when some phase in the contact region exceeds this, rad (below it nothing
 /// can have wrapped: the background is at 0 and the phase is continuous).
 pub const UNWRAP_TRIGGER_RAD: f32 = 0.6 * std::f32::consts::PI;
@@ -45,6 +49,8 @@ pub const DIPOLE_RATIO: f32 = 0.35;
 /// Phase-slope flag: more than this fraction of the deformed pixels lost half their fringe
 /// amplitude.
 pub const BAND_LOSS_FRACTION: f32 = 0.01;
+/// …and at least this many coarse samples ([`GRID`]² working pixels each).
+pub const BAND_LOSS_MIN: usize = 2;
 /// Phase-slope flag: a contact area below this fraction of the calibrated indenter's area at
 /// the same depth.
 pub const SHARPNESS_RATIO: f64 = 0.7;
@@ -96,9 +102,12 @@ pub struct Features {
 }
 
 /// Features of a working-resolution depth map (µm), in integer sums: shared by both paths.
+///
+/// `depth_um` may be a window of the working image whose top-left pixel is `origin`.
 pub fn summarize(
     depth_um: &[i32],
     w: usize,
+    origin: (usize, usize),
     factor: usize,
     mm_per_px: f32,
     thr_um: i32,
@@ -143,15 +152,15 @@ pub fn summarize(
     }
     let px_mm = mm_per_px * factor as f32;
     let px_area = px_mm * px_mm;
-    let to_input = |v: f32| (v + 0.5) * factor as f32;
+    let to_input = |v: f32, o: usize| (v + o as f32 + 0.5) * factor as f32;
     Features {
         peak_mm: peak as f32 / 1000.0,
         area_mm2: n_area as f32 * px_area,
         volume_mm3: vol as f32 / 1000.0 * px_area,
         centroid_px: (ws > 0).then(|| {
             (
-                to_input(wx as f32 / ws as f32),
-                to_input(wy as f32 / ws as f32),
+                to_input(wx as f32 / ws as f32, origin.0),
+                to_input(wy as f32 / ws as f32, origin.1),
             )
         }),
     }
@@ -169,36 +178,35 @@ pub fn force_of(calib: &Calibration, f: &Features, integrated_phase: f32) -> f32
     fm.model.force_n(f64::from(u)) as f32
 }
 
-/// Active contact tiles, dilated by one tile, as a pixel mask; `None` when there is none.
-pub fn contact_region(
+/// Contact tiles ([`TILE_PX`] working pixels square) from the coarse grid (`cw × ch`
+/// samples, [`GRID`] pixels apart): a tile is active when at least [`TILE_MIN_SAMPLES`] of
+/// its samples are `above`; the active tiles dilated by one tile are the region (`tw × th`
+/// tiles). `None` when there is none, or when fewer than `min_total` samples are above in
+/// all: the band-pass spreads any indentation over about a period each way, so a blob
+/// smaller than a disc one period across is a speck of the image (an illumination edge
+/// under a shifted grating, a hot pixel), not a contact.
+pub fn contact_tiles(
     above: impl Fn(usize) -> bool,
-    w: usize,
-    h: usize,
+    (cw, ch): (usize, usize),
+    (tw, th): (usize, usize),
+    min_total: usize,
 ) -> Option<(Vec<bool>, usize)> {
-    let (tw, th) = (w.div_ceil(TILE_PX), h.div_ceil(TILE_PX));
-    let mut active = vec![false; tw * th];
-    let mut any = false;
-    for ty in 0..th {
-        for tx in 0..tw {
-            let mut n = 0;
-            for y in ty * TILE_PX..((ty + 1) * TILE_PX).min(h) {
-                for x in tx * TILE_PX..((tx + 1) * TILE_PX).min(w) {
-                    n += usize::from(above(y * w + x));
-                }
-            }
-            if n >= TILE_MIN_PIXELS {
-                active[ty * tw + tx] = true;
-                any = true;
+    let per = TILE_PX / GRID;
+    let mut count = vec![0usize; tw * th];
+    for cy in 0..ch {
+        for cx in 0..cw {
+            if above(cy * cw + cx) {
+                count[(cy / per) * tw + cx / per] += 1;
             }
         }
     }
-    if !any {
+    if count.iter().all(|&c| c < TILE_MIN_SAMPLES) || count.iter().sum::<usize>() < min_total {
         return None;
     }
     let mut dil = vec![false; tw * th];
     for ty in 0..th {
         for tx in 0..tw {
-            if active[ty * tw + tx] {
+            if count[ty * tw + tx] >= TILE_MIN_SAMPLES {
                 for y in ty.saturating_sub(1)..(ty + 2).min(th) {
                     for x in tx.saturating_sub(1)..(tx + 2).min(tw) {
                         dil[y * tw + x] = true;
@@ -208,10 +216,7 @@ pub fn contact_region(
         }
     }
     let tiles = dil.iter().filter(|t| **t).count();
-    let mask = (0..w * h)
-        .map(|i| dil[(i / w / TILE_PX) * tw + (i % w) / TILE_PX])
-        .collect();
-    Some((mask, tiles))
+    Some((dil, tiles))
 }
 
 /// Phase units per radian in the integer representation (65 536 per turn).
@@ -229,6 +234,22 @@ pub trait PhaseNum: Phase {
     fn from_rad(r: f32) -> Self;
     /// `sign · self` for a sign of ±1.
     fn signed(self, sign: i32) -> Self;
+    /// Amplitude-weighted mean direction of `(phase, amplitude)` samples.
+    fn direction(samples: impl Iterator<Item = (Self, u32)>) -> Self;
+}
+
+/// `(cos, sin)` of 4 096 phases around the circle, Q15: the device path's mean direction.
+fn trig_q15() -> &'static [[i16; 2]; 4096] {
+    static TABLE: std::sync::OnceLock<[[i16; 2]; 4096]> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        std::array::from_fn(|k| {
+            let a = std::f64::consts::TAU * k as f64 / 4096.0;
+            [
+                (a.cos() * 32_767.0).round() as i16,
+                (a.sin() * 32_767.0).round() as i16,
+            ]
+        })
+    })
 }
 
 impl PhaseNum for f32 {
@@ -240,6 +261,14 @@ impl PhaseNum for f32 {
     }
     fn signed(self, sign: i32) -> f32 {
         self * sign as f32
+    }
+    fn direction(samples: impl Iterator<Item = (f32, u32)>) -> f32 {
+        let (mut s, mut c) = (0.0f64, 0.0f64);
+        for (p, a) in samples {
+            s += f64::from(a) * f64::from(p).sin();
+            c += f64::from(a) * f64::from(p).cos();
+        }
+        s.atan2(c) as f32
     }
 }
 
@@ -253,6 +282,16 @@ impl PhaseNum for i32 {
     fn signed(self, sign: i32) -> i32 {
         self * sign
     }
+    fn direction(samples: impl Iterator<Item = (i32, u32)>) -> i32 {
+        let trig = trig_q15();
+        let (mut s, mut c) = (0i64, 0i64);
+        for (p, a) in samples {
+            let t = trig[((p.wrapping_add(8) as u32 >> 4) & 4095) as usize];
+            c += i64::from(a) * i64::from(t[0]);
+            s += i64::from(a) * i64::from(t[1]);
+        }
+        super::fixed_ftp::atan2_units(s, c, super::fixed_ftp::atan_table())
+    }
 }
 
 /// A wrapped phase-difference map with fringe amplitudes: what either path hands to the
@@ -262,7 +301,8 @@ pub trait PhaseMap {
     type P: PhaseNum;
     /// Working width and height.
     fn size(&self) -> (usize, usize);
-    /// Wrapped phase difference at pixel `i`.
+    /// Wrapped phase difference at pixel `i` (the measurement reads each pixel it needs
+    /// once, so a path may compute it here).
     fn wrapped(&self, i: usize) -> Self::P;
     /// Fringe amplitude of the frame at `i` (any fixed scale shared with `amp_ref`).
     fn amp_frame(&self, i: usize) -> u32;
@@ -270,8 +310,6 @@ pub trait PhaseMap {
     fn amp_ref(&self, i: usize) -> u32;
     /// Median reference amplitude (computed once per reference).
     fn amp_ref_median(&self) -> u32;
-    /// Amplitude-weighted mean direction of the phase over the pixels `keep` accepts.
-    fn mean_direction(&self, keep: &dyn Fn(usize) -> bool) -> Self::P;
     /// Fraction of the frame's input pixels with a saturated channel.
     fn saturated_fraction(&self) -> f32;
     /// Depth (µm) of an indentation phase `x` (already signed, ≥ 0 under indentation).
@@ -287,7 +325,8 @@ fn median_u32(mut v: Vec<u32>) -> u32 {
 }
 
 /// Phase noise (1σ, phase units): the robust spread of the phase minus its local mean over
-/// a box of `box_px` (about two periods), so smooth deformation does not count as noise.
+/// a box of `box_px` samples (about two periods), so smooth deformation does not count as
+/// noise. `phi` is `w × h` samples (the coarse grid).
 pub fn local_noise_units(phi: &[i32], reliable: &[bool], w: usize, h: usize, box_px: usize) -> i32 {
     let r = (box_px / 2).max(1);
     let mut ii = vec![0i64; (w + 1) * (h + 1)];
@@ -300,8 +339,8 @@ pub fn local_noise_units(phi: &[i32], reliable: &[bool], w: usize, h: usize, box
     }
     let area = ((2 * r + 1) * (2 * r + 1)) as i64;
     let mut dev = Vec::new();
-    for y in (r..h.saturating_sub(r)).step_by(2) {
-        for x in (r..w.saturating_sub(r)).step_by(2) {
+    for y in r..h.saturating_sub(r) {
+        for x in r..w.saturating_sub(r) {
             let i = y * w + x;
             if !reliable[i] {
                 continue;
@@ -340,33 +379,86 @@ fn slope_p98(u: &[i32], mask: &[bool], w: usize, h: usize) -> i32 {
     *s.select_nth_unstable(k).1 as i32
 }
 
+/// The wrapped phase difference (units) as the measurement read it: every [`GRID`]-th
+/// pixel each way, and every pixel of the contact region and its border. Elsewhere the
+/// nearest sample stands in, which is what the temperature's stripe placement needs: away
+/// from contact the difference is the registration offset plus noise.
+#[derive(Debug, Clone, Default)]
+pub struct WrappedPhase {
+    w: usize,
+    cw: usize,
+    coarse: Vec<i32>,
+    /// The region's window: origin, width, height and values (`i32::MIN`: not read).
+    local: Option<(usize, usize, usize, usize, Vec<i32>)>,
+}
+
+impl WrappedPhase {
+    /// The wrapped phase difference at working pixel `i`, units.
+    pub fn at(&self, i: usize) -> i32 {
+        let (x, y) = (i % self.w.max(1), i / self.w.max(1));
+        if let Some((x0, y0, bw, bh, v)) = &self.local {
+            if x >= *x0 && y >= *y0 && x < x0 + bw && y < y0 + bh {
+                let u = v[(y - y0) * bw + (x - x0)];
+                if u != i32::MIN {
+                    return u;
+                }
+            }
+        }
+        self.coarse
+            .get((y / GRID) * self.cw + x / GRID)
+            .copied()
+            .unwrap_or(0)
+    }
+}
+
 /// The measurement, shared by both paths: registration, noise floor, early exit, contact
 /// tiles, unwrapping where needed, depth, features and flags.
+///
+/// Work follows the scene: the background is read on the coarse grid ([`GRID`]), and only
+/// the contact region's window at every pixel. Returns the result and the phase as read
+/// (for the temperature's stripe placement).
 pub fn measure<M: PhaseMap>(
     map: &M,
     factor: usize,
     carrier: Carrier,
     ctx: &Context<'_>,
-) -> Deformation {
+) -> (Deformation, WrappedPhase) {
     let (w, h) = map.size();
     let n = w * h;
+    let (cw, ch) = (w.div_ceil(GRID), h.div_ceil(GRID));
+    let (tw, th) = (w.div_ceil(TILE_PX), h.div_ceil(TILE_PX));
     let med_ref = map.amp_ref_median().max(1);
-    let lim = |m: u32| (u64::from(m) * (RELIABLE_AMPLITUDE * 1024.0) as u64 / 1024) as u32;
-    // Near the image edge neither the FFT (periodic wrap) nor the box filters (replicated
+    let lim = (u64::from(med_ref) * (RELIABLE_AMPLITUDE * 1024.0) as u64 / 1024) as u32;
+    // Near the image edge neither the FFT (periodic wrap) nor the box filters (padded
     // edges) see a whole neighbourhood: the two box passes reach one period each way, so
     // pixels within a period and a half of the edge are not trusted.
     let margin = (1.5 * carrier.period_px()).ceil() as usize;
-    let inside = |i: usize| {
-        let (x, y) = (i % w, i / w);
-        x >= margin && y >= margin && x + margin < w && y + margin < h
-    };
-    let reliable: Vec<bool> = (0..n)
-        .map(|i| inside(i) && map.amp_ref(i) > lim(med_ref) && map.amp_frame(i) > lim(med_ref))
-        .collect();
+    let inside =
+        |x: usize, y: usize| x >= margin && y >= margin && x + margin < w && y + margin < h;
+
+    // The coarse grid: phase, frame amplitude and reliability of every GRID-th pixel.
+    let mut phase: Vec<M::P> = Vec::with_capacity(cw * ch);
+    let mut amp: Vec<u32> = Vec::with_capacity(cw * ch);
+    let mut amp_r: Vec<u32> = Vec::with_capacity(cw * ch);
+    let mut rel: Vec<bool> = Vec::with_capacity(cw * ch);
+    let (mut inside_n, mut reliable_n) = (0usize, 0usize);
+    for cy in 0..ch {
+        let y = cy * GRID;
+        for cx in 0..cw {
+            let (x, i) = (cx * GRID, y * w + cx * GRID);
+            let (af, ar) = (map.amp_frame(i), map.amp_ref(i));
+            let ins = inside(x, y);
+            let r = ins && af > lim && ar > lim;
+            inside_n += usize::from(ins);
+            reliable_n += usize::from(r);
+            phase.push(map.wrapped(i));
+            amp.push(af);
+            amp_r.push(ar);
+            rel.push(r);
+        }
+    }
     let mut flags = QualityFlags::NONE;
-    let med_frame = median_u32((0..n).step_by(3).map(|i| map.amp_frame(i)).collect());
-    let reliable_n = reliable.iter().filter(|r| **r).count();
-    let inside_n = (0..n).filter(|&i| inside(i)).count();
+    let med_frame = median_u32(amp.clone());
     if (med_frame as f32) < LOW_CONTRAST_RATIO * med_ref as f32 || reliable_n * 2 < inside_n {
         flags.insert(Flag::LowContrast);
     }
@@ -376,34 +468,55 @@ pub fn measure<M: PhaseMap>(
 
     // Registration: amplitude-weighted mean direction of the background phase; first over
     // everything, then without outliers, then outside the contact region once it is known.
-    let first = map.mean_direction(&|i| reliable[i]);
+    let direction = |keep: &dyn Fn(usize) -> bool| -> M::P {
+        <M::P as PhaseNum>::direction(
+            (0..phase.len())
+                .filter(|&k| rel[k] && keep(k))
+                .map(|k| (phase[k], amp[k])),
+        )
+    };
+    let first = direction(&|_| true);
     let near = <M::P as PhaseNum>::from_rad(0.5).units();
-    let mut offset =
-        map.mean_direction(&|i| reliable[i] && map.wrapped(i).minus(first).units().abs() < near);
-    let phase_of =
-        |offset: M::P| -> Vec<M::P> { (0..n).map(|i| map.wrapped(i).minus(offset)).collect() };
-    let mut phi = phase_of(offset);
-    let box_px = (2.0 * carrier.period_px()).round() as usize;
-    let noise_outside = |phi: &[M::P], keep: &dyn Fn(usize) -> bool| {
-        let units: Vec<i32> = phi.iter().map(|p| p.units()).collect();
-        let mask: Vec<bool> = (0..n).map(|i| reliable[i] && keep(i)).collect();
-        local_noise_units(&units, &mask, w, h, box_px)
+    let mut offset = direction(&|k| phase[k].minus(first).units().abs() < near);
+    let units_of =
+        |offset: M::P| -> Vec<i32> { phase.iter().map(|p| p.minus(offset).units()).collect() };
+    let mut phi = units_of(offset);
+    let box_c = ((2.0 * carrier.period_px()) / GRID as f32).round().max(2.0) as usize;
+    let noise_outside = |phi: &[i32], keep: &dyn Fn(usize) -> bool| {
+        let mask: Vec<bool> = (0..phi.len()).map(|k| rel[k] && keep(k)).collect();
+        local_noise_units(phi, &mask, cw, ch, box_c)
     };
     let min_thr = <M::P as PhaseNum>::from_rad(MIN_CONTACT_RAD).units();
     let mut noise = noise_outside(&phi, &|_| true);
     let mut thr = ((CONTACT_SIGMAS * noise as f32) as i32).max(min_thr);
     let sign: i32 = if ctx.calib.phase_sign < 0.0 { -1 } else { 1 };
-    let mut found = contact_region(|i| reliable[i] && phi[i].units().abs() > thr, w, h);
+    let tile_of = |k: usize| ((k / cw) * GRID / TILE_PX) * tw + (k % cw) * GRID / TILE_PX;
+    // A disc one period across, in coarse samples.
+    let min_total = ((carrier.period_px() / GRID as f32).powi(2) * std::f32::consts::FRAC_PI_4)
+        .round()
+        .max(TILE_MIN_SAMPLES as f32) as usize;
+    let mut found = contact_tiles(
+        |k| rel[k] && phi[k].abs() > thr,
+        (cw, ch),
+        (tw, th),
+        min_total,
+    );
     if let Some((region, _)) = &found {
         // With the contact known, registration and noise come from the background only.
-        offset = map.mean_direction(&|i| reliable[i] && !region[i]);
-        phi = phase_of(offset);
+        offset = direction(&|k| !region[tile_of(k)]);
+        phi = units_of(offset);
+        let background = (0..phi.len()).filter(|&k| !region[tile_of(k)]).count();
         // The background must be big enough to measure; otherwise keep the first estimate.
-        if region.iter().filter(|r| !**r).count() * 4 > n {
-            noise = noise_outside(&phi, &|i| !region[i]);
+        if background * 4 > phi.len() {
+            noise = noise_outside(&phi, &|k| !region[tile_of(k)]);
         }
         thr = ((CONTACT_SIGMAS * noise as f32) as i32).max(min_thr);
-        found = contact_region(|i| reliable[i] && phi[i].units().abs() > thr, w, h);
+        found = contact_tiles(
+            |k| rel[k] && phi[k].abs() > thr,
+            (cw, ch),
+            (tw, th),
+            min_total,
+        );
     }
     let offset_rad = offset.units() as f32 / UNITS_PER_RAD;
     if offset_rad.abs() > MISREGISTRATION_RAD {
@@ -414,12 +527,26 @@ pub fn measure<M: PhaseMap>(
     if noise_rad > NOISY_RAD {
         flags.insert(Flag::LowContrast);
     }
-    let empty = |flags| Deformation {
+    // Reliability per working pixel, from the coarse grid (the region's window refines it).
+    let mut reliable = vec![false; n];
+    for y in margin..h.saturating_sub(margin) {
+        let crow = &rel[(y / GRID) * cw..(y / GRID + 1) * cw];
+        for x in margin..w.saturating_sub(margin) {
+            reliable[y * w + x] = crow[x / GRID];
+        }
+    }
+    let mut wrapped = WrappedPhase {
+        w,
+        cw,
+        coarse: phase.iter().map(|p| p.units()).collect(),
+        local: None,
+    };
+    let empty = |flags, reliable: Vec<bool>| Deformation {
         w,
         h,
         factor,
         depth_um: vec![0; n],
-        reliable: reliable.clone(),
+        reliable,
         contact: false,
         peak_depth_mm: 0.0,
         contact_area_mm2: 0.0,
@@ -437,14 +564,29 @@ pub fn measure<M: PhaseMap>(
     // The region is found on |Δφ|: at the centre of a deep press the wrapped phase has
     // wrapped to the other sign, and it must be unwrapped, not seeded from. Only
     // indentation (positive signed phase) is reported as depth.
-    let Some((region, tiles)) = found else {
-        return empty(flags);
+    let Some((tiles_on, tiles)) = found else {
+        return (empty(flags, reliable), wrapped);
     };
 
+    // The region on the coarse grid, in a window around it: two samples of border, which
+    // seed the unwrapping and feed the interpolation.
+    let creg: Vec<bool> = (0..phase.len()).map(|k| tiles_on[tile_of(k)]).collect();
+    let (mut cx0, mut cy0, mut cx1, mut cy1) = (cw, ch, 0, 0);
+    for (k, _) in creg.iter().enumerate().filter(|(_, r)| **r) {
+        let (cx, cy) = (k % cw, k / cw);
+        (cx0, cy0, cx1, cy1) = (cx0.min(cx), cy0.min(cy), cx1.max(cx), cy1.max(cy));
+    }
+    let (wx0, wy0) = (cx0.saturating_sub(2), cy0.saturating_sub(2));
+    let (wx1, wy1) = ((cx1 + 3).min(cw), (cy1 + 3).min(ch));
+    let (cbw, cbh) = (wx1 - wx0, wy1 - wy0);
+    let at = |j: usize| (wy0 + j / cbw) * cw + wx0 + j % cbw;
+    let lphi: Vec<M::P> = (0..cbw * cbh).map(|j| phase[at(j)].minus(offset)).collect();
+    let lreg: Vec<bool> = (0..cbw * cbh).map(|j| creg[at(j)]).collect();
+
     let trigger = <M::P as PhaseNum>::from_rad(UNWRAP_TRIGGER_RAD).units();
-    let max_abs = (0..n)
-        .filter(|&i| region[i])
-        .map(|i| phi[i].units().abs())
+    let max_abs = (0..lphi.len())
+        .filter(|&j| lreg[j])
+        .map(|j| lphi[j].units().abs())
         .max()
         .unwrap_or(0);
     let unwrap = match ctx.unwrap {
@@ -453,77 +595,104 @@ pub fn measure<M: PhaseMap>(
         Unwrap::Never => false,
     };
     let (u, unreached, n_res) = if unwrap {
-        let quality: Vec<u32> = (0..n)
-            .map(|i| map.amp_frame(i).min(map.amp_ref(i)))
+        let quality: Vec<u32> = (0..lphi.len())
+            .map(|j| amp[at(j)].min(amp_r[at(j)]))
             .collect();
-        let (u, unreached) = unwrap_region(&phi, &quality, &region, w, h);
-        (u, unreached, residues(&phi, &region, w, h))
+        let (u, unreached) = unwrap_region(&lphi, &quality, &lreg, cbw, cbh);
+        (u, unreached, residues(&lphi, &lreg, cbw, cbh))
     } else {
-        (phi, 0, 0)
+        (lphi, 0, 0)
     };
+    // Indentation phase (signed), units.
+    let su: Vec<i32> = u.iter().map(|p| p.signed(sign).units()).collect();
 
+    // Every working pixel of the window: the indentation phase upsampled ×2 each way by
+    // cubic convolution (midpoint weights −1, 9, 9, −1 over 16: exact for quadratics, so a
+    // round contact's peak is not shaved), then depth through the calibration. The
+    // analytic signal is smooth over a carrier period, so the coarse samples hold it.
+    let up = upsample2(&su, cbw, cbh);
+    let (bw, bh) = (GRID * cbw - 1, GRID * cbh - 1);
+    let (x0, y0) = (GRID * wx0, GRID * wy0);
+    let m = bw * bh;
+    let on = |x: usize, y: usize| x < w && y < h && tiles_on[(y / TILE_PX) * tw + x / TILE_PX];
+    let from_units = |v: i32| <M::P as PhaseNum>::from_rad(v as f32 / UNITS_PER_RAD);
     // Depth is reported (and counted in the volume) only above the depth of the contact
     // threshold: the map carries deformation, not noise.
-    let thr_um = map.depth_um(<M::P as PhaseNum>::from_rad(thr as f32 / UNITS_PER_RAD));
+    let thr_um = map.depth_um(from_units(thr));
+    let mut depth_local = vec![0i32; m];
+    let mut raw = vec![i32::MIN; m];
+    let off_units = offset.units();
+    for j in 0..m {
+        let (x, y) = (x0 + j % bw, y0 + j / bw);
+        if x >= w || y >= h {
+            continue;
+        }
+        raw[j] = i32::from((sign * up[j]).wrapping_add(off_units) as i16);
+        if on(x, y) {
+            let d = map.depth_um(from_units(up[j]));
+            depth_local[j] = if d > thr_um { d } else { 0 };
+        }
+    }
+    wrapped.local = Some((x0, y0, bw, bh, raw));
     // An indentation moves the phase one way. A temperature gradient across the stripes
-    // skews their brightness profile and moves it both ways around the hot spot (a
-    // dipole): when the opposite-signed phase carries a comparable share, there is no
-    // contact to report.
+    // (or a grating shifted under an illumination edge) skews their brightness profile and moves it both ways around
+    // the spot (a dipole): when the opposite-signed phase carries a comparable share,
+    // there is no contact to report.
     let (mut pos, mut neg) = (0i64, 0i64);
-    for i in (0..n).filter(|&i| region[i] && reliable[i]) {
-        let x = i64::from(u[i].signed(sign).units());
-        if x > i64::from(thr) {
-            pos += x;
-        } else if x < -i64::from(thr) {
-            neg -= x;
+    for (j, &v) in up.iter().enumerate() {
+        let (x, y) = (x0 + j % bw, y0 + j / bw);
+        if !on(x, y) || !reliable[y * w + x] {
+            continue;
+        }
+        let v = i64::from(v);
+        if v > i64::from(thr) {
+            pos += v;
+        } else if v < -i64::from(thr) {
+            neg -= v;
         }
     }
     if (neg as f32) > DIPOLE_RATIO * pos as f32 {
-        return empty(flags);
+        return (empty(flags, reliable), wrapped);
     }
-    let depth_um: Vec<i32> = (0..n)
-        .map(|i| {
-            if region[i] {
-                map.depth_um(u[i].signed(sign))
-            } else {
-                0
-            }
-        })
-        .map(|d| if d > thr_um { d } else { 0 })
-        .collect();
-    let feats = summarize(&depth_um, w, factor, ctx.mm_per_px, thr_um);
+    let feats = summarize(&depth_local, bw, (x0, y0), factor, ctx.mm_per_px, thr_um);
     if feats.peak_mm == 0.0 {
-        return empty(flags);
+        return (empty(flags, reliable), wrapped);
     }
     let px_mm = ctx.mm_per_px * factor as f32;
-    let integrated_units: i64 = (0..n)
-        .filter(|&i| depth_um[i] > thr_um)
-        .map(|i| i64::from(u[i].signed(sign).units()))
+    let deformed: Vec<bool> = depth_local.iter().map(|&d| d > thr_um).collect();
+    let integrated_units: i64 = (0..m)
+        .filter(|&j| deformed[j])
+        .map(|j| i64::from(up[j]))
         .sum();
     let integrated = integrated_units as f32 / UNITS_PER_RAD * px_mm * px_mm;
-    let deformed: Vec<bool> = depth_um.iter().map(|&d| d > thr_um).collect();
     let slope_limit = SLOPE_LIMIT * 65_536.0 * BAND_HALF_WIDTH * carrier.freq();
-    let u_units: Vec<i32> = u.iter().map(|p| p.units()).collect();
     // Beyond the band the demodulator cannot even report the slope; what it shows is the
     // fringe amplitude falling (by the filter's response at the local frequency offset).
-    // Deformed pixels whose amplitude fell below half the reference's (after the frame's
+    // Deformed samples whose amplitude fell below half the reference's (after the frame's
     // overall contrast change, so a dimmer or washed-out frame does not count), or that
     // became unreliable, mean the spectrum has left the band there.
     let (mut lost, mut seen) = (0usize, 0usize);
     let (fm, rm) = (u64::from(med_frame.max(1)), u64::from(med_ref));
-    for i in (0..n).filter(|&i| deformed[i] && inside(i)) {
+    for j in 0..su.len() {
+        let (cx, cy) = (wx0 + j % cbw, wy0 + j / cbw);
+        let (x, y) = (cx * GRID, cy * GRID);
+        let lj = (y - y0) * bw + (x - x0);
+        if lj >= m || !deformed[lj] || !inside(x, y) {
+            continue;
+        }
+        let k = at(j);
         seen += 1;
-        if !reliable[i] || u64::from(map.amp_frame(i)) * 2 * rm < u64::from(map.amp_ref(i)) * fm {
+        if !rel[k] || u64::from(amp[k]) * 2 * rm < u64::from(amp_r[k]) * fm {
             lost += 1;
         }
     }
-    let band_lost = lost as f32 > BAND_LOSS_FRACTION * seen as f32 && lost >= 4;
+    let band_lost = lost as f32 > BAND_LOSS_FRACTION * seen as f32 && lost >= BAND_LOSS_MIN;
     // A contact much sharper than the calibrated indenter (less area at the same depth) is
     // smoothed by the band more than the calibration knows: its depth reads low.
     let sharper = ctx.calib.shape.as_ref().is_some_and(|s| {
         f64::from(feats.area_mm2) < SHARPNESS_RATIO * s.area_mm2_at(f64::from(feats.peak_mm))
     });
-    if sharper || band_lost || slope_p98(&u_units, &deformed, w, h) as f32 > slope_limit {
+    if sharper || band_lost || slope_p98(&up, &deformed, bw, bh) as f32 > slope_limit {
         flags.insert(Flag::PhaseSlope);
     }
     if unreached > 0 || n_res > MAX_RESIDUES {
@@ -538,7 +707,13 @@ pub fn measure<M: PhaseMap>(
         flags.insert(Flag::DepthOutOfRange);
     }
     let force_n = force_of(ctx.calib, &feats, integrated);
-    Deformation {
+    let mut depth_um = vec![0; n];
+    let cols = bw.min(w - x0);
+    for ly in 0..bh.min(h - y0) {
+        let row = (y0 + ly) * w + x0;
+        depth_um[row..row + cols].copy_from_slice(&depth_local[ly * bw..ly * bw + cols]);
+    }
+    let d = Deformation {
         depth_um,
         contact: true,
         peak_depth_mm: feats.peak_mm,
@@ -549,6 +724,40 @@ pub fn measure<M: PhaseMap>(
         force_n,
         tiles,
         floor_um: thr_um,
-        ..empty(flags)
+        ..empty(flags, reliable)
+    };
+    (d, wrapped)
+}
+
+/// ×2 upsampling of a `w × h` grid each way: samples kept, midpoints by cubic convolution
+/// (−1, 9, 9, −1)/16, edges replicated. The result is `(2w − 1) × (2h − 1)`.
+pub fn upsample2(v: &[i32], w: usize, h: usize) -> Vec<i32> {
+    let mid = |a: i32, b: i32, c: i32, d: i32| {
+        ((9 * (i64::from(b) + i64::from(c)) - i64::from(a) - i64::from(d) + 8) >> 4) as i32
+    };
+    let (ow, oh) = (2 * w - 1, 2 * h - 1);
+    let mut out = vec![0i32; ow * oh];
+    // Even rows: the coarse rows, upsampled along x.
+    for y in 0..h {
+        let src = &v[y * w..(y + 1) * w];
+        let dst = &mut out[2 * y * ow..(2 * y + 1) * ow];
+        let at = |k: isize| src[k.clamp(0, w as isize - 1) as usize];
+        for x in 0..w {
+            dst[2 * x] = src[x];
+            if x + 1 < w {
+                let k = x as isize;
+                dst[2 * x + 1] = mid(at(k - 1), at(k), at(k + 1), at(k + 2));
+            }
+        }
     }
+    // Odd rows: midpoints of the even rows, along y.
+    for y in 0..h.saturating_sub(1) {
+        let row = |k: isize| 2 * k.clamp(0, h as isize - 1) as usize * ow;
+        let k = y as isize;
+        let (ra, rb, rc, rd) = (row(k - 1), row(k), row(k + 1), row(k + 2));
+        for x in 0..ow {
+            out[(2 * y + 1) * ow + x] = mid(out[ra + x], out[rb + x], out[rc + x], out[rd + x]);
+        }
+    }
+    out
 }

@@ -303,36 +303,33 @@ impl Analyzer {
         frame: &RgbImage,
     ) -> Result<(Deformation, Vec<crate::thermal::stripes::Sums>), PipelineError> {
         self.run(frame, |d, wrapped| {
-            let (s, _) = self.thermo.sums(frame, |i| wrapped[i], &d.reliable, None);
+            let (s, _) = self
+                .thermo
+                .sums(frame, |i| wrapped.at(i), &d.reliable, None);
             (d, s)
         })
     }
 
     /// Phase and measurement of a frame on either path; `then` gets the force-side result
-    /// and the wrapped phase difference per working pixel (units).
+    /// and the wrapped phase difference as the measurement read it.
     fn run<R>(
         &self,
         frame: &RgbImage,
-        then: impl FnOnce(Deformation, &[i32]) -> R,
+        then: impl FnOnce(Deformation, &measure::WrappedPhase) -> R,
     ) -> Result<R, PipelineError> {
         self.check_size(frame)?;
         let ctx = self.context();
-        Ok(match &self.imp {
+        let (d, wrapped) = match &self.imp {
             Imp::Float(f) => {
                 let map = f.field(frame, &ctx);
-                let (w, h, factor) = f.geometry();
-                let d = measure::measure(&map, factor, f.carrier(), &ctx);
-                let wrapped: Vec<i32> = (0..w * h)
-                    .map(|i| (map.wrapped_rad(i) * measure::UNITS_PER_RAD).round() as i32)
-                    .collect();
-                then(d, &wrapped)
+                measure::measure(&map, f.geometry().2, f.carrier(), &ctx)
             }
             Imp::Fixed(f) => {
                 let field = f.phase(frame);
-                let d = measure::measure(&field, f.geometry().2, f.carrier(), &ctx);
-                then(d, &field.wrapped)
+                measure::measure(&field, f.geometry().2, f.carrier(), &ctx)
             }
-        })
+        };
+        Ok(then(d, &wrapped))
     }
 
     /// The temperature side's prepared state.
@@ -364,7 +361,7 @@ impl Analyzer {
     /// Analyses one frame.
     pub fn analyze(&self, frame: &RgbImage) -> Result<Deformation, PipelineError> {
         self.run(frame, |d, wrapped| {
-            with_temperature(d, frame, &self.thermo, |i| wrapped[i])
+            with_temperature(d, frame, &self.thermo, |i| wrapped.at(i))
         })
     }
 }
