@@ -308,13 +308,15 @@ impl FixedFtp {
     fn analytic(&self, gray: &[u16]) -> (Vec<i32>, Vec<i32>) {
         let (w, h) = (self.w, self.h);
         let sh = 15 + self.shift;
-        let mut re: Vec<i32> = Vec::with_capacity(w * h);
-        let mut im: Vec<i32> = Vec::with_capacity(w * h);
-        for (g, m) in gray.iter().zip(&self.mix) {
-            let g = i32::from(*g);
-            re.push((g * i32::from(m[0])) >> sh);
-            im.push(-((g * i32::from(m[1])) >> sh));
-        }
+        let (re, im): (Vec<i32>, Vec<i32>) = gray
+            .iter()
+            .zip(&self.mix)
+            .map(|(g, m)| {
+                let g = i32::from(*g);
+                ((g * i32::from(m[0])) >> sh, -((g * i32::from(m[1])) >> sh))
+            })
+            .unzip();
+        let (mut re, mut im) = (re, im);
         let mut work = Vec::new();
         for buf in [&mut re, &mut im] {
             Cic { len: self.lx }.rows(buf, w, &mut work);

@@ -186,18 +186,17 @@ pub fn force_of(calib: &Calibration, f: &Features, integrated_phase: f32) -> f32
 /// smaller than a disc one period across is a speck of the image (an illumination edge
 /// under a shifted grating, a hot pixel), not a contact.
 pub fn contact_tiles(
-    above: impl Fn(usize) -> bool,
+    above: &[bool],
     (cw, ch): (usize, usize),
     (tw, th): (usize, usize),
     min_total: usize,
 ) -> Option<(Vec<bool>, usize)> {
     let per = TILE_PX / GRID;
     let mut count = vec![0usize; tw * th];
-    for cy in 0..ch {
-        for cx in 0..cw {
-            if above(cy * cw + cx) {
-                count[(cy / per) * tw + cx / per] += 1;
-            }
+    for (cy, row) in above.chunks_exact(cw).take(ch).enumerate() {
+        let trow = &mut count[(cy / per) * tw..(cy / per + 1) * tw];
+        for (cx, a) in row.iter().enumerate() {
+            trow[cx / per] += usize::from(*a);
         }
     }
     if count.iter().all(|&c| c < TILE_MIN_SAMPLES) || count.iter().sum::<usize>() < min_total {
@@ -219,6 +218,17 @@ pub fn contact_tiles(
     Some((dil, tiles))
 }
 
+/// Per coarse sample (`cw × ch`), whether its tile is set in `tiles` (`tw` across).
+fn samples_in(tiles: &[bool], (cw, ch): (usize, usize), tw: usize) -> Vec<bool> {
+    let per = TILE_PX / GRID;
+    let mut out = Vec::with_capacity(cw * ch);
+    for cy in 0..ch {
+        let trow = &tiles[(cy / per) * tw..(cy / per + 1) * tw];
+        out.extend((0..cw).map(|cx| trow[cx / per]));
+    }
+    out
+}
+
 /// Phase units per radian in the integer representation (65 536 per turn).
 pub const UNITS_PER_RAD: f32 = 65_536.0 / std::f32::consts::TAU;
 
@@ -232,6 +242,8 @@ pub trait PhaseNum: Phase {
     fn units(self) -> i32;
     /// A value from radians.
     fn from_rad(r: f32) -> Self;
+    /// A value from integer phase units.
+    fn from_units(u: i32) -> Self;
     /// `sign · self` for a sign of ±1.
     fn signed(self, sign: i32) -> Self;
     /// Amplitude-weighted mean direction of `(phase, amplitude)` samples.
@@ -259,6 +271,9 @@ impl PhaseNum for f32 {
     fn from_rad(r: f32) -> f32 {
         r
     }
+    fn from_units(u: i32) -> f32 {
+        u as f32 / UNITS_PER_RAD
+    }
     fn signed(self, sign: i32) -> f32 {
         self * sign as f32
     }
@@ -278,6 +293,9 @@ impl PhaseNum for i32 {
     }
     fn from_rad(r: f32) -> i32 {
         (r * UNITS_PER_RAD).round() as i32
+    }
+    fn from_units(u: i32) -> i32 {
+        u
     }
     fn signed(self, sign: i32) -> i32 {
         self * sign
@@ -468,55 +486,59 @@ pub fn measure<M: PhaseMap>(
 
     // Registration: amplitude-weighted mean direction of the background phase; first over
     // everything, then without outliers, then outside the contact region once it is known.
-    let direction = |keep: &dyn Fn(usize) -> bool| -> M::P {
+    let direction = |keep: &[bool]| -> M::P {
         <M::P as PhaseNum>::direction(
-            (0..phase.len())
-                .filter(|&k| rel[k] && keep(k))
-                .map(|k| (phase[k], amp[k])),
+            phase
+                .iter()
+                .zip(&amp)
+                .zip(keep)
+                .filter(|(_, k)| **k)
+                .map(|((p, a), _)| (*p, *a)),
         )
     };
-    let first = direction(&|_| true);
+    let first = direction(&rel);
     let near = <M::P as PhaseNum>::from_rad(0.5).units();
-    let mut offset = direction(&|k| phase[k].minus(first).units().abs() < near);
+    let close: Vec<bool> = phase
+        .iter()
+        .zip(&rel)
+        .map(|(p, r)| *r && p.minus(first).units().abs() < near)
+        .collect();
+    let mut offset = direction(&close);
     let units_of =
         |offset: M::P| -> Vec<i32> { phase.iter().map(|p| p.minus(offset).units()).collect() };
     let mut phi = units_of(offset);
     let box_c = ((2.0 * carrier.period_px()) / GRID as f32).round().max(2.0) as usize;
-    let noise_outside = |phi: &[i32], keep: &dyn Fn(usize) -> bool| {
-        let mask: Vec<bool> = (0..phi.len()).map(|k| rel[k] && keep(k)).collect();
-        local_noise_units(phi, &mask, cw, ch, box_c)
-    };
     let min_thr = <M::P as PhaseNum>::from_rad(MIN_CONTACT_RAD).units();
-    let mut noise = noise_outside(&phi, &|_| true);
+    let mut noise = local_noise_units(&phi, &rel, cw, ch, box_c);
     let mut thr = ((CONTACT_SIGMAS * noise as f32) as i32).max(min_thr);
     let sign: i32 = if ctx.calib.phase_sign < 0.0 { -1 } else { 1 };
-    let tile_of = |k: usize| ((k / cw) * GRID / TILE_PX) * tw + (k % cw) * GRID / TILE_PX;
     // A disc one period across, in coarse samples.
     let min_total = ((carrier.period_px() / GRID as f32).powi(2) * std::f32::consts::FRAC_PI_4)
         .round()
         .max(TILE_MIN_SAMPLES as f32) as usize;
-    let mut found = contact_tiles(
-        |k| rel[k] && phi[k].abs() > thr,
-        (cw, ch),
-        (tw, th),
-        min_total,
-    );
+    let above = |phi: &[i32], thr: i32| -> Vec<bool> {
+        phi.iter()
+            .zip(&rel)
+            .map(|(p, r)| *r && p.abs() > thr)
+            .collect()
+    };
+    let mut found = contact_tiles(&above(&phi, thr), (cw, ch), (tw, th), min_total);
     if let Some((region, _)) = &found {
         // With the contact known, registration and noise come from the background only.
-        offset = direction(&|k| !region[tile_of(k)]);
+        let in_region = samples_in(region, (cw, ch), tw);
+        let background: Vec<bool> = in_region
+            .iter()
+            .zip(&rel)
+            .map(|(r, ok)| !r && *ok)
+            .collect();
+        offset = direction(&background);
         phi = units_of(offset);
-        let background = (0..phi.len()).filter(|&k| !region[tile_of(k)]).count();
         // The background must be big enough to measure; otherwise keep the first estimate.
-        if background * 4 > phi.len() {
-            noise = noise_outside(&phi, &|k| !region[tile_of(k)]);
+        if in_region.iter().filter(|r| !**r).count() * 4 > phi.len() {
+            noise = local_noise_units(&phi, &background, cw, ch, box_c);
         }
         thr = ((CONTACT_SIGMAS * noise as f32) as i32).max(min_thr);
-        found = contact_tiles(
-            |k| rel[k] && phi[k].abs() > thr,
-            (cw, ch),
-            (tw, th),
-            min_total,
-        );
+        found = contact_tiles(&above(&phi, thr), (cw, ch), (tw, th), min_total);
     }
     let offset_rad = offset.units() as f32 / UNITS_PER_RAD;
     if offset_rad.abs() > MISREGISTRATION_RAD {
@@ -529,11 +551,16 @@ pub fn measure<M: PhaseMap>(
     }
     // Reliability per working pixel, from the coarse grid (the region's window refines it).
     let mut reliable = vec![false; n];
+    let (xa, xb) = (margin.min(w), w.saturating_sub(margin).max(margin.min(w)));
     for y in margin..h.saturating_sub(margin) {
         let crow = &rel[(y / GRID) * cw..(y / GRID + 1) * cw];
-        for x in margin..w.saturating_sub(margin) {
-            reliable[y * w + x] = crow[x / GRID];
+        let row = &mut reliable[y * w..(y + 1) * w];
+        for (pair, c) in row.chunks_mut(GRID).zip(crow) {
+            pair.fill(*c);
         }
+        // The coarse samples' own margin test is a pixel coarse; the pixel's is exact.
+        row[..xa].fill(false);
+        row[xb..].fill(false);
     }
     let mut wrapped = WrappedPhase {
         w,
@@ -570,7 +597,7 @@ pub fn measure<M: PhaseMap>(
 
     // The region on the coarse grid, in a window around it: two samples of border, which
     // seed the unwrapping and feed the interpolation.
-    let creg: Vec<bool> = (0..phase.len()).map(|k| tiles_on[tile_of(k)]).collect();
+    let creg = samples_in(&tiles_on, (cw, ch), tw);
     let (mut cx0, mut cy0, mut cx1, mut cy1) = (cw, ch, 0, 0);
     for (k, _) in creg.iter().enumerate().filter(|(_, r)| **r) {
         let (cx, cy) = (k % cw, k / cw);
@@ -614,24 +641,33 @@ pub fn measure<M: PhaseMap>(
     let (bw, bh) = (GRID * cbw - 1, GRID * cbh - 1);
     let (x0, y0) = (GRID * wx0, GRID * wy0);
     let m = bw * bh;
-    let on = |x: usize, y: usize| x < w && y < h && tiles_on[(y / TILE_PX) * tw + x / TILE_PX];
-    let from_units = |v: i32| <M::P as PhaseNum>::from_rad(v as f32 / UNITS_PER_RAD);
+    // The window's pixels that belong to the region (all inside the image: the coarse
+    // grid's last sample is at most the last pixel).
+    let mut won = vec![false; m];
+    for (ly, row) in won.chunks_exact_mut(bw).enumerate() {
+        let trow = &tiles_on[((y0 + ly) / TILE_PX) * tw..((y0 + ly) / TILE_PX + 1) * tw];
+        for (lx, o) in row.iter_mut().enumerate() {
+            *o = trow[(x0 + lx) / TILE_PX];
+        }
+    }
+    let from_units = <M::P as PhaseNum>::from_units;
     // Depth is reported (and counted in the volume) only above the depth of the contact
     // threshold: the map carries deformation, not noise.
     let thr_um = map.depth_um(from_units(thr));
     let mut depth_local = vec![0i32; m];
-    let mut raw = vec![i32::MIN; m];
     let off_units = offset.units();
-    for j in 0..m {
-        let (x, y) = (x0 + j % bw, y0 + j / bw);
-        if x >= w || y >= h {
-            continue;
-        }
-        raw[j] = i32::from((sign * up[j]).wrapping_add(off_units) as i16);
-        if on(x, y) {
-            let d = map.depth_um(from_units(up[j]));
-            depth_local[j] = if d > thr_um { d } else { 0 };
-        }
+    let raw: Vec<i32> = up
+        .iter()
+        .map(|&v| i32::from((sign * v).wrapping_add(off_units) as i16))
+        .collect();
+    for ((d, &v), _) in depth_local
+        .iter_mut()
+        .zip(&up)
+        .zip(&won)
+        .filter(|(_, o)| **o)
+    {
+        let z = map.depth_um(from_units(v));
+        *d = if z > thr_um { z } else { 0 };
     }
     wrapped.local = Some((x0, y0, bw, bh, raw));
     // An indentation moves the phase one way. A temperature gradient across the stripes
@@ -640,8 +676,7 @@ pub fn measure<M: PhaseMap>(
     // there is no contact to report.
     let (mut pos, mut neg) = (0i64, 0i64);
     for (j, &v) in up.iter().enumerate() {
-        let (x, y) = (x0 + j % bw, y0 + j / bw);
-        if !on(x, y) || !reliable[y * w + x] {
+        if !won[j] || !reliable[(y0 + j / bw) * w + x0 + j % bw] {
             continue;
         }
         let v = i64::from(v);
