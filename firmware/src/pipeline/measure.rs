@@ -429,6 +429,64 @@ impl WrappedPhase {
     }
 }
 
+/// The coarse grid's samples: every [`GRID`]-th working pixel each way, row-major.
+struct Coarse<P> {
+    /// Wrapped phase difference.
+    phase: Vec<P>,
+    /// Frame and reference fringe amplitudes.
+    amp: Vec<u32>,
+    amp_r: Vec<u32>,
+    /// Inside the margin, with both amplitudes above `lim`.
+    rel: Vec<bool>,
+    /// Samples inside the margin, and those reliable.
+    inside_n: usize,
+    reliable_n: usize,
+}
+
+/// Reads the coarse grid: the only place the background's phase is computed.
+#[inline(never)]
+fn read_coarse<M: PhaseMap>(map: &M, lim: u32, margin: usize) -> Coarse<M::P> {
+    let (w, h) = map.size();
+    let (cw, ch) = (w.div_ceil(GRID), h.div_ceil(GRID));
+    let n = cw * ch;
+    let mut c = Coarse {
+        phase: vec![M::P::default(); n],
+        amp: vec![0; n],
+        amp_r: vec![0; n],
+        rel: vec![false; n],
+        inside_n: 0,
+        reliable_n: 0,
+    };
+    let xs = margin..w.saturating_sub(margin);
+    for (cy, (((p, a), ar), r)) in c
+        .phase
+        .chunks_exact_mut(cw)
+        .zip(c.amp.chunks_exact_mut(cw))
+        .zip(c.amp_r.chunks_exact_mut(cw))
+        .zip(c.rel.chunks_exact_mut(cw))
+        .enumerate()
+    {
+        let y = cy * GRID;
+        let row_inside = y >= margin && y + margin < h;
+        for (cx, (((p, a), ar), r)) in p
+            .iter_mut()
+            .zip(a.iter_mut())
+            .zip(ar.iter_mut())
+            .zip(r.iter_mut())
+            .enumerate()
+        {
+            let (x, i) = (cx * GRID, y * w + cx * GRID);
+            (*a, *ar) = (map.amp_frame(i), map.amp_ref(i));
+            let ins = row_inside && xs.contains(&x);
+            *r = ins && *a > lim && *ar > lim;
+            c.inside_n += usize::from(ins);
+            c.reliable_n += usize::from(*r);
+            *p = map.wrapped(i);
+        }
+    }
+    c
+}
+
 /// The measurement, shared by both paths: registration, noise floor, early exit, contact
 /// tiles, unwrapping where needed, depth, features and flags.
 ///
@@ -454,27 +512,14 @@ pub fn measure<M: PhaseMap>(
     let inside =
         |x: usize, y: usize| x >= margin && y >= margin && x + margin < w && y + margin < h;
 
-    // The coarse grid: phase, frame amplitude and reliability of every GRID-th pixel.
-    let mut phase: Vec<M::P> = Vec::with_capacity(cw * ch);
-    let mut amp: Vec<u32> = Vec::with_capacity(cw * ch);
-    let mut amp_r: Vec<u32> = Vec::with_capacity(cw * ch);
-    let mut rel: Vec<bool> = Vec::with_capacity(cw * ch);
-    let (mut inside_n, mut reliable_n) = (0usize, 0usize);
-    for cy in 0..ch {
-        let y = cy * GRID;
-        for cx in 0..cw {
-            let (x, i) = (cx * GRID, y * w + cx * GRID);
-            let (af, ar) = (map.amp_frame(i), map.amp_ref(i));
-            let ins = inside(x, y);
-            let r = ins && af > lim && ar > lim;
-            inside_n += usize::from(ins);
-            reliable_n += usize::from(r);
-            phase.push(map.wrapped(i));
-            amp.push(af);
-            amp_r.push(ar);
-            rel.push(r);
-        }
-    }
+    let Coarse {
+        phase,
+        amp,
+        amp_r,
+        rel,
+        inside_n,
+        reliable_n,
+    } = read_coarse(map, lim, margin);
     let mut flags = QualityFlags::NONE;
     let med_frame = median_u32(amp.clone());
     if (med_frame as f32) < LOW_CONTRAST_RATIO * med_ref as f32 || reliable_n * 2 < inside_n {
