@@ -411,6 +411,26 @@ pub struct WrappedPhase {
 }
 
 impl WrappedPhase {
+    /// The wrapped phase difference along working row `y` into `out` (the row's width).
+    pub fn row(&self, y: usize, out: &mut [i32]) {
+        let c = (y / GRID) * self.cw;
+        if let Some(crow) = self.coarse.get(c..c + self.cw) {
+            for (pair, v) in out.chunks_mut(GRID).zip(crow) {
+                pair.fill(*v);
+            }
+        }
+        if let Some((x0, y0, bw, bh, v)) = &self.local {
+            if y >= *y0 && y < y0 + bh {
+                let src = &v[(y - y0) * bw..(y - y0 + 1) * bw];
+                for (o, &u) in out.iter_mut().skip(*x0).zip(src) {
+                    if u != i32::MIN {
+                        *o = u;
+                    }
+                }
+            }
+        }
+    }
+
     /// The wrapped phase difference at working pixel `i`, units.
     pub fn at(&self, i: usize) -> i32 {
         let (x, y) = (i % self.w.max(1), i / self.w.max(1));

@@ -165,14 +165,14 @@ pub struct AnalyzerOptions {
 }
 
 /// Adds the frame's temperatures to its force-side result `d`: the FTP's wrapped phase
-/// difference `wrapped(i)` (units) places the stripes, the contact region (depth ≥ half the
+/// difference (units, a working row at a time) places the stripes, the contact region (depth ≥ half the
 /// peak, read from its core at ≥ ¾ of the peak where that is big enough) gets its own
 /// temperature, and a reading outside the calibration is flagged.
 fn with_temperature(
     mut d: Deformation,
     frame: &RgbImage,
     thermo: &Thermometer,
-    wrapped: impl Fn(usize) -> i32,
+    wrapped: impl Fn(usize, &mut [i32]),
 ) -> Deformation {
     if !thermo.has_model() {
         return d;
@@ -305,7 +305,7 @@ impl Analyzer {
         self.run(frame, |d, wrapped| {
             let (s, _) = self
                 .thermo
-                .sums(frame, |i| wrapped.at(i), &d.reliable, None);
+                .sums(frame, |y, row| wrapped.row(y, row), &d.reliable, None);
             (d, s)
         })
     }
@@ -361,7 +361,7 @@ impl Analyzer {
     /// Analyses one frame.
     pub fn analyze(&self, frame: &RgbImage) -> Result<Deformation, PipelineError> {
         self.run(frame, |d, wrapped| {
-            with_temperature(d, frame, &self.thermo, |i| wrapped.at(i))
+            with_temperature(d, frame, &self.thermo, |y, row| wrapped.row(y, row))
         })
     }
 }

@@ -147,21 +147,29 @@ impl Thermometer {
         &self.geom
     }
 
-    /// Colour sums of a frame whose wrapped phase difference to the reference is
-    /// `wrapped(i)` (units) at working pixel `i`, over the working pixels the FTP found
+    /// Colour sums of a frame whose wrapped phase difference to the reference along
+    /// working row `y` is what `wrapped(y, row)` writes into `row` (units), over the working
+    /// pixels the FTP found
     /// `reliable`; `regions` marks the contact region and its core
     /// ([`stripes::region`] codes).
     pub fn sums(
         &self,
         frame: &RgbImage,
-        wrapped: impl Fn(usize) -> i32,
+        wrapped: impl Fn(usize, &mut [i32]),
         reliable: &[bool],
         regions: Option<&[u8]>,
     ) -> (Vec<Sums>, [Sums; 2]) {
+        let w = self.geom.w;
+        let mut dphi = vec![0i32; w];
         stripes::accumulate(
             frame,
             &self.geom,
-            |i| self.theta_ref[i].wrapping_add(wrapped(i) as u16),
+            |y, row: &mut [u16]| {
+                wrapped(y, &mut dphi);
+                for ((t, r), d) in row.iter_mut().zip(&self.theta_ref[y * w..]).zip(&dphi) {
+                    *t = r.wrapping_add(*d as u16);
+                }
+            },
             reliable,
             regions,
             &self.lin,
@@ -233,7 +241,7 @@ impl Thermometer {
     pub fn measure(
         &self,
         frame: &RgbImage,
-        wrapped: impl Fn(usize) -> i32,
+        wrapped: impl Fn(usize, &mut [i32]),
         reliable: &[bool],
         regions: Option<&[u8]>,
     ) -> Option<Temperature> {

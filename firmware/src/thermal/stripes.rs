@@ -165,15 +165,15 @@ impl Geometry {
 }
 
 /// Sums colours per block, and over the contact region and its core (`regions`, one
-/// [`region`] code per working pixel). `theta(i)` is the frame's grating phase at working
-/// pixel `i`, units; only working pixels where `reliable` (the FTP trusted their phase: away
+/// [`region`] code per working pixel). `theta(y, row)` fills `row` with the frame's grating
+/// phase along working row `y`, units; only working pixels where `reliable` (the FTP trusted their phase: away
 /// from the image edge, with fringe contrast) are read, since elsewhere the stripes cannot
 /// be told apart. Blocks read one input row of every [`Geometry::row_step`]-th working row;
 /// the contact region, small and what a user asks about most, reads every input pixel.
 pub fn accumulate(
     frame: &RgbImage,
     g: &Geometry,
-    theta: impl Fn(usize) -> u16,
+    theta: impl FnMut(usize, &mut [u16]),
     reliable: &[bool],
     regions: Option<&[u8]>,
     lin: &[u32; 256],
@@ -197,12 +197,14 @@ pub fn accumulate(
 fn run<const F: usize, const REGIONS: bool>(
     frame: &RgbImage,
     g: &Geometry,
-    theta: impl Fn(usize) -> u16,
+    theta: impl FnMut(usize, &mut [u16]),
     reliable: &[bool],
     regions: &[u8],
     lin: &[u32; 256],
 ) -> (Vec<Sums>, [Sums; 2]) {
     let f = if F == 0 { g.factor } else { F };
+    let mut theta = theta;
+    let mut trow = vec![0u16; g.w];
     let mut blocks = vec![Sums::default(); g.bw * g.bh];
     let mut contact = [Sums::default(); 2];
     let class = class_table();
@@ -234,6 +236,7 @@ fn run<const F: usize, const REGIONS: bool>(
         if !on_grid && !row_has {
             continue;
         }
+        theta(yw, &mut trow);
         let y = yw * f + f / 2;
         let line = &raw[y * stride..y * stride + g.w * f3];
         let brow = &mut blocks[(yw / g.block_px) * g.bw..(yw / g.block_px + 1) * g.bw];
@@ -248,7 +251,7 @@ fn run<const F: usize, const REGIONS: bool>(
                 if !rel[xw] || (!on_grid && reg == region::NONE) {
                     continue;
                 }
-                let t0 = theta(i);
+                let t0 = trow[xw];
                 if on_grid {
                     let px = &line[xw * f3..(xw + 1) * f3];
                     for k in 0..f {
@@ -332,9 +335,11 @@ mod tests {
         for f in 1..=6 {
             let (w, h) = (200 / f, 100 / f);
             let g = Geometry::new(w, h, f, f as f32 / 20.0, 0.0);
-            let theta = |i: usize| {
-                let x = (i % w) as f64 * f as f64 + (f as f64 - 1.0) / 2.0 + 0.5;
-                (x / 20.0 * 65_536.0).round() as i64 as u16
+            let theta = |_: usize, row: &mut [u16]| {
+                for (xw, t) in row.iter_mut().enumerate() {
+                    let x = xw as f64 * f as f64 + (f as f64 - 1.0) / 2.0 + 0.5;
+                    *t = (x / 20.0 * 65_536.0).round() as i64 as u16;
+                }
             };
             let rel = vec![true; w * h];
             let regions = vec![region::CONTACT; w * h];
@@ -375,8 +380,14 @@ mod tests {
             .map(|i| ((f64::from(i % w) + 0.5) / 8.0 * 65_536.0).round() as i64 as u16)
             .collect();
         let lin = linear_q16();
-        let (blocks, inside) =
-            accumulate(&img, &g, |i| theta[i], &vec![true; theta.len()], None, &lin);
+        let (blocks, inside) = accumulate(
+            &img,
+            &g,
+            |y, row: &mut [u16]| row.copy_from_slice(&theta[y * row.len()..(y + 1) * row.len()]),
+            &vec![true; theta.len()],
+            None,
+            &lin,
+        );
         assert_eq!(inside, [Sums::default(); 2]);
         for b in &blocks {
             assert!(b.enough());
