@@ -232,27 +232,34 @@ fn run<const F: usize, const REGIONS: bool>(
     for yw in 0..g.h {
         let on_grid = yw % g.row_step == 0;
         let row = yw * g.w..(yw + 1) * g.w;
-        let row_has = REGIONS && regions[row.clone()].iter().any(|&r| r != region::NONE);
-        if !on_grid && !row_has {
+        // The row's stretch of contact region, if any.
+        let (rx0, rx1) = if REGIONS {
+            let r = &regions[row.clone()];
+            match r.iter().position(|&v| v != region::NONE) {
+                Some(a) => (
+                    a,
+                    r.len() - r.iter().rev().take_while(|&&v| v == region::NONE).count(),
+                ),
+                None => (0, 0),
+            }
+        } else {
+            (0, 0)
+        };
+        if !on_grid && rx1 == rx0 {
             continue;
         }
         theta(yw, &mut trow);
-        let y = yw * f + f / 2;
-        let line = &raw[y * stride..y * stride + g.w * f3];
-        let brow = &mut blocks[(yw / g.block_px) * g.bw..(yw / g.block_px + 1) * g.bw];
         let rel = &reliable[row.clone()];
-        // Block by block along the row: no division per pixel.
-        for (bx, acc) in brow.iter_mut().enumerate() {
-            let x0 = bx * g.block_px;
-            let x1 = (x0 + g.block_px).min(g.w);
-            for xw in x0..x1 {
-                let i = row.start + xw;
-                let reg = if row_has { regions[i] } else { region::NONE };
-                if !rel[xw] || (!on_grid && reg == region::NONE) {
-                    continue;
-                }
-                let t0 = trow[xw];
-                if on_grid {
+        if on_grid {
+            let y = yw * f + f / 2;
+            let line = &raw[y * stride..y * stride + g.w * f3];
+            let brow = &mut blocks[(yw / g.block_px) * g.bw..(yw / g.block_px + 1) * g.bw];
+            // Block by block along the row: no division per pixel.
+            for (bx, acc) in brow.iter_mut().enumerate() {
+                let x0 = bx * g.block_px;
+                let x1 = (x0 + g.block_px).min(g.w);
+                for xw in (x0..x1).filter(|&x| rel[x]) {
+                    let t0 = trow[xw];
                     let px = &line[xw * f3..(xw + 1) * f3];
                     for k in 0..f {
                         if let Some((pop, c)) =
@@ -262,19 +269,24 @@ fn run<const F: usize, const REGIONS: bool>(
                         }
                     }
                 }
-                if reg != region::NONE {
-                    // Every input pixel of a contact working pixel.
-                    for ky in 0..f {
-                        let base = (yw * f + ky) * stride + xw * f3;
-                        let px = &raw[base..base + f3];
-                        for kx in 0..f {
-                            let t = t0.wrapping_add(offsets_all[ky * f + kx]);
-                            if let Some((pop, c)) = classify(t, &px[3 * kx..3 * kx + 3]) {
-                                contact[0].sample(pop, c);
-                                if reg == region::CORE {
-                                    contact[1].sample(pop, c);
-                                }
-                            }
+            }
+        }
+        // Every input pixel of the row's contact working pixels.
+        for xw in (rx0..rx1).filter(|&x| rel[x]) {
+            let reg = regions[row.start + xw];
+            if reg == region::NONE {
+                continue;
+            }
+            let t0 = trow[xw];
+            for ky in 0..f {
+                let base = (yw * f + ky) * stride + xw * f3;
+                let px = &raw[base..base + f3];
+                for kx in 0..f {
+                    let t = t0.wrapping_add(offsets_all[ky * f + kx]);
+                    if let Some((pop, c)) = classify(t, &px[3 * kx..3 * kx + 3]) {
+                        contact[0].sample(pop, c);
+                        if reg == region::CORE {
+                            contact[1].sample(pop, c);
                         }
                     }
                 }
