@@ -588,6 +588,9 @@ pub fn measure<M: PhaseMap>(
             .collect()
     };
     let mut found = contact_tiles(&above(&phi, thr), (cw, ch), (tw, th), min_total);
+    // Whether the noise was measured on the background alone (a contact's curvature
+    // counts as noise in the first estimate).
+    let mut noise_clean = found.is_none();
     if let Some((region, _)) = &found {
         // With the contact known, registration and noise come from the background only.
         let in_region = samples_in(region, (cw, ch), tw);
@@ -601,6 +604,7 @@ pub fn measure<M: PhaseMap>(
         // The background must be big enough to measure; otherwise keep the first estimate.
         if in_region.iter().filter(|r| !**r).count() * 4 > phi.len() {
             noise = local_noise_units(&phi, &background, cw, ch, box_c);
+            noise_clean = true;
         }
         thr = ((CONTACT_SIGMAS * noise as f32) as i32).max(min_thr);
         found = contact_tiles(&above(&phi, thr), (cw, ch), (tw, th), min_total);
@@ -610,8 +614,10 @@ pub fn measure<M: PhaseMap>(
         flags.insert(Flag::Misregistration);
     }
     let noise_rad = noise as f32 / UNITS_PER_RAD;
-    // Fringes too weak for the sensor's noise.
-    if noise_rad > NOISY_RAD {
+    // Fringes too weak for the sensor's noise; not judged when a contact covering most of
+    // the view left no background to measure the noise on (the amplitude tests above
+    // still are).
+    if noise_clean && noise_rad > NOISY_RAD {
         flags.insert(Flag::LowContrast);
     }
     // Reliability per working pixel, from the coarse grid (the region's window refines it).
