@@ -3,21 +3,25 @@
 //! **Demodulation instead of a per-frame FFT.** Multiplying the luminance by
 //! `e^{−i·2π(fx·x + fy·y)}` moves the first order to DC and everything else (DC, the other
 //! side band, harmonics) to multiples of the carrier; a separable low-pass then keeps the
-//! first order: the same analytic signal an FTP band-pass gives, but with running-sum box
-//! filters (two passes each way, a triangular kernel) whose cost does not depend on their
-//! length. Along x the box spans one carrier period, so its nulls fall exactly on the
-//! unwanted orders; along y it spans one period too, for a round footprint.
+//! first order: the same analytic signal an FTP band-pass gives. The low-pass is a
+//! triangle (two cascaded boxes) each way, computed as a cascaded-integrator-comb filter
+//! whose cost does not depend on its length. Along x the box spans one carrier period, so
+//! its nulls fall exactly on the unwanted orders; along y it spans one period too, for a
+//! round footprint.
 //!
 //! **Scaling.** Luminance is 8.8 fixed point (≤ 65 280). The mixing table is Q15, so a
-//! mixed sample is `(g·c) >> 15`, |·| ≤ 65 280: no headroom problem. Each box pass is a sum
-//! of ≤ L samples (≤ 2²² for L ≤ 64) normalised by a Q16 reciprocal in 64-bit: the signal
-//! keeps its scale through every pass, so there is neither overflow nor the loss of
-//! precision that scaling at every stage would cause. The product with the conjugate
-//! reference (64-bit) is shifted per pixel to 31 bits before an integer `atan2`.
+//! mixed sample is `(g·c) >> 15`, |·| ≤ 65 280. The filters are not normalised: their gain
+//! `lx²·ly²` is kept (every amplitude test compares amplitudes of the same gain, and the
+//! phase does not depend on it), and [`headroom_shift`] shifts the mixed samples down just
+//! enough for the filtered value to fit an `i32` (no shift for periods up to 13 working
+//! pixels). The integrators wrap; the comb's result is exact because it fits. Nothing is
+//! rescaled between stages, so no stage loses the precision of a small signal. The product
+//! with the conjugate reference is taken in 64 bits.
 //!
 //! **atan2** reduces to the first octant, divides once (Q16 ratio), and interpolates a
 //! 257-entry table: error below 2·10⁻⁵ rad. Phases are `i32` in units of 2π/65 536, so
-//! wrapping is a cast to `i16`.
+//! wrapping is a cast to `i16`. They are computed where the measurement reads them (a
+//! coarse grid and the contact window, `measure`), not for every pixel.
 //!
 //! Reference-side work (carrier, mixing table, reference analytic signal, depth table) is
 //! done once in [`FixedFtp::new`]; the carrier itself is estimated in floating point there,

@@ -1,6 +1,10 @@
 //! From a wrapped phase-difference map to a [`Deformation`]: registration, noise floor,
 //! early exit, contact tiles, unwrapping where needed, depth, features and quality flags.
 //!
+//! Work follows the scene: the background is read on a coarse grid (every [`GRID`]-th
+//! working pixel each way), and only the contact region's window at every pixel, from the
+//! coarse phase unwrapped and upsampled by cubic convolution ([`upsample2`]).
+//!
 //! Thresholds are set from what each frame measures, never magic depths: the noise floor is
 //! the robust spread (1.4826 × MAD) of the background phase, contact needs
 //! [`CONTACT_SIGMAS`] times that, and the volume counts pixels deeper than the depth of
@@ -406,7 +410,6 @@ fn slope_p98(u: &[i32], mask: &[bool], w: usize, h: usize) -> i32 {
 /// from contact the difference is the registration offset plus noise.
 #[derive(Debug, Clone, Default)]
 pub struct WrappedPhase {
-    w: usize,
     cw: usize,
     coarse: Vec<i32>,
     /// The region's window: origin, width, height and values (`i32::MIN`: not read).
@@ -433,23 +436,6 @@ impl WrappedPhase {
             }
         }
     }
-
-    /// The wrapped phase difference at working pixel `i`, units.
-    pub fn at(&self, i: usize) -> i32 {
-        let (x, y) = (i % self.w.max(1), i / self.w.max(1));
-        if let Some((x0, y0, bw, bh, v)) = &self.local {
-            if x >= *x0 && y >= *y0 && x < x0 + bw && y < y0 + bh {
-                let u = v[(y - y0) * bw + (x - x0)];
-                if u != i32::MIN {
-                    return u;
-                }
-            }
-        }
-        self.coarse
-            .get((y / GRID) * self.cw + x / GRID)
-            .copied()
-            .unwrap_or(0)
-    }
 }
 
 /// The coarse grid's samples: every [`GRID`]-th working pixel each way, row-major.
@@ -467,7 +453,6 @@ struct Coarse<P> {
 }
 
 /// Reads the coarse grid: the only place the background's phase is computed.
-#[inline(never)]
 fn read_coarse<M: PhaseMap>(map: &M, lim: u32, margin: usize) -> Coarse<M::P> {
     let (w, h) = map.size();
     let (cw, ch) = (w.div_ceil(GRID), h.div_ceil(GRID));
@@ -637,7 +622,6 @@ pub fn measure<M: PhaseMap>(
         row[xb..].fill(false);
     }
     let mut wrapped = WrappedPhase {
-        w,
         cw,
         coarse: phase.iter().map(|p| p.units()).collect(),
         local: None,

@@ -53,7 +53,6 @@ impl Phase for i32 {
 /// Unwraps `wrapped` inside `region` (both `w × h`), seeded from the pixels outside it.
 /// `quality` orders the fill. Returns the unwrapped phase (equal to `wrapped` outside the
 /// region) and the number of region pixels that could not be reached.
-#[inline(never)]
 pub fn unwrap_region<P: Phase>(
     wrapped: &[P],
     quality: &[u32],
@@ -117,7 +116,6 @@ pub fn unwrap_region<P: Phase>(
 
 /// Phase residues (2 × 2 loops whose wrapped differences do not sum to zero) inside
 /// `region`: where they are, no unwrapping path is consistent.
-#[inline(never)]
 pub fn residues<P: Phase>(wrapped: &[P], region: &[bool], w: usize, h: usize) -> usize {
     let mut n = 0;
     for y in 0..h.saturating_sub(1) {
