@@ -12,7 +12,7 @@
 //! **Scaling.** Luminance is 8.8 fixed point (≤ 65 280). The mixing table is Q15, so a
 //! mixed sample is `(g·c) >> 15`, |·| ≤ 65 280. The filters are not normalised: their gain
 //! `lx²·ly²` is kept (every amplitude test compares amplitudes of the same gain, and the
-//! phase does not depend on it), and [`headroom_shift`] shifts the mixed samples down just
+//! phase does not depend on it), and `headroom_shift` shifts the mixed samples down just
 //! enough for the filtered value to fit an `i32` (no shift for periods up to 13 working
 //! pixels). The integrators wrap; the comb's result is exact because it fits. Nothing is
 //! rescaled between stages, so no stage loses the precision of a small signal. The product

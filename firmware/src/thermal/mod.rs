@@ -12,8 +12,8 @@
 //! ```
 //!
 //! [`lab`] holds the colour science, [`stripes`] the segmentation, [`model`] the
-//! calibration's models and their fusion, [`fit`] their fitting and [`lut`] the device
-//! table.
+//! calibration's models and their fusion, [`fit`] their fitting and [`fixed`] the device
+//! path's integer evaluation of the models.
 
 pub mod fit;
 pub mod fixed;

@@ -1,0 +1,156 @@
+//! The coarse grid: the background's samples, its noise floor and the contact tiles.
+
+use super::phase::PhaseMap;
+use super::{GRID, TILE_MIN_SAMPLES};
+use crate::pipeline::TILE_PX;
+
+/// Contact tiles ([`TILE_PX`] working pixels square) from the coarse grid (`cw × ch`
+/// samples, [`GRID`] pixels apart): a tile is active when at least [`TILE_MIN_SAMPLES`] of
+/// its samples are `above`; the active tiles dilated by one tile are the region (`tw × th`
+/// tiles). `None` when there is none, or when fewer than `min_total` samples are above in
+/// all: the band-pass spreads any indentation over about a period each way, so a blob
+/// smaller than a disc one period across is a speck of the image (an illumination edge
+/// under a shifted grating, a hot pixel), not a contact.
+pub fn contact_tiles(
+    above: &[bool],
+    (cw, ch): (usize, usize),
+    (tw, th): (usize, usize),
+    min_total: usize,
+) -> Option<(Vec<bool>, usize)> {
+    let per = TILE_PX / GRID;
+    let mut count = vec![0usize; tw * th];
+    for (cy, row) in above.chunks_exact(cw).take(ch).enumerate() {
+        let trow = &mut count[(cy / per) * tw..(cy / per + 1) * tw];
+        for (cx, a) in row.iter().enumerate() {
+            trow[cx / per] += usize::from(*a);
+        }
+    }
+    if count.iter().all(|&c| c < TILE_MIN_SAMPLES) || count.iter().sum::<usize>() < min_total {
+        return None;
+    }
+    let mut dil = vec![false; tw * th];
+    for ty in 0..th {
+        for tx in 0..tw {
+            if count[ty * tw + tx] >= TILE_MIN_SAMPLES {
+                for y in ty.saturating_sub(1)..(ty + 2).min(th) {
+                    for x in tx.saturating_sub(1)..(tx + 2).min(tw) {
+                        dil[y * tw + x] = true;
+                    }
+                }
+            }
+        }
+    }
+    let tiles = dil.iter().filter(|t| **t).count();
+    Some((dil, tiles))
+}
+
+/// Per coarse sample (`cw × ch`), whether its tile is set in `tiles` (`tw` across).
+pub(super) fn samples_in(tiles: &[bool], (cw, ch): (usize, usize), tw: usize) -> Vec<bool> {
+    let per = TILE_PX / GRID;
+    let mut out = Vec::with_capacity(cw * ch);
+    for cy in 0..ch {
+        let trow = &tiles[(cy / per) * tw..(cy / per + 1) * tw];
+        out.extend((0..cw).map(|cx| trow[cx / per]));
+    }
+    out
+}
+
+pub(super) fn median_u32(mut v: Vec<u32>) -> u32 {
+    if v.is_empty() {
+        return 0;
+    }
+    let k = v.len() / 2;
+    *v.select_nth_unstable(k).1
+}
+
+/// Phase noise (1σ, phase units): the robust spread of the phase minus its local mean over
+/// a box of `box_px` samples (about two periods), so smooth deformation does not count as
+/// noise. `phi` is `w × h` samples (the coarse grid).
+pub fn local_noise_units(phi: &[i32], reliable: &[bool], w: usize, h: usize, box_px: usize) -> i32 {
+    let r = (box_px / 2).max(1);
+    let mut ii = vec![0i64; (w + 1) * (h + 1)];
+    for y in 0..h {
+        let mut row = 0i64;
+        for x in 0..w {
+            row += i64::from(phi[y * w + x]);
+            ii[(y + 1) * (w + 1) + x + 1] = ii[y * (w + 1) + x + 1] + row;
+        }
+    }
+    let area = ((2 * r + 1) * (2 * r + 1)) as i64;
+    let mut dev = Vec::new();
+    for y in r..h.saturating_sub(r) {
+        for x in r..w.saturating_sub(r) {
+            let i = y * w + x;
+            if !reliable[i] {
+                continue;
+            }
+            let (x0, x1, y0, y1) = (x - r, x + r + 1, y - r, y + r + 1);
+            let sum = ii[y1 * (w + 1) + x1] - ii[y0 * (w + 1) + x1] - ii[y1 * (w + 1) + x0]
+                + ii[y0 * (w + 1) + x0];
+            dev.push(
+                (i64::from(phi[i]) * area - sum)
+                    .unsigned_abs()
+                    .div_ceil(area as u64) as u32,
+            );
+        }
+    }
+    // 1.4826 × MAD, in integers (×1518 / 1024).
+    ((i64::from(median_u32(dev)) * 1518 / 1024) as i32).max(1)
+}
+
+/// The coarse grid's samples: every [`GRID`]-th working pixel each way, row-major.
+pub(super) struct Coarse<P> {
+    /// Wrapped phase difference.
+    pub(super) phase: Vec<P>,
+    /// Frame and reference fringe amplitudes.
+    pub(super) amp: Vec<u32>,
+    pub(super) amp_r: Vec<u32>,
+    /// Inside the margin, with both amplitudes above `lim`.
+    pub(super) rel: Vec<bool>,
+    /// Samples inside the margin, and those reliable.
+    pub(super) inside_n: usize,
+    pub(super) reliable_n: usize,
+}
+
+/// Reads the coarse grid: the only place the background's phase is computed.
+pub(super) fn read_coarse<M: PhaseMap>(map: &M, lim: u32, margin: usize) -> Coarse<M::P> {
+    let (w, h) = map.size();
+    let (cw, ch) = (w.div_ceil(GRID), h.div_ceil(GRID));
+    let n = cw * ch;
+    let mut c = Coarse {
+        phase: vec![M::P::default(); n],
+        amp: vec![0; n],
+        amp_r: vec![0; n],
+        rel: vec![false; n],
+        inside_n: 0,
+        reliable_n: 0,
+    };
+    let xs = margin..w.saturating_sub(margin);
+    for (cy, (((p, a), ar), r)) in c
+        .phase
+        .chunks_exact_mut(cw)
+        .zip(c.amp.chunks_exact_mut(cw))
+        .zip(c.amp_r.chunks_exact_mut(cw))
+        .zip(c.rel.chunks_exact_mut(cw))
+        .enumerate()
+    {
+        let y = cy * GRID;
+        let row_inside = y >= margin && y + margin < h;
+        for (cx, (((p, a), ar), r)) in p
+            .iter_mut()
+            .zip(a.iter_mut())
+            .zip(ar.iter_mut())
+            .zip(r.iter_mut())
+            .enumerate()
+        {
+            let (x, i) = (cx * GRID, y * w + cx * GRID);
+            (*a, *ar) = (map.amp_frame(i), map.amp_ref(i));
+            let ins = row_inside && xs.contains(&x);
+            *r = ins && *a > lim && *ar > lim;
+            c.inside_n += usize::from(ins);
+            c.reliable_n += usize::from(*r);
+            *p = map.wrapped(i);
+        }
+    }
+    c
+}

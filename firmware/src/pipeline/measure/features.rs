@@ -1,0 +1,114 @@
+//! Features of a depth map (peak, area, volume, centre), force from them, and the phase
+//! slope the flags judge.
+
+use crate::calibration::{Calibration, ForceFeature};
+
+/// Features of a depth map.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Features {
+    /// Deepest point, mm.
+    pub peak_mm: f32,
+    /// Area with depth ≥ half the peak, mm².
+    pub area_mm2: f32,
+    /// Σ depth × pixel area over pixels deeper than the threshold, mm³.
+    pub volume_mm3: f32,
+    /// Depth-weighted centre of the contact area, input pixels.
+    pub centroid_px: Option<(f32, f32)>,
+}
+
+/// Features of a working-resolution depth map (µm), in integer sums: shared by both paths.
+///
+/// `depth_um` may be a window of the working image whose top-left pixel is `origin`.
+pub fn summarize(
+    depth_um: &[i32],
+    w: usize,
+    origin: (usize, usize),
+    factor: usize,
+    mm_per_px: f32,
+    thr_um: i32,
+) -> Features {
+    let peak = depth_um.iter().copied().max().unwrap_or(0).max(0);
+    if peak <= thr_um {
+        return Features::default();
+    }
+    let half = peak / 2;
+    let (mut vol, mut n_area) = (0i64, 0i64);
+    for &d in depth_um {
+        if d > thr_um {
+            vol += i64::from(d);
+        }
+        if d >= half && d > thr_um {
+            n_area += 1;
+        }
+    }
+    // The centre is that of the contact holding the peak (its 8-connected component above
+    // half the peak), so a second, shallower blob cannot drag it.
+    let h = depth_um.len() / w.max(1);
+    let start = depth_um.iter().position(|&d| d == peak).unwrap_or(0);
+    let (mut wx, mut wy, mut ws) = (0i64, 0i64, 0i64);
+    let mut seen = vec![false; depth_um.len()];
+    let mut stack = vec![start];
+    seen[start] = true;
+    while let Some(i) = stack.pop() {
+        let (x, y) = (i % w, i / w);
+        let d = i64::from(depth_um[i]);
+        wx += d * x as i64;
+        wy += d * y as i64;
+        ws += d;
+        for ny in y.saturating_sub(1)..(y + 2).min(h) {
+            for nx in x.saturating_sub(1)..(x + 2).min(w) {
+                let j = ny * w + nx;
+                if !seen[j] && depth_um[j] >= half && depth_um[j] > thr_um {
+                    seen[j] = true;
+                    stack.push(j);
+                }
+            }
+        }
+    }
+    let px_mm = mm_per_px * factor as f32;
+    let px_area = px_mm * px_mm;
+    let to_input = |v: f32, o: usize| (v + o as f32 + 0.5) * factor as f32;
+    Features {
+        peak_mm: peak as f32 / 1000.0,
+        area_mm2: n_area as f32 * px_area,
+        volume_mm3: vol as f32 / 1000.0 * px_area,
+        centroid_px: (ws > 0).then(|| {
+            (
+                to_input(wx as f32 / ws as f32, origin.0),
+                to_input(wy as f32 / ws as f32, origin.1),
+            )
+        }),
+    }
+}
+
+/// Force from the calibration's model.
+pub fn force_of(calib: &Calibration, f: &Features, integrated_phase: f32) -> f32 {
+    let Some(fm) = &calib.force else { return 0.0 };
+    let u = match fm.model.feature {
+        ForceFeature::Volume => f.volume_mm3,
+        ForceFeature::IntegratedPhase => integrated_phase,
+        ForceFeature::ContactArea => f.area_mm2,
+        ForceFeature::PeakDepth => f.peak_mm,
+    };
+    fm.model.force_n(f64::from(u)) as f32
+}
+
+/// 98th percentile of the phase slope (units per working pixel) over `mask`.
+pub(super) fn slope_p98(u: &[i32], mask: &[bool], w: usize, h: usize) -> i32 {
+    let mut s = Vec::new();
+    for y in 1..h.saturating_sub(1) {
+        for x in 1..w.saturating_sub(1) {
+            let i = y * w + x;
+            if mask[i] {
+                let gx = i64::from(u[i + 1] - u[i - 1]) / 2;
+                let gy = i64::from(u[i + w] - u[i - w]) / 2;
+                s.push(((gx * gx + gy * gy) as f64).sqrt() as u32);
+            }
+        }
+    }
+    if s.is_empty() {
+        return 0;
+    }
+    let k = (s.len() * 98 / 100).min(s.len() - 1);
+    *s.select_nth_unstable(k).1 as i32
+}
