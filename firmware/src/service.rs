@@ -13,7 +13,8 @@
 //!   between consecutive frames must fall below `reference.stable_dn` (measured, not a
 //!   sleep). It drifts as the skin creeps and the light ages: a frame without contact whose
 //!   registration offset or mean brightness has moved beyond the policy's limits counts as
-//!   drifted. After `reference.auto_after_s` without contact a drifted reference is renewed;
+//!   drifted (brightness only while the skin's mean temperature is that of the reference:
+//!   [`TEMPERATURE_EXPLAINS_C`]). After `reference.auto_after_s` without contact a drifted reference is renewed;
 //!   with auto re-referencing off, summaries carry `stale_reference` until the host sends
 //!   `CaptureReference`.
 //! * Camera lost (a transient source error): one `Error(CameraLost)` and `RunState::CameraLost`
@@ -271,6 +272,11 @@ fn mean_abs_diff(a: &[u16], b: &[u16]) -> f32 {
     s as f32 / 256.0 / a.len().max(1) as f32
 }
 
+/// A change of the skin's mean temperature (°C) since the reference that explains a change
+/// of brightness: thermochromic stripes change colour, so the image's brightness follows
+/// the temperature the service is there to report.
+pub const TEMPERATURE_EXPLAINS_C: f32 = 0.5;
+
 /// Runs the service until the source ends, `frames` have been processed, or `stop` is set.
 ///
 /// `commands` is the link's read side (None for a write-only link such as stdout).
@@ -407,6 +413,9 @@ pub fn run(
     let policy = settings.reference;
     // Reference brightness (mean of a sparse sample), and when contact was last seen.
     let mut ref_brightness = 0.0f32;
+    // The skin's mean temperature when the reference was taken: a brightness change that
+    // the skin's own temperature explains is the reading, not drift.
+    let mut ref_temp_c: Option<f32> = None;
     let mut calm_since = Instant::now();
     let mut camera_lost = false;
     // Whether the last frame without contact found the reference drifted; contact frames
@@ -557,6 +566,12 @@ pub fn run(
                 c.references += 1;
                 drifted = false;
                 ref_brightness = brightness(&img);
+                ref_temp_c = analyzer
+                    .as_ref()
+                    .and_then(|a| a.analyze(&img).ok())
+                    .and_then(|d| d.temperature)
+                    .map(|t| t.mean_c)
+                    .filter(|t| t.is_finite());
                 reference_at = Instant::now();
                 calm_since = Instant::now();
                 tx.send(&status(&c, RunState::Streaming, max_rate_hz, reference_at));
@@ -578,8 +593,15 @@ pub fn run(
             calm_since = Instant::now();
         } else {
             let b = brightness(&img);
+            let warmed = match (ref_temp_c, d.temperature.as_ref()) {
+                (Some(r), Some(t)) if t.mean_c.is_finite() => {
+                    (t.mean_c - r).abs() > TEMPERATURE_EXPLAINS_C
+                }
+                _ => false,
+            };
             drifted = d.offset_rad.abs() > policy.drift_rad
-                || (b / ref_brightness.max(1e-3) - 1.0).abs() > policy.drift_brightness;
+                || (!warmed
+                    && (b / ref_brightness.max(1e-3) - 1.0).abs() > policy.drift_brightness);
         }
         if drifted {
             let auto = policy.auto_after_s > 0.0;

@@ -99,6 +99,41 @@ fn a_drifting_reference_is_flagged_stale_when_renewing_is_off() {
     assert_eq!(c.stale as usize, flags.len() - first);
 }
 
+/// A skin warming from room temperature to 37 °C changes the stripes' colours, and with
+/// them the image's brightness: that is the reading, not a drifting reference.
+#[test]
+fn a_warming_skin_is_not_a_drifting_reference() {
+    let u = unit();
+    let mut s = vec![SkinState::idle(ROOM_C); 4];
+    s.extend((0..24).map(|i| SkinState::idle(ROOM_C + 12.0 * i as f32 / 23.0)));
+    let (c, msgs) = serve(
+        Box::new(SimSource::new("warming", u, s, None, 3)),
+        ReferencePolicy {
+            auto_after_s: 0.0,
+            ..Default::default()
+        },
+    );
+    let summaries: Vec<_> = msgs
+        .iter()
+        .filter_map(|m| match m {
+            DeviceMsg::Summary(s) => Some(s),
+            _ => None,
+        })
+        .collect();
+    let last = summaries.last().unwrap();
+    assert!(
+        (f32::from(last.temp_mean_centi_c) / 100.0 - (ROOM_C + 12.0)).abs() < 1.0,
+        "the warming is read: {last:?}"
+    );
+    assert!(
+        summaries
+            .iter()
+            .all(|s| !s.flags.contains(Flag::StaleReference)),
+        "{summaries:?}"
+    );
+    assert_eq!(c.stale, 0);
+}
+
 #[test]
 fn a_drifting_reference_is_renewed_after_a_quiet_spell() {
     let (c, msgs) = serve(
