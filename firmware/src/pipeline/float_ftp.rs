@@ -249,13 +249,6 @@ impl FloatFtp {
     }
 }
 
-impl FloatMap<'_> {
-    /// Wrapped phase difference at working pixel `i`, rad.
-    pub fn wrapped_rad(&self, i: usize) -> f32 {
-        self.field.wrapped[i]
-    }
-}
-
 impl super::measure::PhaseMap for FloatMap<'_> {
     type P = f32;
     fn size(&self) -> (usize, usize) {

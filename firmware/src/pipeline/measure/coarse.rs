@@ -98,6 +98,30 @@ pub fn local_noise_units(phi: &[i32], reliable: &[bool], w: usize, h: usize, box
     ((i64::from(median_u32(dev)) * 1518 / 1024) as i32).max(1)
 }
 
+/// The trusted area of a `w × h` working image: pixels at least `m` from every edge. Near
+/// the edge neither the FFT (periodic wrap) nor the box filters (padded edges) see a whole
+/// neighbourhood.
+#[derive(Debug, Clone)]
+pub(super) struct Margin {
+    /// Trusted columns and rows.
+    pub(super) xs: std::ops::Range<usize>,
+    pub(super) ys: std::ops::Range<usize>,
+}
+
+impl Margin {
+    pub(super) fn new(m: usize, w: usize, h: usize) -> Margin {
+        let span = |n: usize| m.min(n)..n.saturating_sub(m).max(m.min(n));
+        Margin {
+            xs: span(w),
+            ys: span(h),
+        }
+    }
+
+    pub(super) fn contains(&self, x: usize, y: usize) -> bool {
+        self.xs.contains(&x) && self.ys.contains(&y)
+    }
+}
+
 /// The coarse grid's samples: every [`GRID`]-th working pixel each way, row-major.
 pub(super) struct Coarse<P> {
     /// Wrapped phase difference.
@@ -113,7 +137,7 @@ pub(super) struct Coarse<P> {
 }
 
 /// Reads the coarse grid: the only place the background's phase is computed.
-pub(super) fn read_coarse<M: PhaseMap>(map: &M, lim: u32, margin: usize) -> Coarse<M::P> {
+pub(super) fn read_coarse<M: PhaseMap>(map: &M, lim: u32, margin: &Margin) -> Coarse<M::P> {
     let (w, h) = map.size();
     let (cw, ch) = (w.div_ceil(GRID), h.div_ceil(GRID));
     let n = cw * ch;
@@ -125,7 +149,6 @@ pub(super) fn read_coarse<M: PhaseMap>(map: &M, lim: u32, margin: usize) -> Coar
         inside_n: 0,
         reliable_n: 0,
     };
-    let xs = margin..w.saturating_sub(margin);
     for (cy, (((p, a), ar), r)) in c
         .phase
         .chunks_exact_mut(cw)
@@ -135,7 +158,7 @@ pub(super) fn read_coarse<M: PhaseMap>(map: &M, lim: u32, margin: usize) -> Coar
         .enumerate()
     {
         let y = cy * GRID;
-        let row_inside = y >= margin && y + margin < h;
+        let row_inside = margin.ys.contains(&y);
         for (cx, (((p, a), ar), r)) in p
             .iter_mut()
             .zip(a.iter_mut())
@@ -145,7 +168,7 @@ pub(super) fn read_coarse<M: PhaseMap>(map: &M, lim: u32, margin: usize) -> Coar
         {
             let (x, i) = (cx * GRID, y * w + cx * GRID);
             (*a, *ar) = (map.amp_frame(i), map.amp_ref(i));
-            let ins = row_inside && xs.contains(&x);
+            let ins = row_inside && margin.xs.contains(&x);
             *r = ins && *a > lim && *ar > lim;
             c.inside_n += usize::from(ins);
             c.reliable_n += usize::from(*r);

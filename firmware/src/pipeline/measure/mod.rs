@@ -22,7 +22,7 @@ pub use features::{force_of, summarize, Features};
 pub use phase::{PhaseMap, PhaseNum, WrappedPhase, UNITS_PER_RAD};
 pub use window::upsample2;
 
-use coarse::{median_u32, read_coarse, samples_in, Coarse};
+use coarse::{median_u32, read_coarse, samples_in, Coarse, Margin};
 use features::slope_p98;
 
 use super::carrier::Carrier;
@@ -126,12 +126,9 @@ pub fn measure<M: PhaseMap>(
     let (tw, th) = (w.div_ceil(TILE_PX), h.div_ceil(TILE_PX));
     let med_ref = map.amp_ref_median().max(1);
     let lim = (u64::from(med_ref) * (RELIABLE_AMPLITUDE * 1024.0) as u64 / 1024) as u32;
-    // Near the image edge neither the FFT (periodic wrap) nor the box filters (padded
-    // edges) see a whole neighbourhood: the two box passes reach one period each way, so
-    // pixels within a period and a half of the edge are not trusted.
-    let margin = (1.5 * carrier.period_px()).ceil() as usize;
-    let inside =
-        |x: usize, y: usize| x >= margin && y >= margin && x + margin < w && y + margin < h;
+    // The two box passes reach one period each way: pixels within a period and a half of
+    // the edge are not trusted.
+    let margin = Margin::new((1.5 * carrier.period_px()).ceil() as usize, w, h);
 
     let Coarse {
         phase,
@@ -140,7 +137,7 @@ pub fn measure<M: PhaseMap>(
         rel,
         inside_n,
         reliable_n,
-    } = read_coarse(map, lim, margin);
+    } = read_coarse(map, lim, &margin);
     let mut flags = QualityFlags::NONE;
     let med_frame = median_u32(amp.clone());
     if (med_frame as f32) < LOW_CONTRAST_RATIO * med_ref as f32 || reliable_n * 2 < inside_n {
@@ -223,8 +220,8 @@ pub fn measure<M: PhaseMap>(
     }
     // Reliability per working pixel, from the coarse grid (the region's window refines it).
     let mut reliable = vec![false; n];
-    let (xa, xb) = (margin.min(w), w.saturating_sub(margin).max(margin.min(w)));
-    for y in margin..h.saturating_sub(margin) {
+    let (xa, xb) = (margin.xs.start, margin.xs.end);
+    for y in margin.ys.clone() {
         let crow = &rel[(y / GRID) * cw..(y / GRID + 1) * cw];
         let row = &mut reliable[y * w..(y + 1) * w];
         for (pair, c) in row.chunks_mut(GRID).zip(crow) {
@@ -383,7 +380,7 @@ pub fn measure<M: PhaseMap>(
         let (cx, cy) = (wx0 + j % cbw, wy0 + j / cbw);
         let (x, y) = (cx * GRID, cy * GRID);
         let lj = (y - y0) * bw + (x - x0);
-        if lj >= m || !deformed[lj] || !inside(x, y) {
+        if lj >= m || !deformed[lj] || !margin.contains(x, y) {
             continue;
         }
         let k = at(j);
