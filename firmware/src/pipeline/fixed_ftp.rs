@@ -31,7 +31,7 @@ use image::RgbImage;
 
 use super::carrier::{self, Carrier};
 use super::image_ops::gray_down_q8;
-use super::measure::{PhaseMap, UNITS_PER_RAD};
+use super::measure::{PhaseMap, GRID, UNITS_PER_RAD};
 use super::PipelineError;
 use crate::calibration::Calibration;
 
@@ -77,78 +77,131 @@ pub fn atan2_units(y: i64, x: i64, table: &[u16; 257]) -> i32 {
     i32::from(a as i16)
 }
 
-/// The centred triangle low-pass of length `2·len − 1` (two cascaded boxes of length
-/// `len`, the same response as two running-sum box passes) along rows or columns, by the
-/// cascaded-integrator-comb structure: two running integrators and the comb
-/// `I₂[k+len−1] − 2·I₂[k−1] + I₂[k−len−1]`. Two additions per sample and a comb of three
-/// taps, whatever `len`, and no normalisation: the phase does not depend on the gain, and
-/// every amplitude test compares amplitudes of the same gain. Lines are zero-padded at both
-/// ends (the measurement's margin excludes the pixels that see the padding).
-///
-/// Arithmetic wraps: the integrators overflow, and the comb's result is still exact as long
-/// as it fits in an `i32` ([`headroom_shift`] scales the input so that it does). Columns
-/// are filtered a whole row at a time, so that pass reads memory in order and vectorises.
-struct Cic {
-    len: usize,
+/// The demodulated signal's planes, sampled every `step` working pixels each way.
+#[derive(Debug, Clone, Default)]
+struct Sampled {
+    re: Vec<i32>,
+    im: Vec<i32>,
 }
 
-impl Cic {
-    /// Filters every row of `buf` (`w × h`) along x, using `work` for one row of `I₂`.
-    fn rows(&self, buf: &mut [i32], w: usize, work: &mut Vec<i32>) {
-        let l = self.len;
-        // work[k] = I₂ at sample k − (l + 1); zero for k ≤ l.
-        work.clear();
-        work.resize(w + 2 * l, 0);
-        for row in buf.chunks_exact_mut(w) {
-            let (mut i1, mut i2) = (0i32, 0i32);
-            let (head, tail) = work[l + 1..].split_at_mut(w);
-            for (slot, v) in head.iter_mut().zip(row.iter()) {
-                i1 = i1.wrapping_add(*v);
-                i2 = i2.wrapping_add(i1);
-                *slot = i2;
-            }
-            // Past the end the input is zero: I₁ stays, I₂ keeps growing by it.
-            for slot in tail.iter_mut() {
-                i2 = i2.wrapping_add(i1);
-                *slot = i2;
-            }
-            for (x, out) in row.iter_mut().enumerate() {
-                *out = work[x + 2 * l]
-                    .wrapping_sub(work[x + l].wrapping_mul(2))
-                    .wrapping_add(work[x]);
-            }
-        }
-    }
-
-    /// Filters every column of `buf` (`w × h`) along y, a whole row of columns at a time;
-    /// `work` holds `I₂` for `h + 2·len` rows.
-    fn columns(&self, buf: &mut [i32], w: usize, h: usize, work: &mut Vec<i32>) {
-        let l = self.len;
-        work.clear();
-        work.resize(w * (h + 2 * l), 0);
-        let mut i1 = vec![0i32; w];
-        let mut i2 = vec![0i32; w];
-        for k in l + 1..h + 2 * l {
-            let y = k - (l + 1);
-            if y < h {
-                for (a, v) in i1.iter_mut().zip(&buf[y * w..(y + 1) * w]) {
-                    *a = a.wrapping_add(*v);
+/// Mixes a `w × h` Q8 luminance image down by the carrier (`mix`: Q15 cos, sin per pixel,
+/// shifted down by `sh` bits after the product) and low-passes it with the centred triangle
+/// of length `2·l − 1` each way (`lx` along rows, `ly` along columns; a length of 1 is the
+/// identity), returning every `step`-th sample each way (row-major, `w.div_ceil(step)`
+/// across).
+///
+/// The triangles are cascaded-integrator-comb filters, streamed one input row at a time:
+/// per column two running integrators, `I₂` of the last `2·ly + 1` rows kept in a ring, and
+/// the comb `I₂[k] − 2·I₂[k − ly] + I₂[k − 2·ly]` evaluated only on the rows that are
+/// sampled; then the same along that row, its comb only at the sampled columns. Two
+/// additions per input sample and plane, whatever the lengths; the combs run at the output
+/// rate (a decimating CIC). Lines are zero-padded at both ends (the measurement's margin
+/// excludes the pixels that see the padding).
+///
+/// Arithmetic wraps: the integrators overflow, and each comb's result is still exact as
+/// long as it fits in an `i32` ([`headroom_shift`] makes the mixed samples small enough).
+/// The column pass runs first because its integrators vectorise across the row.
+fn demodulate(
+    gray: &[u16],
+    (w, h): (usize, usize),
+    mix: &Mix,
+    sh: u32,
+    (lx, ly): (usize, usize),
+    step: usize,
+) -> Sampled {
+    let step = step.max(1);
+    let (ow, oh) = (w.div_ceil(step), h.div_ceil(step));
+    let mut out = Sampled {
+        re: Vec::with_capacity(ow * oh),
+        im: Vec::with_capacity(ow * oh),
+    };
+    let ring_n = 2 * ly + 1;
+    // Per plane (re, im): the columns' I₁ and I₂, and I₂ of the last rows.
+    let mut i1 = [vec![0i32; w], vec![0i32; w]];
+    let mut i2 = [vec![0i32; w], vec![0i32; w]];
+    let mut ring = [vec![0i32; ring_n * w], vec![0i32; ring_n * w]];
+    let mut col = [vec![0i32; w], vec![0i32; w]];
+    // work[j] = the row's I₂ at sample j − (lx + 1); zero for j ≤ lx.
+    let mut work = [vec![0i32; w + 2 * lx], vec![0i32; w + 2 * lx]];
+    for k in 0..h + ly - 1 {
+        let slot = (k % ring_n) * w;
+        for p in 0..2 {
+            let (a, b) = (&mut i1[p], &mut i2[p]);
+            let dst = &mut ring[p][slot..slot + w];
+            if k < h {
+                // re = g·cos ≫ sh, im = −(g·sin ≫ sh): the product with e^{−iθ}.
+                let (g, m) = (
+                    &gray[k * w..(k + 1) * w],
+                    &mix.planes[p][k * w..(k + 1) * w],
+                );
+                for ((((a, b), d), g), m) in a.iter_mut().zip(b.iter_mut()).zip(dst).zip(g).zip(m) {
+                    let v = (i32::from(*g) * i32::from(*m)) >> sh;
+                    *a = if p == 0 {
+                        a.wrapping_add(v)
+                    } else {
+                        a.wrapping_sub(v)
+                    };
+                    *b = b.wrapping_add(*a);
+                    *d = *b;
+                }
+            } else {
+                // Past the last row the input is zero: I₁ stays, I₂ keeps growing by it.
+                for ((a, b), d) in a.iter().zip(b.iter_mut()).zip(dst) {
+                    *b = b.wrapping_add(*a);
+                    *d = *b;
                 }
             }
-            for (b, a) in i2.iter_mut().zip(&i1) {
-                *b = b.wrapping_add(*a);
-            }
-            work[k * w..(k + 1) * w].copy_from_slice(&i2);
         }
-        for (y, out) in buf.chunks_exact_mut(w).enumerate() {
-            let (r0, r1, r2) = (y * w, (y + l) * w, (y + 2 * l) * w);
-            for (x, o) in out.iter_mut().enumerate() {
-                *o = work[r2 + x]
-                    .wrapping_sub(work[r1 + x].wrapping_mul(2))
-                    .wrapping_add(work[r0 + x]);
+        // I₂[k] is in; output row y needs I₂ up to y + ly − 1.
+        let Some(y) = (k + 1).checked_sub(ly) else {
+            continue;
+        };
+        if y % step != 0 {
+            continue;
+        }
+        for p in 0..2 {
+            let ring = &ring[p];
+            let row = |j: usize| &ring[(j % ring_n) * w..(j % ring_n + 1) * w];
+            let col = &mut col[p];
+            col.copy_from_slice(row(k));
+            if let Some(j) = k.checked_sub(ly) {
+                for (c, v) in col.iter_mut().zip(row(j)) {
+                    *c = c.wrapping_sub(v.wrapping_mul(2));
+                }
             }
+            if let Some(j) = k.checked_sub(2 * ly) {
+                for (c, v) in col.iter_mut().zip(row(j)) {
+                    *c = c.wrapping_add(*v);
+                }
+            }
+            // Along the row.
+            let work = &mut work[p];
+            let (mut a, mut b) = (0i32, 0i32);
+            let (head, tail) = work[lx + 1..].split_at_mut(w);
+            for (d, v) in head.iter_mut().zip(col.iter()) {
+                a = a.wrapping_add(*v);
+                b = b.wrapping_add(a);
+                *d = b;
+            }
+            for d in tail.iter_mut() {
+                b = b.wrapping_add(a);
+                *d = b;
+            }
+            let dst = if p == 0 { &mut out.re } else { &mut out.im };
+            dst.extend((0..w).step_by(step).map(|x| {
+                work[x + 2 * lx]
+                    .wrapping_sub(work[x + lx].wrapping_mul(2))
+                    .wrapping_add(work[x])
+            }));
         }
     }
+    out
+}
+
+/// The mixing table: Q15 `cos θ` and `sin θ` of the carrier phase per working pixel.
+#[derive(Debug, Clone)]
+struct Mix {
+    planes: [Vec<i16>; 2],
 }
 
 /// Right shift of the mixed samples that keeps the triangle filters' results within an
@@ -214,17 +267,16 @@ pub struct FixedFtp {
     h: usize,
     factor: usize,
     carrier: Carrier,
-    mix: Vec<[i16; 2]>,
+    mix: Mix,
     lx: usize,
     ly: usize,
     shift: u32,
-    re_ref: Vec<i32>,
-    im_ref: Vec<i32>,
+    /// The reference's analytic signal and amplitude on the coarse grid.
+    reference: Sampled,
     amp_ref: Vec<u32>,
     ref_median: u32,
     atan: &'static [u16; 257],
     lut: DepthLut,
-    rows_only: bool,
 }
 
 /// |z| approximated as max + ⅜·min (within 7 %): enough for reliability and ordering.
@@ -254,19 +306,22 @@ impl FixedFtp {
     ) -> Result<FixedFtp, PipelineError> {
         let (factor, carrier) = (working.factor, working.carrier);
         let (gray, w, h, _) = gray_down_q8(reference, factor);
-        let mix = (0..w * h)
-            .map(|i| {
-                let th = std::f64::consts::TAU
-                    * (f64::from(carrier.fx) * (i % w) as f64
-                        + f64::from(carrier.fy) * (i / w) as f64);
-                [
-                    (th.cos() * 32_767.0).round() as i16,
-                    (th.sin() * 32_767.0).round() as i16,
-                ]
-            })
-            .collect();
+        let q15 = |f: fn(f64) -> f64| -> Vec<i16> {
+            (0..w * h)
+                .map(|i| {
+                    let th = std::f64::consts::TAU
+                        * (f64::from(carrier.fx) * (i % w) as f64
+                            + f64::from(carrier.fy) * (i / w) as f64);
+                    (f(th) * 32_767.0).round() as i16
+                })
+                .collect()
+        };
+        let mix = Mix {
+            planes: [q15(f64::cos), q15(f64::sin)],
+        };
         let (lx, ly) = super::float_ftp::box_lengths(&carrier);
-        let shift = headroom_shift(lx, if rows_only { 1 } else { ly });
+        let ly = if rows_only { 1 } else { ly };
+        let shift = headroom_shift(lx, ly);
         let mut f = FixedFtp {
             w,
             h,
@@ -276,19 +331,18 @@ impl FixedFtp {
             lx,
             ly,
             shift,
-            re_ref: Vec::new(),
-            im_ref: Vec::new(),
+            reference: Sampled::default(),
             amp_ref: Vec::new(),
             ref_median: 0,
             atan: atan_table(),
             lut: DepthLut::new(calib),
-            rows_only,
         };
-        (f.re_ref, f.im_ref) = f.analytic(&gray);
+        f.reference = f.analytic(&gray, GRID);
         f.amp_ref = f
-            .re_ref
+            .reference
+            .re
             .iter()
-            .zip(&f.im_ref)
+            .zip(&f.reference.im)
             .map(|(&a, &b)| amp(a, b))
             .collect();
         let mut a = f.amp_ref.clone();
@@ -307,32 +361,21 @@ impl FixedFtp {
         self.carrier
     }
 
-    /// The analytic signal of a Q8 luminance image as (re, im) planes, in luminance Q8
-    /// units times the filters' gain over `2^shift`.
-    fn analytic(&self, gray: &[u16]) -> (Vec<i32>, Vec<i32>) {
-        let (w, h) = (self.w, self.h);
-        let sh = 15 + self.shift;
-        let (re, im): (Vec<i32>, Vec<i32>) = gray
-            .iter()
-            .zip(&self.mix)
-            .map(|(g, m)| {
-                let g = i32::from(*g);
-                ((g * i32::from(m[0])) >> sh, -((g * i32::from(m[1])) >> sh))
-            })
-            .unzip();
-        let (mut re, mut im) = (re, im);
-        let mut work = Vec::new();
-        for buf in [&mut re, &mut im] {
-            Cic { len: self.lx }.rows(buf, w, &mut work);
-            if !self.rows_only {
-                Cic { len: self.ly }.columns(buf, w, h, &mut work);
-            }
-        }
-        (re, im)
+    /// The analytic signal of a Q8 luminance image every `step` working pixels each way, in
+    /// luminance Q8 units times the filters' gain over `2^shift`.
+    fn analytic(&self, gray: &[u16], step: usize) -> Sampled {
+        demodulate(
+            gray,
+            (self.w, self.h),
+            &self.mix,
+            15 + self.shift,
+            (self.lx, self.ly),
+            step,
+        )
     }
 
-    /// The frame's analytic signal; its phase difference to the reference is computed per
-    /// pixel where the measurement asks for it (a coarse grid and the contact region).
+    /// The frame's analytic signal on the coarse grid ([`GRID`]): the only samples the
+    /// measurement reads (it upsamples the contact window's phase from them).
     pub fn phase(&self, frame: &RgbImage) -> FixedField<'_> {
         let (gray, w, h, saturated) = gray_down_q8(frame, self.factor);
         assert_eq!(
@@ -340,22 +383,22 @@ impl FixedFtp {
             (self.w, self.h),
             "frame size differs from the reference"
         );
-        let (re, im) = self.analytic(&gray);
         FixedField {
             ftp: self,
-            re,
-            im,
+            frame: self.analytic(&gray, GRID),
             saturated_fraction: saturated,
         }
     }
 
     /// The reference's grating phase per working pixel, units of 2π/65 536: the mixing
-    /// phase plus the demodulated signal's argument.
-    pub fn grating_phase(&self) -> Vec<u16> {
+    /// phase plus the demodulated signal's argument. Once per reference: the analytic
+    /// signal of `reference` at every working pixel.
+    pub fn grating_phase(&self, reference: &RgbImage) -> Vec<u16> {
+        let (gray, _, _, _) = gray_down_q8(reference, self.factor);
+        let z = self.analytic(&gray, 1);
         let (fx, fy) = (f64::from(self.carrier.fx), f64::from(self.carrier.fy));
-        self.re_ref
-            .iter()
-            .zip(&self.im_ref)
+        z.re.iter()
+            .zip(&z.im)
             .enumerate()
             .map(|(i, (&re, &im))| {
                 let mix = (fx * (i % self.w) as f64 + fy * (i / self.w) as f64) * 65_536.0;
@@ -366,13 +409,12 @@ impl FixedFtp {
     }
 }
 
-/// A frame on the device path: its analytic signal, whose phase difference to the
-/// reference's is computed where it is read.
+/// A frame on the device path: its analytic signal on the coarse grid, whose phase
+/// difference to the reference's is computed where it is read.
 #[derive(Debug)]
 pub struct FixedField<'a> {
     ftp: &'a FixedFtp,
-    re: Vec<i32>,
-    im: Vec<i32>,
+    frame: Sampled,
     /// Fraction of the sampled input pixels with a saturated channel.
     pub saturated_fraction: f32,
 }
@@ -384,16 +426,17 @@ impl PhaseMap for FixedField<'_> {
     }
     /// `arg(z · conj z_ref)` in phase units: the product in 64 bits, then the integer
     /// `atan2`.
-    fn wrapped(&self, i: usize) -> i32 {
-        let (a, b) = (i64::from(self.re[i]), i64::from(self.im[i]));
-        let (c, d) = (i64::from(self.ftp.re_ref[i]), i64::from(self.ftp.im_ref[i]));
+    fn wrapped(&self, k: usize) -> i32 {
+        let (a, b) = (i64::from(self.frame.re[k]), i64::from(self.frame.im[k]));
+        let r = &self.ftp.reference;
+        let (c, d) = (i64::from(r.re[k]), i64::from(r.im[k]));
         atan2_units(b * c - a * d, a * c + b * d, self.ftp.atan)
     }
-    fn amp_frame(&self, i: usize) -> u32 {
-        amp(self.re[i], self.im[i])
+    fn amp_frame(&self, k: usize) -> u32 {
+        amp(self.frame.re[k], self.frame.im[k])
     }
-    fn amp_ref(&self, i: usize) -> u32 {
-        self.ftp.amp_ref[i]
+    fn amp_ref(&self, k: usize) -> u32 {
+        self.ftp.amp_ref[k]
     }
     fn amp_ref_median(&self) -> u32 {
         self.ftp.ref_median
@@ -431,29 +474,90 @@ mod tests {
         assert_eq!(atan2_units(0, 0, t), 0);
     }
 
+    /// The centred triangle of length `2l − 1` (weights `l − |d|`), directly, in `i64`.
+    fn triangle(line: &[i64], l: usize, at: usize) -> i64 {
+        (0..2 * l - 1)
+            .filter_map(|t| {
+                let i = (at + t).checked_sub(l - 1)?;
+                let d = (t as i64 - (l as i64 - 1)).abs();
+                line.get(i).map(|v| v * (l as i64 - d))
+            })
+            .sum()
+    }
+
     #[test]
-    fn triangle_filter_keeps_constants_and_nulls_its_period() {
-        let (w, h, l) = (40, 30, 8);
-        let gain = (l * l) as i32;
-        let mut work = Vec::new();
-        let mut flat = vec![1000i32; w * h];
-        Cic { len: l }.rows(&mut flat, w, &mut work);
-        for x in l..w - l {
-            assert_eq!(flat[w + x], 1000 * gain, "x={x}");
-        }
-        let mut wave: Vec<i32> = (0..w * h)
-            .map(|i| (1000.0 * (std::f64::consts::TAU * (i % w) as f64 / 8.0).cos()) as i32)
+    fn streamed_demodulation_equals_the_direct_triangle_filters() {
+        let (w, h) = (37, 23);
+        let gray: Vec<u16> = (0..w * h)
+            .map(|i| ((i * 7919 + (i / w) * 131) % 65_281) as u16)
             .collect();
-        Cic { len: l }.rows(&mut wave, w, &mut work);
-        for x in l..w - l {
-            assert!(wave[w + x].abs() <= 2 * gain, "x={x}: {}", wave[w + x]);
+        let phase = |i: usize| 0.7 * i as f64 + 0.3 * (i / w) as f64;
+        let mix = Mix {
+            planes: [
+                (0..w * h)
+                    .map(|i| (phase(i).cos() * 32_767.0) as i16)
+                    .collect(),
+                (0..w * h)
+                    .map(|i| (phase(i).sin() * 32_767.0) as i16)
+                    .collect(),
+            ],
+        };
+        for (lx, ly, step) in [(5, 4, 1), (5, 4, 2), (7, 1, 2), (3, 6, 3)] {
+            let sh = 15 + headroom_shift(lx, ly);
+            let got = demodulate(&gray, (w, h), &mix, sh, (lx, ly), step);
+            let (ow, oh) = (w.div_ceil(step), h.div_ceil(step));
+            assert_eq!((got.re.len(), got.im.len()), (ow * oh, ow * oh));
+            for (plane, sign, c) in [(&got.re, 1, 0), (&got.im, -1, 1)] {
+                let mixed: Vec<i64> = gray
+                    .iter()
+                    .zip(&mix.planes[c])
+                    .map(|(g, m)| sign * ((i64::from(*g) * i64::from(*m)) >> sh))
+                    .collect();
+                // Columns, then rows, directly.
+                let cols: Vec<i64> = (0..w * h)
+                    .map(|i| {
+                        let col: Vec<i64> = (0..h).map(|y| mixed[y * w + i % w]).collect();
+                        triangle(&col, ly, i / w)
+                    })
+                    .collect();
+                for oy in 0..oh {
+                    let y = oy * step;
+                    let row = &cols[y * w..(y + 1) * w];
+                    for ox in 0..ow {
+                        let want = triangle(row, lx, ox * step);
+                        assert_eq!(
+                            i64::from(plane[oy * ow + ox]),
+                            want,
+                            "lx {lx} ly {ly} step {step} at ({ox}, {oy})"
+                        );
+                    }
+                }
+            }
         }
-        // Columns: the same filter along y, and the headroom shift keeps the largest
-        // input inside an i32 through both.
-        let mut col: Vec<i32> = (0..w * h).map(|i| 500 + (i / w) as i32).collect();
-        Cic { len: 4 }.columns(&mut col, w, h, &mut work);
-        for y in 4..h - 4 {
-            assert_eq!(col[y * w + 3], (500 + y as i32) * 16, "y={y}");
+    }
+
+    #[test]
+    fn triangle_keeps_constants_nulls_its_period_and_fits_the_headroom() {
+        let (w, h, l) = (40, 3, 8);
+        let gain = (l * l) as i32;
+        // A constant under a unit mixer (cos = 1): the gain, away from the padded ends.
+        let flat = vec![1000u16 << 2; w * h];
+        let one = Mix {
+            planes: [vec![32_767i16; w * h], vec![0; w * h]],
+        };
+        let z = demodulate(&flat, (w, h), &one, 15, (l, 1), 1);
+        for x in l..w - l {
+            assert!((z.re[w + x] - 4000 * gain).abs() <= gain, "x={x}");
+        }
+        // A wave of the filter's own period: nulled.
+        let wave: Vec<u16> = (0..w * h)
+            .map(|i| {
+                (30_000.0 + 20_000.0 * (std::f64::consts::TAU * (i % w) as f64 / 8.0).cos()) as u16
+            })
+            .collect();
+        let z = demodulate(&wave, (w, h), &one, 15, (l, 1), 1);
+        for x in l..w - l {
+            assert!((z.re[w + x] - 30_000 * gain).abs() <= 2 * gain, "x={x}");
         }
         let s = headroom_shift(64, 64);
         let worst = (65_280u64 >> s) * 64u64.pow(4);

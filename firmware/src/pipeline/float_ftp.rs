@@ -24,6 +24,7 @@ use rustfft::FftPlanner;
 
 use super::carrier::{self, Carrier};
 use super::image_ops::gray_down_f32;
+use super::measure::GRID;
 use super::PipelineError;
 
 /// Band-pass half-width of the Hann window, as a fraction of the carrier frequency; also the
@@ -249,19 +250,27 @@ impl FloatFtp {
     }
 }
 
+impl FloatMap<'_> {
+    /// The working pixel of coarse sample `k`.
+    fn pixel(&self, k: usize) -> usize {
+        let cw = self.field.w.div_ceil(GRID);
+        (k / cw) * GRID * self.field.w + (k % cw) * GRID
+    }
+}
+
 impl super::measure::PhaseMap for FloatMap<'_> {
     type P = f32;
     fn size(&self) -> (usize, usize) {
         (self.field.w, self.field.h)
     }
-    fn wrapped(&self, i: usize) -> f32 {
-        self.field.wrapped[i]
+    fn wrapped(&self, k: usize) -> f32 {
+        self.field.wrapped[self.pixel(k)]
     }
-    fn amp_frame(&self, i: usize) -> u32 {
-        (self.field.amp_frame[i] * PhaseField::AMP_SCALE) as u32
+    fn amp_frame(&self, k: usize) -> u32 {
+        (self.field.amp_frame[self.pixel(k)] * PhaseField::AMP_SCALE) as u32
     }
-    fn amp_ref(&self, i: usize) -> u32 {
-        (self.field.amp_ref[i] * PhaseField::AMP_SCALE) as u32
+    fn amp_ref(&self, k: usize) -> u32 {
+        (self.field.amp_ref[self.pixel(k)] * PhaseField::AMP_SCALE) as u32
     }
     fn amp_ref_median(&self) -> u32 {
         self.ref_median

@@ -258,7 +258,7 @@ impl Analyzer {
         let thermo = {
             let (theta, (w, h, factor), table) = match &imp {
                 Imp::Float(f) => (f.grating_phase(), f.geometry(), false),
-                Imp::Fixed(f) => (f.grating_phase(), f.geometry(), true),
+                Imp::Fixed(f) => (f.grating_phase(reference), f.geometry(), true),
             };
             let wc = working.carrier;
             Thermometer::new(

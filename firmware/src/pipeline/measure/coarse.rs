@@ -166,13 +166,13 @@ pub(super) fn read_coarse<M: PhaseMap>(map: &M, lim: u32, margin: &Margin) -> Co
             .zip(r.iter_mut())
             .enumerate()
         {
-            let (x, i) = (cx * GRID, y * w + cx * GRID);
-            (*a, *ar) = (map.amp_frame(i), map.amp_ref(i));
-            let ins = row_inside && margin.xs.contains(&x);
+            let k = cy * cw + cx;
+            (*a, *ar) = (map.amp_frame(k), map.amp_ref(k));
+            let ins = row_inside && margin.xs.contains(&(cx * GRID));
             *r = ins && *a > lim && *ar > lim;
             c.inside_n += usize::from(ins);
             c.reliable_n += usize::from(*r);
-            *p = map.wrapped(i);
+            *p = map.wrapped(k);
         }
     }
     c

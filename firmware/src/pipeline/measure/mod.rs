@@ -224,8 +224,8 @@ pub fn measure<M: PhaseMap>(
     for y in margin.ys.clone() {
         let crow = &rel[(y / GRID) * cw..(y / GRID + 1) * cw];
         let row = &mut reliable[y * w..(y + 1) * w];
-        for (pair, c) in row.chunks_mut(GRID).zip(crow) {
-            pair.fill(*c);
+        for (x, o) in row.iter_mut().enumerate() {
+            *o = crow[x / GRID];
         }
         // The coarse samples' own margin test is a pixel coarse; the pixel's is exact.
         row[..xa].fill(false);

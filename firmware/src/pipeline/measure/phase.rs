@@ -88,20 +88,22 @@ impl PhaseNum for i32 {
     }
 }
 
-/// A wrapped phase-difference map with fringe amplitudes: what either path hands to the
-/// measurement.
+/// A wrapped phase-difference map with fringe amplitudes on the coarse grid ([`GRID`]):
+/// what either path hands to the measurement.
 pub trait PhaseMap {
     /// Phase representation.
     type P: PhaseNum;
     /// Working width and height.
     fn size(&self) -> (usize, usize);
-    /// Wrapped phase difference at pixel `i` (the measurement reads each pixel it needs
-    /// once, so a path may compute it here).
-    fn wrapped(&self, i: usize) -> Self::P;
-    /// Fringe amplitude of the frame at `i` (any fixed scale shared with `amp_ref`).
-    fn amp_frame(&self, i: usize) -> u32;
-    /// Fringe amplitude of the reference at `i`.
-    fn amp_ref(&self, i: usize) -> u32;
+    /// Wrapped phase difference at coarse sample `k`: the working pixel
+    /// `(GRID·(k % cw), GRID·(k / cw))`, `cw = w.div_ceil(GRID)` (the measurement reads
+    /// each sample once, so a path may compute it here).
+    fn wrapped(&self, k: usize) -> Self::P;
+    /// Fringe amplitude of the frame at coarse sample `k` (any fixed scale shared with
+    /// `amp_ref`).
+    fn amp_frame(&self, k: usize) -> u32;
+    /// Fringe amplitude of the reference at coarse sample `k`.
+    fn amp_ref(&self, k: usize) -> u32;
     /// Median reference amplitude (computed once per reference).
     fn amp_ref_median(&self) -> u32;
     /// Fraction of the frame's input pixels with a saturated channel.
@@ -127,8 +129,8 @@ impl WrappedPhase {
     pub fn row(&self, y: usize, out: &mut [i32]) {
         let c = (y / GRID) * self.cw;
         if let Some(crow) = self.coarse.get(c..c + self.cw) {
-            for (pair, v) in out.chunks_mut(GRID).zip(crow) {
-                pair.fill(*v);
+            for (x, o) in out.iter_mut().enumerate() {
+                *o = crow[x / GRID];
             }
         }
         if let Some((x0, y0, bw, bh, v)) = &self.local {
