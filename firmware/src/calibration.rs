@@ -1,7 +1,7 @@
 //! The calibration file: which models map phase to depth and deformation to force (and,
 //! later, colour to temperature), with their coefficients, metrics and provenance.
 //!
-//! Versioned JSON (`format: "vistaf-calibration/1"`). A file of another version, or a
+//! Versioned JSON (`format: "vistaf-calibration/2"`). A file of another version, or a
 //! malformed one, is refused with a message naming the problem. A calibration records the
 //! unit geometry it was made on (carrier period, orientation, image size); [`Calibration::check_fits`]
 //! refuses a reference that does not match unless the caller overrides it.
@@ -11,7 +11,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 /// The format tag of calibration files.
-pub const FORMAT: &str = "vistaf-calibration/1";
+pub const FORMAT: &str = "vistaf-calibration/2";
 
 /// The calibration shipped for the simulated reference unit (`vistaf-skin simulate
 /// --calibration-kit` then `vistaf-skin calibrate`; see `docs/calibration.md`).

@@ -14,8 +14,8 @@
 
 use super::lab::Invariants;
 use super::model::{
-    fuse, monomials, terms, ColourModel, Curve, Domain, Polynomial, PopulationModel, SetpointError,
-    TemperatureModel, VarianceTable,
+    blend, monomials, terms, ColourModel, Curve, Domain, Polynomial, PopulationModel,
+    SetpointError, TemperatureModel, VarianceTable,
 };
 use crate::calibration::CandidateScore;
 
@@ -369,34 +369,60 @@ fn score(d: &Design, samples: &[Sample], sp: &[f64], idx: &[usize]) -> Option<Sc
     })
 }
 
-/// Mean squared error of the truth given the estimate, in 1 °C bins over [lo, hi], each
-/// shrunk towards [`VarianceTable::SPARSE_C2`] by a twentieth of a pseudo-sample (so a
-/// bin seen once or twice is not trusted, and a full bin is its own).
-fn variance_table(pred: &[f64], truth: &[f64], lo: f64, hi: f64) -> VarianceTable {
-    let (t0, step) = (lo.floor(), 1.0);
-    let n = (hi.ceil() - t0) as usize + 1;
-    let (mut s, mut c) = (vec![0.0; n], vec![0.0; n]);
-    for (p, t) in pred.iter().zip(truth) {
-        let k = ((p - t0) / step).round();
-        if k >= 0.0 && (k as usize) < n {
-            s[k as usize] += (p - t).powi(2);
-            c[k as usize] += 1.0;
+/// A population's mean squared error per block at each setpoint (`pred` against `truth`,
+/// `idx` the setpoint of each sample, at least `floor` there), in 1 °C bins over [lo, hi]:
+/// linear between setpoints, the end setpoints' values beyond them (the black stripes'
+/// table reaches past the calibration, where their estimate extrapolates and is flagged).
+fn variance_table(
+    pred: &[f64],
+    truth: &[f64],
+    (idx, sp): (&[usize], &[f64]),
+    floor: &[f64],
+    (lo, hi): (f64, f64),
+) -> VarianceTable {
+    let (mut s, mut c) = (vec![0.0; sp.len()], vec![0.0; sp.len()]);
+    for ((p, t), &g) in pred.iter().zip(truth).zip(idx) {
+        if p.is_finite() {
+            s[g] += (p - t).powi(2);
+            c[g] += 1.0;
         }
     }
-    let prior = 0.05;
+    let known: Vec<(f64, f64)> = sp
+        .iter()
+        .zip(s.iter().zip(&c))
+        .zip(floor)
+        .filter(|((_, (_, c)), _)| **c > 0.0)
+        .map(|((t, (s, c)), f)| (*t, (s / c).max(*f)))
+        .collect();
+    let mse_at = |t: f64| -> f64 {
+        let Some(first) = known.first() else {
+            return VarianceTable::SPARSE_C2;
+        };
+        let k = known.partition_point(|(x, _)| *x <= t);
+        if k == 0 {
+            return first.1;
+        }
+        if k == known.len() {
+            return known[k - 1].1;
+        }
+        let ((t0, v0), (t1, v1)) = (known[k - 1], known[k]);
+        v0 + (v1 - v0) * (t - t0) / (t1 - t0)
+    };
+    let (t0, step) = (lo.floor(), 1.0);
+    let n = (hi.ceil() - t0) as usize + 1;
     VarianceTable {
         t0_c: t0,
         step_c: step,
-        var_c2: s
-            .iter()
-            .zip(&c)
-            .map(|(s, c)| ((s + prior * VarianceTable::SPARSE_C2) / (c + prior)).max(1e-3))
+        var_c2: (0..n)
+            .map(|k| mse_at(t0 + k as f64 * step).max(1e-3))
             .collect(),
     }
 }
 
-/// The span of setpoints where the coloured stripes' colour moves (see the module doc).
-fn coloured_span(samples: &[Sample], sp: &[f64], idx: &[usize]) -> Vec<bool> {
+/// The span of setpoints where the coloured stripes' colour moves (see the module doc),
+/// and how fast it moves at each setpoint: the mean over the two intervals beside it of the
+/// mean colour's change per °C, in units of its block-to-block noise.
+fn coloured_span(samples: &[Sample], sp: &[f64], idx: &[usize]) -> (Vec<bool>, Vec<f64>) {
     let g = sp.len();
     let mut mean = vec![[0.0f64; 2]; g];
     let mut n = vec![0.0f64; g];
@@ -430,8 +456,19 @@ fn coloured_span(samples: &[Sample], sp: &[f64], idx: &[usize]) -> Vec<bool> {
         let r = speed.get(k).copied().unwrap_or(0.0);
         l.max(r)
     };
+    let rate: Vec<f64> = (0..g)
+        .map(|k| {
+            let l = k.checked_sub(1).map(|j| speed[j]);
+            let r = speed.get(k).copied();
+            match (l, r) {
+                (Some(l), Some(r)) => 0.5 * (l + r),
+                (Some(v), None) | (None, Some(v)) => v,
+                (None, None) => 0.0,
+            }
+        })
+        .collect();
     let Some(peak) = (0..g).max_by(|&a, &b| at(a).total_cmp(&at(b))) else {
-        return vec![true; samples.len()];
+        return (vec![true; samples.len()], rate);
     };
     let lim = 0.1 * at(peak);
     let (mut lo, mut hi) = (peak, peak);
@@ -442,9 +479,9 @@ fn coloured_span(samples: &[Sample], sp: &[f64], idx: &[usize]) -> Vec<bool> {
         hi += 1;
     }
     if hi - lo + 1 < MIN_SETPOINTS {
-        return vec![true; samples.len()];
+        return (vec![true; samples.len()], rate);
     }
-    idx.iter().map(|&k| k >= lo && k <= hi).collect()
+    (idx.iter().map(|&k| k >= lo && k <= hi).collect(), rate)
 }
 
 /// Why no temperature model could be fitted.
@@ -465,7 +502,7 @@ pub fn fit_temperature(samples: &[Sample]) -> Result<TemperatureModel, ThermalFi
         return Err(ThermalFitError::TooFewSetpoints(sp.len()));
     }
     let truth: Vec<f64> = samples.iter().map(|s| s.t_c).collect();
-    let span = coloured_span(samples, &sp, &idx);
+    let (span, rate) = coloured_span(samples, &sp, &idx);
     let dc = design(
         samples,
         &["a", "b", "Lk"],
@@ -493,26 +530,59 @@ pub fn fit_temperature(samples: &[Sample]) -> Result<TemperatureModel, ThermalFi
             ts.iter().copied().fold(f64::NEG_INFINITY, f64::max),
         ]
     };
-    // Each model's variance is tabulated over the span it was fitted on (the black
-    // stripes' with 15 °C of extrapolation on either side, flagged as out of range);
-    // outside it, the estimate carries no weight.
-    let pop = |s: Scored, range: [f64; 2], margin: f64| PopulationModel {
-        equation: s.model.equation(),
-        variance: variance_table(&s.held_out, &truth, range[0] - margin, range[1] + margin),
-        model: s.model,
-        fit_range_c: range,
-        cv_rmse_c: s.cv_rmse,
-        in_sample_rmse_c: s.in_sample,
-        candidates: s.candidates,
+    // Each model's error per setpoint, tabulated over `table` (outside it the estimate
+    // carries no weight): held out, except at the ends of the span the model was fitted
+    // on, where leaving a setpoint out makes the error an extrapolation the fitted model
+    // never does there.
+    let pop = |s: Scored,
+               range: [f64; 2],
+               table: [f64; 2],
+               floor: &[f64],
+               features: &dyn Fn(&Sample) -> Vec<f64>| {
+        let pred: Vec<f64> = samples
+            .iter()
+            .zip(&s.held_out)
+            .map(|(x, h)| {
+                if x.t_c == range[0] || x.t_c == range[1] {
+                    s.model.eval(&features(x))
+                } else {
+                    *h
+                }
+            })
+            .collect();
+        PopulationModel {
+            equation: s.model.equation(),
+            variance: variance_table(&pred, &truth, (&idx, &sp), floor, (table[0], table[1])),
+            model: s.model,
+            fit_range_c: range,
+            cv_rmse_c: s.cv_rmse,
+            in_sample_rmse_c: s.in_sample,
+            candidates: s.candidates,
+        }
     };
     let (hc, hk) = (c.held_out.clone(), k.held_out.clone());
-    let coloured = pop(c, span_c, 0.0);
-    let black = pop(k, [lo, hi], 15.0);
+    // The coloured stripes' table covers the whole calibration: outside their span their
+    // error is large (their colour no longer moves), and at least what the colour's rate
+    // of change allows (noise over sensitivity, squared): where the colour stops moving, a
+    // model that happens to land near the truth has still not measured it. The black
+    // stripes' reaches 15 °C past the calibration on either side (extrapolated, flagged as
+    // out of range).
+    let sensitivity: Vec<f64> = rate.iter().map(|r| 1.0 / (r * r).max(1e-9)).collect();
+    let coloured = pop(c, span_c, [lo, hi], &sensitivity, &|x| {
+        x.v.coloured_features()
+    });
+    let black = pop(
+        k,
+        [lo, hi],
+        [lo - 15.0, hi + 15.0],
+        &vec![0.0; sp.len()],
+        &|x| x.pooled.black_features(),
+    );
     // Held-out fused estimate per setpoint.
     let fused: Vec<f64> = hc
         .iter()
         .zip(&hk)
-        .map(|(&a, &b)| fuse(a, coloured.variance.at(a), b, black.variance.at(b)).0)
+        .map(|(&a, &b)| blend(&coloured.variance, &black.variance, a, b, b).0)
         .collect();
     let errs = setpoint_errors(&fused, &idx, &sp, &vec![true; samples.len()]);
     let held_out: Vec<SetpointError> = sp

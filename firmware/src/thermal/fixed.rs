@@ -386,32 +386,35 @@ impl FixedModel {
         )
     }
 
-    /// One population's estimate and variance (Q16 °C, Q16 °C²), and whether the invariants
-    /// lie in the calibrated box.
-    pub fn population(&self, p: Population, v: [i64; 3]) -> (i64, i64, bool) {
+    /// One population's estimate (Q16 °C), and whether the invariants lie in the
+    /// calibrated box.
+    pub fn population(&self, p: Population, v: [i64; 3]) -> (i64, bool) {
         let f = self.features(v);
-        let (pop, t) = match p {
-            Population::Coloured => (&self.coloured, self.coloured.eval(&f)),
-            Population::Black => (&self.black, self.black.eval(&[f[2], f[0], f[1]])),
+        let t = match p {
+            Population::Coloured => self.coloured.eval(&f),
+            Population::Black => self.black.eval(&[f[2], f[0], f[1]]),
         };
         let in_domain = v
             .iter()
             .zip(&self.domain)
             .all(|(x, d)| *x >= d[0] && *x <= d[1]);
-        (t, pop.table.at(t), in_domain)
+        (t, in_domain)
     }
 
-    /// Inverse-variance blend of the two populations' estimates: temperature (°C),
-    /// variance (°C²) and whether it is inside what was calibrated.
-    pub fn fuse(&self, c: (i64, i64, bool), b: (i64, i64, bool)) -> (f64, f64, bool) {
-        let ((tc, vc, ic), (tb, vb, ib)) = (c, b);
+    /// The two populations' estimates blended as [`super::model::blend`] does, from the
+    /// black estimate `guess` (Q16 °C): temperature (°C), variance (°C²) and whether it is
+    /// inside what was calibrated.
+    pub fn fuse(&self, c: (i64, bool), b: (i64, bool), guess: i64) -> (f64, f64, bool) {
+        let ((tc, ic), (tb, ib)) = (c, b);
         // (tc·vb + tb·vc) / (vc + vb), the weights as Q16 fractions so every product fits
-        // 64 bits.
-        let w = (vc + vb).max(1);
-        let share_b = (vc << 16) / w; // black's weight = vc / (vc + vb)
-        let t = tc + (((tb - tc) * share_b) >> 16);
-        let var = (vb * share_b) >> 16; // vc·vb / (vc + vb)
-                                        // Two standard deviations (capped like the float model's), Q16: 2·sqrt(var · 2¹⁶).
+        // 64 bits; the variance vc·vb / (vc + vb).
+        let inverse_variance = |at: i64| -> (i64, i64) {
+            let (vc, vb) = (self.coloured.table.at(at), self.black.table.at(at));
+            let share_b = (vc << 16) / (vc + vb).max(1); // black's weight = vc / (vc + vb)
+            (tc + (((tb - tc) * share_b) >> 16), (vb * share_b) >> 16)
+        };
+        let (t, var) = inverse_variance(inverse_variance(guess).0);
+        // Two standard deviations (capped like the float model's), Q16: 2·sqrt(var · 2¹⁶).
         let sigma = ((var.max(0) as u64).saturating_mul(1 << 16)).isqrt() as i64;
         let two_sigma = 2 * sigma.min(q16(super::model::OUT_OF_RANGE_SIGMA_C));
         let in_range =
@@ -454,8 +457,8 @@ mod tests {
             };
             let vq = [q16(v.r), q16(v.g), q16(v.q)];
             let (tc, tb) = fixed.estimates(vq, vq);
-            let (fc, _) = model.population(Population::Coloured, &v);
-            let (fb, _) = model.population(Population::Black, &v);
+            let fc = model.population(Population::Coloured, &v);
+            let fb = model.population(Population::Black, &v);
             for e in [tc as f64 / 65_536.0 - fc, tb as f64 / 65_536.0 - fb] {
                 far += usize::from(e.abs() > 0.02);
                 n += 1;

@@ -81,10 +81,20 @@ enum Eval {
 /// One population's estimate in the arithmetic of the path that made it.
 #[derive(Debug, Clone, Copy)]
 enum PopEstimate {
-    /// °C, °C², in the calibrated box.
-    Float(f64, f64, bool),
-    /// Q16 °C, Q16 °C², in the calibrated box.
-    Fixed((i64, i64, bool)),
+    /// °C, in the calibrated box.
+    Float(f64, bool),
+    /// Q16 °C, in the calibrated box.
+    Fixed((i64, bool)),
+}
+
+impl PopEstimate {
+    /// The temperature, for ordering estimates of one path.
+    fn key(&self) -> f64 {
+        match self {
+            PopEstimate::Float(t, _) => *t,
+            PopEstimate::Fixed((t, _)) => *t as f64,
+        }
+    }
 }
 
 /// One reading: temperature (°C), variance (°C²), and whether it is trusted (inside the
@@ -191,11 +201,11 @@ impl Thermometer {
     fn read_with(&self, own: &Sums, pooled: &Sums, exact: bool) -> Option<Reading> {
         let c = self.population(Population::Coloured, own, exact)?;
         let b = self.population(Population::Black, pooled, exact)?;
-        self.fuse(c, b)
+        self.fuse(c, b, b)
     }
 
-    /// One population's estimate from sums: (°C, °C², in the calibrated box) in the path's
-    /// own arithmetic (Q16 on the device, `exact` forcing the float models).
+    /// One population's estimate from sums: (°C, in the calibrated box) in the path's own
+    /// arithmetic (Q16 on the device, `exact` forcing the float models).
     fn population(&self, p: Population, s: &Sums, exact: bool) -> Option<PopEstimate> {
         let (model, eval) = self.model.as_ref()?;
         if !s.enough() {
@@ -208,22 +218,23 @@ impl Thermometer {
             _ => {
                 let (c, k) = s.means();
                 let v = Invariants::from_linear(c, k)?;
-                let (t, var) = model.population(p, &v);
-                PopEstimate::Float(t, var, model.domain.contains(&v))
+                PopEstimate::Float(model.population(p, &v), model.domain.contains(&v))
             }
         })
     }
 
-    /// The inverse-variance blend of a coloured and a black estimate.
-    fn fuse(&self, c: PopEstimate, b: PopEstimate) -> Option<Reading> {
+    /// The inverse-variance blend of a coloured and a black estimate, the populations'
+    /// variances read at the black estimate `guess` (the block's own, or its
+    /// neighbourhood's median).
+    fn fuse(&self, c: PopEstimate, b: PopEstimate, guess: PopEstimate) -> Option<Reading> {
         let (model, eval) = self.model.as_ref()?;
-        let (t, var, trusted) = match (c, b) {
-            (PopEstimate::Fixed(c), PopEstimate::Fixed(b)) => match eval {
-                Eval::Fixed(f) => f.fuse(c, b),
+        let (t, var, trusted) = match (c, b, guess) {
+            (PopEstimate::Fixed(c), PopEstimate::Fixed(b), PopEstimate::Fixed(g)) => match eval {
+                Eval::Fixed(f) => f.fuse(c, b, g.0),
                 Eval::Float => return None,
             },
-            (PopEstimate::Float(tc, vc, ic), PopEstimate::Float(tb, vb, ib)) => {
-                let (t, var) = model::fuse(tc, vc, tb, vb);
+            (PopEstimate::Float(tc, ic), PopEstimate::Float(tb, ib), PopEstimate::Float(g, _)) => {
+                let (t, var) = model.blend(tc, tb, g);
                 (t, var, ic && ib && !model.out_of_range(t, var))
             }
             _ => return None,
@@ -258,6 +269,22 @@ impl Thermometer {
                 self.population(Population::Black, &p, false)
             })
             .collect();
+        // Where each block reads the populations' variances: the median black estimate of
+        // its 3 × 3 neighbourhood on that grid (about 6 blocks, 12 mm, across). A single
+        // block's black estimate is noisy (a few °C on a pale unit), and where it decides
+        // whether the coloured stripes are inside their transition, its noise would choose
+        // blocks by their error and bias the map.
+        let guess: Vec<Option<PopEstimate>> = (0..gw * gh)
+            .map(|k| {
+                let (x, y) = (k % gw, k / gw);
+                let mut near: Vec<PopEstimate> = (y.saturating_sub(1)..(y + 2).min(gh))
+                    .flat_map(|j| (x.saturating_sub(1)..(x + 2).min(gw)).map(move |i| j * gw + i))
+                    .filter_map(|j| black[j])
+                    .collect();
+                near.sort_unstable_by(|a, b| a.key().total_cmp(&b.key()));
+                near.get(near.len() / 2).copied()
+            })
+            .collect();
         let mut map_c = vec![f32::NAN; blocks.len()];
         // Blocks read outside the calibration: one is noise, a hot or cold object covers
         // several (see `OUT_OF_RANGE_BLOCKS`).
@@ -267,9 +294,11 @@ impl Thermometer {
         let mut hottest = None;
         for (b, s) in blocks.iter().enumerate() {
             let (bx, by) = (b % g.bw, b / g.bw);
-            let Some(r) = black[(by / 2) * gw + bx / 2]
+            let g = (by / 2) * gw + bx / 2;
+            let Some(r) = black[g]
+                .zip(guess[g])
                 .and_then(|k| Some((self.population(Population::Coloured, s, false)?, k)))
-                .and_then(|(c, k)| self.fuse(c, k))
+                .and_then(|(c, (k, guess))| self.fuse(c, k, guess))
             else {
                 continue;
             };

@@ -303,8 +303,14 @@ impl ColourModel {
     }
 }
 
-/// Variance of the truth around an estimate, as a function of the estimate: bins of
+/// A population's mean squared error per block as a function of the temperature: bins of
 /// `step_c` from `t0_c`; outside the table, [`VarianceTable::UNKNOWN_C2`].
+///
+/// It is indexed by the true temperature (in calibration, the setpoint) and read at the
+/// black stripes' estimate, the only one valid over the whole range: a coloured stripe
+/// below or above its transition shows the same colour whatever the temperature, so its
+/// own estimate sits at the transition's edge, where its error says nothing about how far
+/// outside the truth is.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct VarianceTable {
     /// Centre of the first bin, °C.
@@ -323,7 +329,7 @@ impl VarianceTable {
     /// Variance of a bin with (almost) no samples: a 10 °C deviation.
     pub const SPARSE_C2: f64 = 100.0;
 
-    /// Variance at estimate `t`, linear between bin centres. Over the outer half of the
+    /// Variance at temperature `t`, linear between bin centres. Over the outer half of the
     /// end bins the weight (1/variance) falls linearly to zero, so an estimate crossing the
     /// table's edge loses its say gradually and the fusion stays continuous.
     pub fn at(&self, t: f64) -> f64 {
@@ -442,6 +448,25 @@ pub struct Estimate {
     pub black_c: f64,
 }
 
+/// The blend of a coloured (`tc`) and a black (`tb`) estimate, °C and °C²: each
+/// population's variance ([`VarianceTable`], indexed by temperature) is read at `guess` (a
+/// black estimate: the block's own, or its neighbourhood's), the two are fused by inverse
+/// variance, and the variances are read again at that result and fused once more. The
+/// second pass lets a coloured stripe inside its transition have its say when the black
+/// stripes, coarse and sometimes biased there by a degree, put the guess at the
+/// transition's edge; outside the transition the coloured table has no entry and the
+/// result stays the black estimate.
+pub fn blend(
+    coloured: &VarianceTable,
+    black: &VarianceTable,
+    tc: f64,
+    tb: f64,
+    guess: f64,
+) -> (f64, f64) {
+    let (t, _) = fuse(tc, coloured.at(guess), tb, black.at(guess));
+    fuse(tc, coloured.at(t), tb, black.at(t))
+}
+
 /// Inverse-variance blend of two estimates.
 pub fn fuse(a: f64, va: f64, b: f64, vb: f64) -> (f64, f64) {
     let (wa, wb) = (1.0 / va.max(1e-6), 1.0 / vb.max(1e-6));
@@ -461,22 +486,25 @@ pub enum Population {
 }
 
 impl TemperatureModel {
-    /// One population's estimate (°C) and its variance (°C²) from a block's invariants.
-    pub fn population(&self, p: Population, v: &Invariants) -> (f64, f64) {
-        let (m, x) = match p {
-            Population::Coloured => (&self.coloured, v.coloured_features()),
-            Population::Black => (&self.black, v.black_features()),
-        };
-        let t = m.model.eval(&x);
-        (t, m.variance.at(t))
+    /// One population's estimate (°C) from a block's invariants.
+    pub fn population(&self, p: Population, v: &Invariants) -> f64 {
+        match p {
+            Population::Coloured => self.coloured.model.eval(&v.coloured_features()),
+            Population::Black => self.black.model.eval(&v.black_features()),
+        }
+    }
+
+    /// See [`blend`].
+    pub fn blend(&self, tc: f64, tb: f64, guess: f64) -> (f64, f64) {
+        blend(&self.coloured.variance, &self.black.variance, tc, tb, guess)
     }
 
     /// The float reference: exact CIELAB features, both models, fused. `own` are the
     /// block's invariants, `pooled` those of its neighbourhood.
     pub fn estimate(&self, own: &Invariants, pooled: &Invariants) -> Estimate {
-        let (tc, vc) = self.population(Population::Coloured, own);
-        let (tb, vb) = self.population(Population::Black, pooled);
-        let (t, var) = fuse(tc, vc, tb, vb);
+        let tc = self.population(Population::Coloured, own);
+        let tb = self.population(Population::Black, pooled);
+        let (t, var) = self.blend(tc, tb, tb);
         Estimate {
             t_c: t,
             var_c2: var,
@@ -543,6 +571,36 @@ mod tests {
         };
         let t = wide.eval(&[0.9, 0.1]);
         assert!(t > 19.0 && t < 21.0, "{t}");
+    }
+
+    #[test]
+    fn a_coloured_stripe_outside_its_transition_has_no_say() {
+        // Coloured: precise in 22–33 °C, its colour frozen (a large error) outside; black:
+        // coarse everywhere.
+        let coloured = VarianceTable {
+            t0_c: 15.0,
+            step_c: 1.0,
+            var_c2: (15..=47)
+                .map(|t| if (22..=33).contains(&t) { 0.05 } else { 150.0 })
+                .collect(),
+        };
+        let black = VarianceTable {
+            t0_c: 0.0,
+            step_c: 1.0,
+            var_c2: vec![4.0; 63],
+        };
+        // A cold skin: the coloured estimate stuck at its transition's edge.
+        let (t, _) = blend(&coloured, &black, 23.8, 16.5, 16.5);
+        assert!((t - 16.5).abs() < 0.3, "cold skin read {t}");
+        // A hot one: the same at the other edge.
+        let (t, _) = blend(&coloured, &black, 32.9, 43.0, 43.0);
+        assert!((t - 43.0).abs() < 0.3, "hot skin read {t}");
+        // Inside the transition the coloured stripes decide, even when the black guess
+        // falls just outside it (the second pass reads the tables inside).
+        let (first, _) = fuse(23.5, coloured.at(21.8), 21.8, black.at(21.8));
+        assert!(first < 22.5, "one pass: {first}");
+        let (t, var) = blend(&coloured, &black, 23.5, 21.8, 21.8);
+        assert!((t - 23.5).abs() < 0.1 && var < 0.1, "{t} ± {var}");
     }
 
     #[test]
