@@ -277,12 +277,22 @@ impl Thermometer {
         let guess: Vec<Option<PopEstimate>> = (0..gw * gh)
             .map(|k| {
                 let (x, y) = (k % gw, k / gw);
-                let mut near: Vec<PopEstimate> = (y.saturating_sub(1)..(y + 2).min(gh))
-                    .flat_map(|j| (x.saturating_sub(1)..(x + 2).min(gw)).map(move |i| j * gw + i))
-                    .filter_map(|j| black[j])
-                    .collect();
-                near.sort_unstable_by(|a, b| a.key().total_cmp(&b.key()));
-                near.get(near.len() / 2).copied()
+                let mut near = [None; 9];
+                let mut m = 0;
+                for j in y.saturating_sub(1)..(y + 2).min(gh) {
+                    for i in x.saturating_sub(1)..(x + 2).min(gw) {
+                        if let Some(b) = black[j * gw + i] {
+                            near[m] = Some(b);
+                            m += 1;
+                        }
+                    }
+                }
+                let near = &mut near[..m];
+                near.sort_unstable_by(|a, b| {
+                    let key = |e: &Option<PopEstimate>| e.map_or(f64::NAN, |e| e.key());
+                    key(a).total_cmp(&key(b))
+                });
+                near.get(m / 2).copied().flatten()
             })
             .collect();
         let mut map_c = vec![f32::NAN; blocks.len()];
