@@ -4,8 +4,10 @@
 //! `e^{−i·2π(fx·x + fy·y)}` moves the first order to DC and everything else (DC, the other
 //! side band, harmonics) to multiples of the carrier; a separable low-pass then keeps the
 //! first order: the same analytic signal an FTP band-pass gives. The low-pass is a
-//! triangle (two cascaded boxes) each way, computed as a cascaded-integrator-comb filter
-//! whose cost does not depend on its length. Along x the box spans one carrier period, so
+//! triangle (two cascaded boxes) each way, computed as a decimating
+//! cascaded-integrator-comb filter whose cost does not depend on its length, its combs
+//! evaluated only on the coarse grid the measurement reads ([`demodulate`]). Along x the
+//! box spans one carrier period, so
 //! its nulls fall exactly on the unwanted orders; along y it spans one period too, for a
 //! round footprint.
 //!
@@ -20,8 +22,8 @@
 //!
 //! **atan2** reduces to the first octant, divides once (Q16 ratio), and interpolates a
 //! 257-entry table: error below 2·10⁻⁵ rad. Phases are `i32` in units of 2π/65 536, so
-//! wrapping is a cast to `i16`. They are computed where the measurement reads them (a
-//! coarse grid and the contact window, `measure`), not for every pixel.
+//! wrapping is a cast to `i16`. They are computed where the measurement reads them: on the
+//! coarse grid, whose contact window `measure` unwraps and upsamples.
 //!
 //! Reference-side work (carrier, mixing table, reference analytic signal, depth table) is
 //! done once in [`FixedFtp::new`]; the carrier itself is estimated in floating point there,
