@@ -6,7 +6,7 @@
 //! first order: the same analytic signal an FTP band-pass gives. The low-pass is a
 //! triangle (two cascaded boxes) each way, computed as a decimating
 //! cascaded-integrator-comb filter whose cost does not depend on its length, its combs
-//! evaluated only on the coarse grid the measurement reads ([`demodulate`]). Along x the
+//! evaluated only on the coarse grid the measurement reads (`demodulate`). Along x the
 //! box spans one carrier period, so
 //! its nulls fall exactly on the unwanted orders; along y it spans one period too, for a
 //! round footprint.
