@@ -24,7 +24,7 @@ pub struct Args {
     /// [default: camera:/dev/video0].
     #[arg(long)]
     pub source: Option<SourceSpec>,
-    /// serial:PATH or serial:PATH@BAUD, file:PATH or stdout [default: serial:/dev/ttyGS0@921600].
+    /// serial:PATH or serial:PATH@BAUD, file:PATH or stdout (default: serial:/dev/ttyGS0@921600).
     #[arg(long)]
     pub link: Option<String>,
     /// Stop after this many processed frames.
