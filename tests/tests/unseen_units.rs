@@ -158,6 +158,15 @@ fn unit_9_meets_the_targets_on_its_own_calibration() {
     check_unit(9);
 }
 
+/// A pale unit whose black stripes' features bend sharply inside the coloured transition:
+/// it read 19.6 °C at 16.5 °C while the fusion's variance tables were indexed by each
+/// population's own estimate, and a 38 °C contact 0.95 °C high while the black model was
+/// judged over every setpoint.
+#[test]
+fn unit_52_meets_the_targets_on_its_own_calibration() {
+    check_unit(52);
+}
+
 /// Any units: `VISTAF_UNITS=21,22 cargo test --release -p vistaf-tests --test unseen_units
 /// -- --ignored --nocapture` checks the same targets on the seeds given (for units no one
 /// has looked at yet).

@@ -99,6 +99,8 @@ struct Design {
     x: Vec<Vec<f64>>,
     /// Whether each sample is in the fit span.
     used: Vec<bool>,
+    /// Whether each sample's held-out error scores the candidates (a subset of `used`).
+    scored: Vec<bool>,
 }
 
 fn design(
@@ -150,6 +152,7 @@ fn design(
         std,
         f,
         x,
+        scored: used.clone(),
         used,
     }
 }
@@ -249,7 +252,7 @@ fn score_curve(
         return None;
     }
     let mut held_out: Vec<f64> = d.f.iter().map(|x| full.eval(x)).collect();
-    let ins = rms(&setpoint_errors(&held_out, idx, sp, &d.used));
+    let ins = rms(&setpoint_errors(&held_out, idx, sp, &d.scored));
     for g in 0..sp.len() {
         let members: Vec<usize> = (0..idx.len())
             .filter(|&i| d.used[i] && idx[i] == g)
@@ -262,7 +265,7 @@ fn score_curve(
             held_out[i] = c.eval(&d.f[i]);
         }
     }
-    let (cv, se) = cv_stats(&setpoint_errors(&held_out, idx, sp, &d.used));
+    let (cv, se) = cv_stats(&setpoint_errors(&held_out, idx, sp, &d.scored));
     let params = full.t_c.len() * n;
     Some((
         ColourModel::Curve(full),
@@ -321,9 +324,9 @@ fn score(d: &Design, samples: &[Sample], sp: &[f64], idx: &[usize]) -> Option<Sc
         if !ok {
             continue;
         }
-        let errs = setpoint_errors(&held_out, idx, sp, &d.used);
+        let errs = setpoint_errors(&held_out, idx, sp, &d.scored);
         let full_pred: Vec<f64> = (0..samples.len()).map(|i| eval(&full, i)).collect();
-        let ins = rms(&setpoint_errors(&full_pred, idx, sp, &d.used));
+        let ins = rms(&setpoint_errors(&full_pred, idx, sp, &d.scored));
         let (cv, se) = cv_stats(&errs);
         fits.push((
             ColourModel::Polynomial(Polynomial {
@@ -509,12 +512,29 @@ pub fn fit_temperature(samples: &[Sample]) -> Result<TemperatureModel, ThermalFi
         |s| s.v.coloured_features(),
         span.clone(),
     );
-    let db = design(
+    let mut db = design(
         samples,
         &["Lk", "a", "b"],
         |s| s.pooled.black_features(),
         vec![true; samples.len()],
     );
+    // The black stripes are fitted everywhere (inside the coloured span their estimate
+    // places the reading on the variance tables) but judged where they are the ones that
+    // speak: outside the coloured stripes' span.
+    let outside: Vec<bool> = span.iter().map(|s| !s).collect();
+    let outside_setpoints = {
+        let mut g: Vec<usize> = idx
+            .iter()
+            .zip(&outside)
+            .filter(|x| *x.1)
+            .map(|x| *x.0)
+            .collect();
+        g.dedup();
+        g.len()
+    };
+    if outside_setpoints >= MIN_SETPOINTS {
+        db.scored = outside;
+    }
     let c = score(&dc, samples, &sp, &idx).ok_or(ThermalFitError::Singular("coloured"))?;
     let k = score(&db, samples, &sp, &idx).ok_or(ThermalFitError::Singular("black"))?;
     let (lo, hi) = (sp[0], sp[sp.len() - 1]);
@@ -579,10 +599,17 @@ pub fn fit_temperature(samples: &[Sample]) -> Result<TemperatureModel, ThermalFi
         &|x| x.pooled.black_features(),
     );
     // Held-out fused estimate per setpoint.
-    let fused: Vec<f64> = hc
+    // Held-out fused estimate per block: both estimates held out, the tables read at the
+    // fitted black model's estimate (a reading reads them at its neighbourhood's median of
+    // that). Read at the held-out black estimate instead, a setpoint inside the coloured
+    // transition, left out of a black calibration curve, would put the tables 40 °C away.
+    let fused: Vec<f64> = samples
         .iter()
-        .zip(&hk)
-        .map(|(&a, &b)| blend(&coloured.variance, &black.variance, a, b, b).0)
+        .zip(hc.iter().zip(&hk))
+        .map(|(x, (&a, &b))| {
+            let guess = black.model.eval(&x.pooled.black_features());
+            blend(&coloured.variance, &black.variance, a, b, guess).0
+        })
         .collect();
     let errs = setpoint_errors(&fused, &idx, &sp, &vec![true; samples.len()]);
     let held_out: Vec<SetpointError> = sp
