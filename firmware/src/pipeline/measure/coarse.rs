@@ -63,9 +63,15 @@ pub(super) fn median_u32(mut v: Vec<u32>) -> u32 {
     *v.select_nth_unstable(k).1
 }
 
+/// Step between the samples whose deviation enters the noise floor's median, each way:
+/// every second coarse sample (4 800 at 320×240 working) estimates a MAD within about 2 %,
+/// at a quarter of the cost of all of them.
+pub const NOISE_STEP: usize = 2;
+
 /// Phase noise (1σ, phase units): the robust spread of the phase minus its local mean over
 /// a box of `box_px` samples (about two periods), so smooth deformation does not count as
-/// noise. `phi` is `w × h` samples (the coarse grid).
+/// noise. `phi` is `w × h` samples (the coarse grid); the spread is taken over every
+/// [`NOISE_STEP`]-th of them each way.
 pub fn local_noise_units(phi: &[i32], reliable: &[bool], w: usize, h: usize, box_px: usize) -> i32 {
     let r = (box_px / 2).max(1);
     let mut ii = vec![0i64; (w + 1) * (h + 1)];
@@ -78,8 +84,8 @@ pub fn local_noise_units(phi: &[i32], reliable: &[bool], w: usize, h: usize, box
     }
     let area = ((2 * r + 1) * (2 * r + 1)) as i64;
     let mut dev = Vec::new();
-    for y in r..h.saturating_sub(r) {
-        for x in r..w.saturating_sub(r) {
+    for y in (r..h.saturating_sub(r)).step_by(NOISE_STEP) {
+        for x in (r..w.saturating_sub(r)).step_by(NOISE_STEP) {
             let i = y * w + x;
             if !reliable[i] {
                 continue;
@@ -142,37 +148,26 @@ pub(super) fn read_coarse<M: PhaseMap>(map: &M, lim: u32, margin: &Margin) -> Co
     let (cw, ch) = (w.div_ceil(GRID), h.div_ceil(GRID));
     let n = cw * ch;
     let mut c = Coarse {
-        phase: vec![M::P::default(); n],
-        amp: vec![0; n],
-        amp_r: vec![0; n],
-        rel: vec![false; n],
+        phase: Vec::with_capacity(n),
+        amp: Vec::with_capacity(n),
+        amp_r: Vec::with_capacity(n),
+        rel: Vec::with_capacity(n),
         inside_n: 0,
         reliable_n: 0,
     };
-    for (cy, (((p, a), ar), r)) in c
-        .phase
-        .chunks_exact_mut(cw)
-        .zip(c.amp.chunks_exact_mut(cw))
-        .zip(c.amp_r.chunks_exact_mut(cw))
-        .zip(c.rel.chunks_exact_mut(cw))
-        .enumerate()
-    {
-        let y = cy * GRID;
-        let row_inside = margin.ys.contains(&y);
-        for (cx, (((p, a), ar), r)) in p
-            .iter_mut()
-            .zip(a.iter_mut())
-            .zip(ar.iter_mut())
-            .zip(r.iter_mut())
-            .enumerate()
-        {
+    for cy in 0..ch {
+        let row_inside = margin.ys.contains(&(cy * GRID));
+        for cx in 0..cw {
             let k = cy * cw + cx;
-            (*a, *ar) = (map.amp_frame(k), map.amp_ref(k));
+            let (a, ar) = (map.amp_frame(k), map.amp_ref(k));
             let ins = row_inside && margin.xs.contains(&(cx * GRID));
-            *r = ins && *a > lim && *ar > lim;
+            let r = ins && a > lim && ar > lim;
             c.inside_n += usize::from(ins);
-            c.reliable_n += usize::from(*r);
-            *p = map.wrapped(k);
+            c.reliable_n += usize::from(r);
+            c.phase.push(map.wrapped(k));
+            c.amp.push(a);
+            c.amp_r.push(ar);
+            c.rel.push(r);
         }
     }
     c

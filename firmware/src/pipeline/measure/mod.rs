@@ -22,7 +22,7 @@ pub use features::{force_of, summarize, Features};
 pub use phase::{PhaseMap, PhaseNum, WrappedPhase, UNITS_PER_RAD};
 pub use window::upsample2;
 
-use coarse::{median_u32, read_coarse, samples_in, Coarse, Margin};
+use coarse::{median_u32, read_coarse, samples_in, Coarse, Margin, NOISE_STEP};
 use features::slope_p98;
 
 use super::carrier::Carrier;
@@ -139,7 +139,9 @@ pub fn measure<M: PhaseMap>(
         reliable_n,
     } = read_coarse(map, lim, &margin);
     let mut flags = QualityFlags::NONE;
-    let med_frame = median_u32(amp.clone());
+    // The frame's median fringe amplitude, over every fourth coarse sample (as many as the
+    // noise floor's).
+    let med_frame = median_u32(amp.iter().step_by(NOISE_STEP * NOISE_STEP).copied().collect());
     if (med_frame as f32) < LOW_CONTRAST_RATIO * med_ref as f32 || reliable_n * 2 < inside_n {
         flags.insert(Flag::LowContrast);
     }
@@ -236,11 +238,12 @@ pub fn measure<M: PhaseMap>(
         coarse: phase.iter().map(|p| p.units()).collect(),
         local: None,
     };
-    let empty = |flags, reliable: Vec<bool>| Deformation {
+    // A result without contact; the contact's fields are filled in below when there is one.
+    let result = |flags, reliable: Vec<bool>, depth_um: Vec<i32>| Deformation {
         w,
         h,
         factor,
-        depth_um: vec![0; n],
+        depth_um,
         reliable,
         contact: false,
         peak_depth_mm: 0.0,
@@ -260,7 +263,7 @@ pub fn measure<M: PhaseMap>(
     // wrapped to the other sign, and it must be unwrapped, not seeded from. Only
     // indentation (positive signed phase) is reported as depth.
     let Some((tiles_on, tiles)) = found else {
-        return (empty(flags, reliable), wrapped);
+        return (result(flags, reliable, vec![0; n]), wrapped);
     };
 
     // The region on the coarse grid, in a window around it: two samples of border, which
@@ -355,11 +358,11 @@ pub fn measure<M: PhaseMap>(
         }
     }
     if (neg as f32) > DIPOLE_RATIO * pos as f32 {
-        return (empty(flags, reliable), wrapped);
+        return (result(flags, reliable, vec![0; n]), wrapped);
     }
     let feats = summarize(&depth_local, bw, (x0, y0), factor, ctx.mm_per_px, thr_um);
     if feats.peak_mm == 0.0 {
-        return (empty(flags, reliable), wrapped);
+        return (result(flags, reliable, vec![0; n]), wrapped);
     }
     let px_mm = ctx.mm_per_px * factor as f32;
     let deformed: Vec<bool> = depth_local.iter().map(|&d| d > thr_um).collect();
@@ -417,7 +420,6 @@ pub fn measure<M: PhaseMap>(
         depth_um[row..row + cols].copy_from_slice(&depth_local[ly * bw..ly * bw + cols]);
     }
     let d = Deformation {
-        depth_um,
         contact: true,
         peak_depth_mm: feats.peak_mm,
         contact_area_mm2: feats.area_mm2,
@@ -427,7 +429,7 @@ pub fn measure<M: PhaseMap>(
         force_n,
         tiles,
         floor_um: thr_um,
-        ..empty(flags, reliable)
+        ..result(flags, reliable, depth_um)
     };
     (d, wrapped)
 }
