@@ -304,9 +304,9 @@ impl Thermometer {
         let mut hottest = None;
         for (b, s) in blocks.iter().enumerate() {
             let (bx, by) = (b % g.bw, b / g.bw);
-            let g = (by / 2) * gw + bx / 2;
-            let Some(r) = black[g]
-                .zip(guess[g])
+            let cell = (by / 2) * gw + bx / 2;
+            let Some(r) = black[cell]
+                .zip(guess[cell])
                 .and_then(|k| Some((self.population(Population::Coloured, s, false)?, k)))
                 .and_then(|(c, (k, guess))| self.fuse(c, k, guess))
             else {

@@ -141,7 +141,12 @@ pub fn measure<M: PhaseMap>(
     let mut flags = QualityFlags::NONE;
     // The frame's median fringe amplitude, over every fourth coarse sample (as many as the
     // noise floor's).
-    let med_frame = median_u32(amp.iter().step_by(NOISE_STEP * NOISE_STEP).copied().collect());
+    let med_frame = median_u32(
+        amp.iter()
+            .step_by(NOISE_STEP * NOISE_STEP)
+            .copied()
+            .collect(),
+    );
     if (med_frame as f32) < LOW_CONTRAST_RATIO * med_ref as f32 || reliable_n * 2 < inside_n {
         flags.insert(Flag::LowContrast);
     }
