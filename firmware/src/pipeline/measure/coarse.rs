@@ -28,10 +28,18 @@ pub fn contact_tiles(
     if count.iter().all(|&c| c < TILE_MIN_SAMPLES) || count.iter().sum::<usize>() < min_total {
         return None;
     }
+    let active: Vec<bool> = count.iter().map(|&c| c >= TILE_MIN_SAMPLES).collect();
+    let dil = dilate(&active, tw, th);
+    let tiles = dil.iter().filter(|t| **t).count();
+    Some((dil, tiles))
+}
+
+/// `on` (`tw × th` tiles) grown by one tile in each of the eight directions.
+pub(super) fn dilate(on: &[bool], tw: usize, th: usize) -> Vec<bool> {
     let mut dil = vec![false; tw * th];
     for ty in 0..th {
         for tx in 0..tw {
-            if count[ty * tw + tx] >= TILE_MIN_SAMPLES {
+            if on[ty * tw + tx] {
                 for y in ty.saturating_sub(1)..(ty + 2).min(th) {
                     for x in tx.saturating_sub(1)..(tx + 2).min(tw) {
                         dil[y * tw + x] = true;
@@ -40,8 +48,7 @@ pub fn contact_tiles(
             }
         }
     }
-    let tiles = dil.iter().filter(|t| **t).count();
-    Some((dil, tiles))
+    dil
 }
 
 /// Per coarse sample (`cw × ch`), whether its tile is set in `tiles` (`tw` across).
