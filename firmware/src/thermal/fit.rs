@@ -522,16 +522,10 @@ pub fn fit_temperature(samples: &[Sample]) -> Result<TemperatureModel, ThermalFi
     // places the reading on the variance tables) but judged where they are the ones that
     // speak: outside the coloured stripes' span.
     let outside: Vec<bool> = span.iter().map(|s| !s).collect();
-    let outside_setpoints = {
-        let mut g: Vec<usize> = idx
-            .iter()
-            .zip(&outside)
-            .filter(|x| *x.1)
-            .map(|x| *x.0)
-            .collect();
-        g.dedup();
-        g.len()
-    };
+    // Distinct setpoints among them (samples need not come in setpoint order).
+    let outside_setpoints = (0..sp.len())
+        .filter(|&g| idx.iter().zip(&outside).any(|(&i, &o)| o && i == g))
+        .count();
     if outside_setpoints >= MIN_SETPOINTS {
         db.scored = outside;
     }
@@ -554,17 +548,14 @@ pub fn fit_temperature(samples: &[Sample]) -> Result<TemperatureModel, ThermalFi
     // carries no weight): held out, except at the ends of the span the model was fitted
     // on, where leaving a setpoint out makes the error an extrapolation the fitted model
     // never does there.
-    let pop = |s: Scored,
-               range: [f64; 2],
-               table: [f64; 2],
-               floor: &[f64],
-               features: &dyn Fn(&Sample) -> Vec<f64>| {
+    let pop = |s: Scored, d: &Design, range: [f64; 2], table: [f64; 2], floor: &[f64]| {
         let pred: Vec<f64> = samples
             .iter()
             .zip(&s.held_out)
-            .map(|(x, h)| {
+            .zip(&d.f)
+            .map(|((x, h), f)| {
                 if x.t_c == range[0] || x.t_c == range[1] {
-                    s.model.eval(&features(x))
+                    s.model.eval(f)
                 } else {
                     *h
                 }
@@ -588,29 +579,26 @@ pub fn fit_temperature(samples: &[Sample]) -> Result<TemperatureModel, ThermalFi
     // stripes' reaches 15 °C past the calibration on either side (extrapolated, flagged as
     // out of range).
     let sensitivity: Vec<f64> = rate.iter().map(|r| 1.0 / (r * r).max(1e-9)).collect();
-    let coloured = pop(c, span_c, [lo, hi], &sensitivity, &|x| {
-        x.v.coloured_features()
-    });
+    let coloured = pop(c, &dc, span_c, [lo, hi], &sensitivity);
     let black = pop(
         k,
+        &db,
         [lo, hi],
         [lo - 15.0, hi + 15.0],
         &vec![0.0; sp.len()],
-        &|x| x.pooled.black_features(),
     );
-    // Held-out fused estimate per setpoint.
     // Held-out fused estimate per block: both estimates held out, the tables read at the
     // fitted black model's estimate (a reading reads them at its neighbourhood's median of
     // that). Read at the held-out black estimate instead, a setpoint inside the coloured
     // transition, left out of a black calibration curve, would put the tables 40 °C away.
-    let fused: Vec<f64> = samples
-        .iter()
-        .zip(hc.iter().zip(&hk))
-        .map(|(x, (&a, &b))| {
-            let guess = black.model.eval(&x.pooled.black_features());
-            blend(&coloured.variance, &black.variance, a, b, guess).0
-        })
-        .collect();
+    let fused: Vec<f64> =
+        db.f.iter()
+            .zip(hc.iter().zip(&hk))
+            .map(|(f, (&a, &b))| {
+                let guess = black.model.eval(f);
+                blend(&coloured.variance, &black.variance, a, b, guess).0
+            })
+            .collect();
     let errs = setpoint_errors(&fused, &idx, &sp, &vec![true; samples.len()]);
     let held_out: Vec<SetpointError> = sp
         .iter()

@@ -197,13 +197,13 @@ pub fn measure<M: PhaseMap>(
     // counts as noise in the first estimate).
     let mut noise_clean = found.is_none();
     if let Some((region, _)) = &found {
-        // With the contact known, registration and noise come from the background only.
+        // With the contact known, registration and noise come from the background only:
+        // the reliable samples outside a set of tiles (`inside`: the samples in them).
+        let outside = |inside: &[bool]| -> Vec<bool> {
+            inside.iter().zip(&rel).map(|(r, ok)| !r && *ok).collect()
+        };
         let in_region = samples_in(region, (cw, ch), tw);
-        let background: Vec<bool> = in_region
-            .iter()
-            .zip(&rel)
-            .map(|(r, ok)| !r && *ok)
-            .collect();
+        let background = outside(&in_region);
         // Registration from the background a tile further out still: an indentation's
         // skirt (the skin around a contact sinks with it, and the band-pass spreads it a
         // period further) stays below the contact threshold but moves the mean. A mean
@@ -214,11 +214,7 @@ pub fn measure<M: PhaseMap>(
         // 2.5 mm press read −0.18 rad, a twentieth of its depth.
         let tile_samples = (TILE_PX / GRID) * (TILE_PX / GRID);
         let enough = |m: &[bool]| m.iter().filter(|f| **f).count() >= 4 * tile_samples;
-        let far: Vec<bool> = samples_in(&dilate(region, tw, th), (cw, ch), tw)
-            .iter()
-            .zip(&rel)
-            .map(|(r, ok)| !r && *ok)
-            .collect();
+        let far = outside(&samples_in(&dilate(region, tw, th), (cw, ch), tw));
         offset = if enough(&far) {
             direction(&far)
         } else if enough(&background) {

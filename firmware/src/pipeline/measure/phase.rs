@@ -120,7 +120,7 @@ pub trait PhaseMap {
 pub struct WrappedPhase {
     pub(super) cw: usize,
     pub(super) coarse: Vec<i32>,
-    /// The region's window: origin, width, height and values (`i32::MIN`: not read).
+    /// The region's window: origin, width, height and values (every pixel of it is read).
     pub(super) local: Option<(usize, usize, usize, usize, Vec<i32>)>,
 }
 
@@ -137,9 +137,7 @@ impl WrappedPhase {
             if y >= *y0 && y < y0 + bh {
                 let src = &v[(y - y0) * bw..(y - y0 + 1) * bw];
                 for (o, &u) in out.iter_mut().skip(*x0).zip(src) {
-                    if u != i32::MIN {
-                        *o = u;
-                    }
+                    *o = u;
                 }
             }
         }
