@@ -39,22 +39,26 @@ fn lab_f_table() -> Vec<i64> {
         .collect()
 }
 
+/// Features per population (checked when a calibration is loaded:
+/// [`TemperatureModel::is_consistent`]).
+const FEATURES: usize = 3;
+
 /// A population's model in integers.
 #[derive(Debug, Clone)]
 enum Eval {
     Poly {
-        mean: Vec<i64>,
-        inv_std: Vec<i64>,
-        exps: Vec<Vec<u32>>,
+        mean: [i64; FEATURES],
+        inv_std: [i64; FEATURES],
+        exps: Vec<[u32; FEATURES]>,
         coef: Vec<i64>,
     },
     Curve {
         /// Knots, whitened, Q12.
-        knots: Vec<Vec<i64>>,
+        knots: Vec<[i64; FEATURES]>,
         /// 1/σ per feature, Q16.
-        inv_scale: Vec<i64>,
+        inv_scale: [i64; FEATURES],
         /// Whitened segment vectors, Q12 (σ = 4096).
-        d: Vec<Vec<i64>>,
+        d: Vec<[i64; FEATURES]>,
         /// Their squared lengths, Q24.
         bb: Vec<i64>,
         /// Knot temperatures, Q16 °C.
@@ -62,6 +66,11 @@ enum Eval {
         /// `e^{−Δ/2}` for Δ = k/32 σ², Q16 (see [`super::model::softmin_weight`]).
         softmin: Vec<i64>,
     },
+}
+
+/// The first [`FEATURES`] values of `v` (a consistent model has exactly that many).
+fn features_of<T: Copy + Default>(v: &[T]) -> [T; FEATURES] {
+    std::array::from_fn(|j| v.get(j).copied().unwrap_or_default())
 }
 
 #[derive(Debug, Clone)]
@@ -122,41 +131,42 @@ impl Pop {
     fn new(m: &super::model::PopulationModel) -> Pop {
         let eval = match &m.model {
             ColourModel::Polynomial(p) => Eval::Poly {
-                mean: p.mean.iter().map(|&v| q16(v)).collect(),
-                inv_std: p.std.iter().map(|&s| q16(1.0 / s)).collect(),
-                exps: super::model::monomials(p.mean.len(), p.degree),
+                mean: features_of(&p.mean).map(q16),
+                inv_std: features_of(&p.std).map(|s| q16(1.0 / s)),
+                exps: super::model::monomials(p.mean.len(), p.degree)
+                    .iter()
+                    .map(|e| features_of(e))
+                    .collect(),
                 coef: p.coef.iter().map(|&c| q16(c)).collect(),
             },
             ColourModel::Curve(c) => {
-                let inv: Vec<i64> = c.scale.iter().map(|&s| q16(1.0 / s)).collect();
-                let d: Vec<Vec<i64>> = c
+                let scale = features_of(&c.scale);
+                let knots: Vec<[i64; FEATURES]> = c
+                    .knots
+                    .iter()
+                    .map(|k| {
+                        let k = features_of(k);
+                        std::array::from_fn(|j| {
+                            (k[j] / scale[j] * 4096.0).round().clamp(-8.4e6, 8.4e6) as i64
+                        })
+                    })
+                    .collect();
+                let d: Vec<[i64; FEATURES]> = c
                     .knots
                     .windows(2)
                     .map(|w| {
-                        w[0].iter()
-                            .zip(&w[1])
-                            .zip(&c.scale)
-                            .map(|((a, b), s)| {
-                                ((b - a) / s * 4096.0).round().clamp(-WHITE_MAX, WHITE_MAX) as i64
-                            })
-                            .collect()
+                        let (a, b) = (features_of(&w[0]), features_of(&w[1]));
+                        std::array::from_fn(|j| {
+                            ((b[j] - a[j]) / scale[j] * 4096.0)
+                                .round()
+                                .clamp(-WHITE_MAX, WHITE_MAX) as i64
+                        })
                     })
                     .collect();
                 let bb = d.iter().map(|v| v.iter().map(|&x| x * x).sum()).collect();
                 Eval::Curve {
-                    knots: c
-                        .knots
-                        .iter()
-                        .map(|k| {
-                            k.iter()
-                                .zip(&c.scale)
-                                .map(|(&v, &s)| {
-                                    (v / s * 4096.0).round().clamp(-8.4e6, 8.4e6) as i64
-                                })
-                                .collect()
-                        })
-                        .collect(),
-                    inv_scale: inv,
+                    knots,
+                    inv_scale: scale.map(|s| q16(1.0 / s)),
                     d,
                     bb,
                     t: c.t_c.iter().map(|&t| q16(t)).collect(),
@@ -173,7 +183,7 @@ impl Pop {
     }
 
     /// Temperature (Q16 °C) at features `x` (Q16).
-    fn eval(&self, x: &[i64]) -> i64 {
+    fn eval(&self, x: [i64; FEATURES]) -> i64 {
         match &self.eval {
             Eval::Poly {
                 mean,
@@ -181,11 +191,9 @@ impl Pop {
                 exps,
                 coef,
             } => {
-                let z: Vec<i64> = x
-                    .iter()
-                    .zip(mean.iter().zip(inv_std))
-                    .map(|(v, (m, s))| (((v - m) as i128 * i128::from(*s)) >> 16) as i64)
-                    .collect();
+                let z: [i64; FEATURES] = std::array::from_fn(|j| {
+                    ((i128::from(x[j] - mean[j]) * i128::from(inv_std[j])) >> 16) as i64
+                });
                 let mut acc: i128 = 0;
                 for (e, c) in exps.iter().zip(coef) {
                     let mut term: i128 = i128::from(ONE);
@@ -205,99 +213,115 @@ impl Pop {
                 bb,
                 t,
                 softmin,
-            } => {
-                // Whitened values in Q12 (2⁻¹² σ); distances clamped at 4096 σ (far outside
-                // any calibrated colour): squares and dot products stay below 2⁵⁰, and only
-                // the projection's product takes 128 bits (a multiplication, no division).
-                let n = t.len();
-                let m = x.len().min(8);
-                // Knots lie within ±2²³ (2048 σ) of the calibrated colours; clamping the
-                // block's whitened features to ±2²⁴ keeps every difference below 2²⁵.
-                let lim = 1i64 << 24;
-                let mut xw = [0i64; 8];
-                for j in 0..m {
-                    xw[j] = (((i128::from(x[j]) * i128::from(inv_scale[j])) >> 20)
-                        .clamp(-i128::from(lim), i128::from(lim)))
-                        as i64;
-                }
-                // The two nearest knots, and the segments meeting at either.
-                let (mut k1, mut k2) = ((i64::MAX, 0usize), (i64::MAX, 0usize));
-                for (k, kn) in knots.iter().enumerate() {
-                    let d2: i64 = xw[..m].iter().zip(kn).map(|(x, c)| (x - c) * (x - c)).sum();
-                    if d2 < k1.0 {
-                        k2 = k1;
-                        k1 = (d2, k);
-                    } else if d2 < k2.0 {
-                        k2 = (d2, k);
-                    }
-                }
-                let last = n.saturating_sub(2);
-                let mut segs = [
-                    k1.1.saturating_sub(1),
-                    k1.1.min(last),
-                    k2.1.saturating_sub(1),
-                    k2.1.min(last),
-                ];
-                segs.sort_unstable();
-                let mut found = [(i64::MAX, 0i64); 4];
-                for (i, &k) in segs.iter().enumerate() {
-                    if i > 0 && segs[i - 1] == k {
-                        continue;
-                    }
-                    let (mut ax, mut ab) = (0i64, 0i64);
-                    for ((x, kn), dk) in xw[..m].iter().zip(&knots[k]).zip(&d[k]) {
-                        let e = x - kn;
-                        ab += dk * e;
-                        ax += e * e;
-                    }
-                    let bk = bb[k].max(1);
-                    // u in Q16; the end segments extrapolate without bound.
-                    let mut u = (ab << 8) / (bk >> 8).max(1);
-                    let lo = if k == 0 { i64::MIN } else { 0 };
-                    let hi = if k + 2 == n { i64::MAX } else { ONE };
-                    let dist = if u < lo || u > hi {
-                        u = u.clamp(lo, hi);
-                        if u == 0 {
-                            ax
-                        } else {
-                            ax - 2 * ab + bk
-                        }
-                    } else {
-                        // ab·u = ab²/bb ≤ ax in exact arithmetic; the clamp only guards.
-                        let proj = (i128::from(ab) * i128::from(u)) >> 16;
-                        ax - proj.clamp(0, i128::from(i64::MAX)) as i64
-                    };
-                    found[i] = (
-                        dist,
-                        t[k] + ((i128::from(u) * i128::from(t[k + 1] - t[k])) >> 16) as i64,
-                    );
-                }
-                // Likelihood-weighted mean of the segments' nearest points (see
-                // `Curve::eval`): weights e^{−Δd/2} from a table in 1/32 σ² steps.
-                let best = found.iter().map(|f| f.0).min().unwrap_or(i64::MAX);
-                let (mut sw, mut st) = (0i64, 0i128);
-                for &(dist, ti) in &found {
-                    if dist == i64::MAX {
-                        continue;
-                    }
-                    // Δd is Q24 σ²; the table steps are 1/32 σ² = 2¹⁹; keep 8 fraction bits.
-                    let pos = (dist - best) >> 11;
-                    let k = (pos >> 8) as usize;
-                    if k + 1 >= softmin.len() {
-                        continue;
-                    }
-                    let f = pos & 255;
-                    let w = softmin[k] + (((softmin[k + 1] - softmin[k]) * f) >> 8);
-                    sw += w;
-                    st += i128::from(w) * i128::from(ti);
-                }
-                if sw > 0 {
-                    (st / i128::from(sw)) as i64
-                } else {
-                    t.first().copied().unwrap_or(0)
-                }
+            } => curve(x, knots, inv_scale, d, bb, t, softmin),
+        }
+    }
+}
+
+/// The calibration curve's temperature at features `x` (Q16), as `Curve::eval` in the float
+/// model: the nearest points of the segments meeting at the two nearest knots, blended by
+/// likelihood. Whitened values in Q12 (2⁻¹² σ); distances clamped at 4096 σ (far outside
+/// any calibrated colour): squares and dot products stay below 2⁵⁰, and only the
+/// projection's product takes 128 bits (a multiplication, no division). Fixed-size
+/// feature vectors and one pass over the knots keep it near 25 instructions per knot.
+fn curve(
+    x: [i64; FEATURES],
+    knots: &[[i64; FEATURES]],
+    inv_scale: &[i64; FEATURES],
+    d: &[[i64; FEATURES]],
+    bb: &[i64],
+    t: &[i64],
+    softmin: &[i64],
+) -> i64 {
+    let n = t.len().min(knots.len()).min(d.len() + 1);
+    if n < 2 {
+        return t.first().copied().unwrap_or(0);
+    }
+    // Knots lie within ±2²³ (2048 σ) of the calibrated colours; clamping the block's
+    // whitened features to ±2²⁴ keeps every difference below 2²⁵. A product that would
+    // overflow saturates, and the clamp then gives what 128 bits would.
+    let lim = 1i64 << 24;
+    let xw: [i64; FEATURES] =
+        std::array::from_fn(|j| (x[j].saturating_mul(inv_scale[j]) >> 20).clamp(-lim, lim));
+    let diff = |k: &[i64; FEATURES]| -> [i64; FEATURES] { std::array::from_fn(|j| xw[j] - k[j]) };
+    let dot = |a: &[i64; FEATURES], b: &[i64; FEATURES]| -> i64 {
+        a.iter().zip(b).map(|(p, q)| p * q).sum()
+    };
+    // The two nearest knots (the earlier one on a tie), and the segments meeting at either.
+    let (mut k1, mut k2) = ((i64::MAX, 0usize), (i64::MAX, 0usize));
+    for (k, kn) in knots[..n].iter().enumerate() {
+        let (e0, e1, e2) = (xw[0] - kn[0], xw[1] - kn[1], xw[2] - kn[2]);
+        let d2 = e0 * e0 + e1 * e1 + e2 * e2;
+        if d2 < k2.0 {
+            if d2 < k1.0 {
+                k2 = k1;
+                k1 = (d2, k);
+            } else {
+                k2 = (d2, k);
             }
         }
+    }
+    let last = n - 2;
+    let mut segs = [
+        k1.1.saturating_sub(1),
+        k1.1.min(last),
+        k2.1.saturating_sub(1),
+        k2.1.min(last),
+    ];
+    segs.sort_unstable();
+    let mut found = [(i64::MAX, 0i64); 4];
+    for (i, &k) in segs.iter().enumerate() {
+        if i > 0 && segs[i - 1] == k {
+            continue;
+        }
+        let e = diff(&knots[k]);
+        let (ab, ax) = (dot(&d[k], &e), dot(&e, &e));
+        let bk = bb[k].max(1);
+        // u in Q16; the end segments extrapolate without bound.
+        let mut u = (ab << 8) / (bk >> 8).max(1);
+        let lo = if k == 0 { i64::MIN } else { 0 };
+        let hi = if k + 2 == n { i64::MAX } else { ONE };
+        let dist = if u < lo || u > hi {
+            u = u.clamp(lo, hi);
+            if u == 0 {
+                ax
+            } else {
+                ax - 2 * ab + bk
+            }
+        } else {
+            // ab·u = ab²/bb ≤ ax in exact arithmetic; the clamp only guards.
+            let proj = (i128::from(ab) * i128::from(u)) >> 16;
+            ax - proj.clamp(0, i128::from(i64::MAX)) as i64
+        };
+        found[i] = (
+            dist,
+            t[k] + ((i128::from(u) * i128::from(t[k + 1] - t[k])) >> 16) as i64,
+        );
+    }
+    // Likelihood-weighted mean of the segments' nearest points (see `Curve::eval`): weights
+    // e^{−Δd/2} from a table in 1/32 σ² steps.
+    let best = found.iter().map(|f| f.0).min().unwrap_or(i64::MAX);
+    let (mut sw, mut st) = (0i64, 0i128);
+    for &(dist, ti) in &found {
+        if dist == i64::MAX {
+            continue;
+        }
+        // Δd is Q24 σ²; the table steps are 1/32 σ² = 2¹⁹; keep 8 fraction bits.
+        let pos = (dist - best) >> 11;
+        let k = (pos >> 8) as usize;
+        if k + 1 >= softmin.len() {
+            continue;
+        }
+        let f = pos & 255;
+        let w = softmin[k] + (((softmin[k + 1] - softmin[k]) * f) >> 8);
+        sw += w;
+        st += i128::from(w) * i128::from(ti);
+    }
+    match (sw, i64::try_from(st)) {
+        (0, _) => t[0],
+        // The common case in 64 bits (a 128-bit division is a library call).
+        (_, Ok(st)) => st / sw,
+        (_, Err(_)) => (st / i128::from(sw)) as i64,
     }
 }
 
@@ -391,8 +415,8 @@ impl FixedModel {
     pub fn population(&self, p: Population, v: [i64; 3]) -> (i64, bool) {
         let f = self.features(v);
         let t = match p {
-            Population::Coloured => self.coloured.eval(&f),
-            Population::Black => self.black.eval(&[f[2], f[0], f[1]]),
+            Population::Coloured => self.coloured.eval(f),
+            Population::Black => self.black.eval([f[2], f[0], f[1]]),
         };
         let in_domain = v
             .iter()

@@ -277,22 +277,23 @@ impl Thermometer {
         let guess: Vec<Option<PopEstimate>> = (0..gw * gh)
             .map(|k| {
                 let (x, y) = (k % gw, k / gw);
-                let mut near = [None; 9];
+                // (temperature, index) of the measured neighbours; their median by key.
+                let mut near = [(0.0f64, 0usize); 9];
                 let mut m = 0;
                 for j in y.saturating_sub(1)..(y + 2).min(gh) {
                     for i in x.saturating_sub(1)..(x + 2).min(gw) {
                         if let Some(b) = black[j * gw + i] {
-                            near[m] = Some(b);
+                            near[m] = (b.key(), j * gw + i);
                             m += 1;
                         }
                     }
                 }
                 let near = &mut near[..m];
-                near.sort_unstable_by(|a, b| {
-                    let key = |e: &Option<PopEstimate>| e.map_or(f64::NAN, |e| e.key());
-                    key(a).total_cmp(&key(b))
-                });
-                near.get(m / 2).copied().flatten()
+                if m == 0 {
+                    return None;
+                }
+                let (_, mid, _) = near.select_nth_unstable_by(m / 2, |a, b| a.0.total_cmp(&b.0));
+                black[mid.1]
             })
             .collect();
         let mut map_c = vec![f32::NAN; blocks.len()];

@@ -20,10 +20,17 @@ use super::lab::linear_table;
 /// Half-width of the kept band around a stripe centre, phase units (±45°).
 pub const KEEP_UNITS: i32 = 65_536 / 8;
 
+/// Marks the linear value of code 255 in [`linear_q16`]: a saturated channel, whose pixel
+/// is left out. Above any linear value (≤ 2¹⁶), and three marked values still fit 32 bits.
+pub const SATURATED: u32 = 1 << 24;
+
 /// Linear light of an 8-bit sRGB code, Q16 (65 536 = 1.0): fine enough that the darkest
-/// codes of the black stripes keep three significant digits.
+/// codes of the black stripes keep three significant digits. Code 255 also carries
+/// [`SATURATED`].
 pub fn linear_q16() -> [u32; 256] {
-    linear_table().map(|v| (v * 65_536.0).round() as u32)
+    let mut t = linear_table().map(|v| (v * 65_536.0).round() as u32);
+    t[255] |= SATURATED;
+    t
 }
 
 /// Colour sums of one block (or of the contact region), linear Q16 (64-bit sums: a contact
@@ -53,16 +60,6 @@ impl Sums {
             }
             self.n[p] += o.n[p];
         }
-    }
-
-    /// Adds one sample of population `p` (linear Q16 R, G, B).
-    #[inline]
-    fn sample(&mut self, p: usize, c: [u32; 3]) {
-        let s = &mut self.sum[p];
-        s[0] += u64::from(c[0]);
-        s[1] += u64::from(c[1]);
-        s[2] += u64::from(c[2]);
-        self.n[p] += 1;
     }
 
     /// Mean linear colours (coloured, black), 0…1.
@@ -95,6 +92,10 @@ fn class_table() -> [u8; 1024] {
         }
     })
 }
+
+/// A phase at a stripe edge (a quarter turn from either centre): what [`class_table`] never
+/// keeps.
+const EDGE_UNITS: u16 = 16_384;
 
 /// Where the blocks are and how the phase advances between input pixels.
 #[derive(Debug, Clone, PartialEq)]
@@ -214,21 +215,7 @@ fn run<const F: usize, const REGIONS: bool>(
     let offsets_all: Vec<u16> = g.offsets_all.iter().map(|&o| o as u16).collect();
     let f3 = 3 * f;
     let stride = width * 3;
-    // One sample: its population, or None at a stripe edge or a saturated channel.
-    let classify = |t: u16, p: &[u8]| -> Option<(usize, [u32; 3])> {
-        let pop = class[usize::from(t >> 6)];
-        if pop > 1 || p[0].max(p[1]).max(p[2]) == 255 {
-            return None;
-        }
-        Some((
-            usize::from(pop),
-            [
-                lin[usize::from(p[0])],
-                lin[usize::from(p[1])],
-                lin[usize::from(p[2])],
-            ],
-        ))
-    };
+    let mut tin = vec![0u16; g.w * f];
     for yw in 0..g.h {
         let on_grid = yw % g.row_step == 0;
         let row = yw * g.w..(yw + 1) * g.w;
@@ -251,24 +238,26 @@ fn run<const F: usize, const REGIONS: bool>(
         theta(yw, &mut trow);
         let rel = &reliable[row.clone()];
         if on_grid {
-            let y = yw * f + f / 2;
-            let line = &raw[y * stride..y * stride + g.w * f3];
-            let brow = &mut blocks[(yw / g.block_px) * g.bw..(yw / g.block_px + 1) * g.bw];
-            // Block by block along the row: no division per pixel.
-            for (bx, acc) in brow.iter_mut().enumerate() {
-                let x0 = bx * g.block_px;
-                let x1 = (x0 + g.block_px).min(g.w);
-                for xw in (x0..x1).filter(|&x| rel[x]) {
-                    let t0 = trow[xw];
-                    let px = &line[xw * f3..(xw + 1) * f3];
-                    for k in 0..f {
-                        if let Some((pop, c)) =
-                            classify(t0.wrapping_add(offsets[k]), &px[3 * k..3 * k + 3])
-                        {
-                            acc.sample(pop, c);
-                        }
-                    }
+            // The sampled input row's phases; an unreliable working pixel's inputs get a
+            // stripe edge's phase, so the pixel loop has no other test.
+            for ((tk, &t0), &ok) in tin.chunks_exact_mut(f).zip(&trow).zip(rel) {
+                for (t, &o) in tk.iter_mut().zip(&offsets) {
+                    *t = if ok { t0.wrapping_add(o) } else { EDGE_UNITS };
                 }
+            }
+            let y = yw * f + f / 2;
+            let (line, _) = raw[y * stride..y * stride + g.w * f3].as_chunks::<3>();
+            let brow = &mut blocks[(yw / g.block_px) * g.bw..(yw / g.block_px + 1) * g.bw];
+            // Block by block along the row: no division per pixel, and 32-bit sums (a
+            // block row holds at most 16 · 8 samples of ≤ 2¹⁶).
+            for (bx, acc) in brow.iter_mut().enumerate() {
+                let x0 = bx * g.block_px * f;
+                let x1 = (x0 + g.block_px * f).min(g.w * f);
+                let mut part = Part::default();
+                for (p, &t) in line[x0..x1].iter().zip(&tin[x0..x1]) {
+                    part.sample(&class, lin, t, p);
+                }
+                part.add_to(acc);
             }
         }
         // Every input pixel of the row's contact working pixels.
@@ -278,22 +267,62 @@ fn run<const F: usize, const REGIONS: bool>(
                 continue;
             }
             let t0 = trow[xw];
+            let mut part = Part::default();
             for ky in 0..f {
                 let base = (yw * f + ky) * stride + xw * f3;
-                let px = &raw[base..base + f3];
-                for kx in 0..f {
-                    let t = t0.wrapping_add(offsets_all[ky * f + kx]);
-                    if let Some((pop, c)) = classify(t, &px[3 * kx..3 * kx + 3]) {
-                        contact[0].sample(pop, c);
-                        if reg == region::CORE {
-                            contact[1].sample(pop, c);
-                        }
-                    }
+                let (px, _) = raw[base..base + f3].as_chunks::<3>();
+                let offs = &offsets_all[ky * f..(ky + 1) * f];
+                for (p, &o) in px.iter().zip(offs) {
+                    part.sample(&class, lin, t0.wrapping_add(o), p);
                 }
+            }
+            part.add_to(&mut contact[0]);
+            if reg == region::CORE {
+                part.add_to(&mut contact[1]);
             }
         }
     }
     (blocks, contact)
+}
+
+/// A few samples' sums in 32 bits (linear R, G, B and the count, per population), added
+/// to a [`Sums`] at the end.
+#[derive(Default)]
+struct Part([[u32; 4]; 2]);
+
+impl Part {
+    /// One input pixel `p` (sRGB bytes) at grating phase `t` (units): skipped at a stripe
+    /// edge (before any colour is read: half the pixels) or with a saturated channel
+    /// ([`SATURATED`] in its linear value).
+    #[inline(always)]
+    fn sample(&mut self, class: &[u8; 1024], lin: &[u32; 256], t: u16, p: &[u8; 3]) {
+        let pop = usize::from(class[usize::from(t >> 6)]);
+        if pop > 1 {
+            return;
+        }
+        let (r, g, b) = (
+            lin[usize::from(p[0])],
+            lin[usize::from(p[1])],
+            lin[usize::from(p[2])],
+        );
+        if (r | g | b) & SATURATED != 0 {
+            return;
+        }
+        let s = &mut self.0[pop];
+        s[0] += r;
+        s[1] += g;
+        s[2] += b;
+        s[3] += 1;
+    }
+
+    fn add_to(&self, acc: &mut Sums) {
+        for p in 0..2 {
+            for k in 0..3 {
+                acc.sum[p][k] += u64::from(self.0[p][k]);
+            }
+            acc.n[p] += self.0[p][3];
+        }
+    }
 }
 
 /// Block (`bx`, `by`)'s sums pooled with its neighbours within `r` blocks (a (2r+1)²
@@ -360,6 +389,104 @@ mod tests {
             assert_eq!(plain, with, "factor {f}");
             assert_eq!(none, [Sums::default(); 2]);
             assert!(contact[0].n[0] > 0 && contact[0].n[1] > 0, "factor {f}");
+        }
+    }
+
+    /// The block loop against a plain reading of its rule, pixel by pixel, on a frame of
+    /// random colours (saturated channels included), phases, reliability and regions.
+    #[test]
+    fn block_and_contact_sums_follow_the_rule_pixel_by_pixel() {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        let lin = linear_q16();
+        for f in [1usize, 2, 3, 5] {
+            let (w, h) = (37usize, 29usize);
+            let img = RgbImage::from_fn((w * f + 1) as u32, (h * f + 2) as u32, |_, _| {
+                let v = next();
+                // One channel in eight saturated.
+                let c = |s: u32| {
+                    if (v >> (s + 8)) & 7 == 0 {
+                        255
+                    } else {
+                        (v >> s) as u8
+                    }
+                };
+                image::Rgb([c(0), c(16), c(32)])
+            });
+            let g = Geometry::new(w, h, f, 0.11 * f as f32, 0.03 * f as f32);
+            let theta: Vec<u16> = (0..w * h).map(|_| next() as u16).collect();
+            let rel: Vec<bool> = (0..w * h).map(|_| next() % 5 != 0).collect();
+            let regions: Vec<u8> = (0..w * h)
+                .map(|i| {
+                    if (i % w) > 20 {
+                        (next() % 3) as u8
+                    } else {
+                        region::NONE
+                    }
+                })
+                .collect();
+            let (blocks, contact) = accumulate(
+                &img,
+                &g,
+                |y, row: &mut [u16]| row.copy_from_slice(&theta[y * w..(y + 1) * w]),
+                &rel,
+                Some(&regions),
+                &lin,
+            );
+            let mut want = vec![Sums::default(); g.bw * g.bh];
+            let mut want_contact = [Sums::default(); 2];
+            let read = |x: usize, y: usize, t: i32, s: &mut Sums| {
+                let p = img.get_pixel(x as u32, y as u32).0;
+                // Classified in steps of 64 units, as the table does.
+                let t = i32::from((t as u16 & !63) as i16).abs();
+                if p.contains(&255) {
+                    return;
+                }
+                let pop = if t < KEEP_UNITS {
+                    0
+                } else if t >= 32_768 - KEEP_UNITS {
+                    1
+                } else {
+                    return;
+                };
+                for k in 0..3 {
+                    s.sum[pop][k] += u64::from(lin[usize::from(p[k])]);
+                }
+                s.n[pop] += 1;
+            };
+            for yw in 0..h {
+                for xw in (0..w).filter(|&x| rel[yw * w + x]) {
+                    let t0 = i32::from(theta[yw * w + xw]);
+                    if yw % g.row_step == 0 {
+                        let b = &mut want[(yw / g.block_px) * g.bw + xw / g.block_px];
+                        for k in 0..f {
+                            read(xw * f + k, yw * f + f / 2, t0 + g.offsets[k], b);
+                        }
+                    }
+                    let reg = regions[yw * w + xw];
+                    for k in (0..f * f).filter(|_| reg != region::NONE) {
+                        let (x, y) = (xw * f + k % f, yw * f + k / f);
+                        read(x, y, t0 + g.offsets_all[k], &mut want_contact[0]);
+                        if reg == region::CORE {
+                            read(x, y, t0 + g.offsets_all[k], &mut want_contact[1]);
+                        }
+                    }
+                }
+            }
+            for (i, (a, b)) in blocks.iter().zip(&want).enumerate() {
+                assert_eq!(
+                    a, b,
+                    "factor {f} block {i} of {}x{} bp {}",
+                    g.bw, g.bh, g.block_px
+                );
+            }
+            assert_eq!(contact, want_contact, "factor {f}");
+            assert!(contact[1].n[0] > 0 && want.iter().any(|b| b.n[1] > 0));
         }
     }
 

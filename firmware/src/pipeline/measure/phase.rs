@@ -129,8 +129,15 @@ impl WrappedPhase {
     pub fn row(&self, y: usize, out: &mut [i32]) {
         let c = (y / GRID) * self.cw;
         if let Some(crow) = self.coarse.get(c..c + self.cw) {
-            for (x, o) in out.iter_mut().enumerate() {
-                *o = crow[x / GRID];
+            let mut pairs = out.chunks_exact_mut(GRID);
+            for (o, &c) in (&mut pairs).zip(crow) {
+                for v in o {
+                    *v = c;
+                }
+            }
+            // A partial last group (odd width): the last sample.
+            if let Some(&c) = crow.last() {
+                pairs.into_remainder().fill(c);
             }
         }
         if let Some((x0, y0, bw, bh, v)) = &self.local {
