@@ -12,6 +12,12 @@
 //! per working row is read: a block still sees every phase of the grating, at a fraction of
 //! the cost. Saturated pixels are left out. Everything is integer: phases in units of
 //! 2π/65 536, colours as linear light in Q16 from a 256-entry table.
+//!
+//! The contact region, where a user reads the temperature of what touches the skin, is read
+//! at every input pixel and at the frame's local grating: each input pixel's phase follows
+//! the local phase gradient, and where the indentation squeezes the stripes the kept band
+//! narrows so it stays as far from the stripe edges in pixels as on flat skin
+//! (`keep_units`).
 
 use image::RgbImage;
 
@@ -115,12 +121,14 @@ pub struct Geometry {
     /// Phase of input pixel `k` (0…factor−1) of a working pixel, relative to the working
     /// pixel's centre, on the sampled input row; units.
     pub offsets: Vec<i32>,
-    /// Phase of every input pixel (row-major, `factor × factor`) of a working pixel,
-    /// relative to its centre; units. The contact region is read at full density.
-    pub offsets_all: Vec<i32>,
     /// Working rows advanced between the rows a block reads: a third of a block, so every
     /// block reads three rows (the black stripes are pooled over nine blocks anyway).
     pub row_step: usize,
+    /// The reference carrier's phase advance per working pixel across and down, units.
+    pub carrier_units: [i32; 2],
+    /// Its square length, units²: the contact region compares its local grating with it
+    /// (`keep_units`).
+    pub carrier2: i64,
 }
 
 impl Geometry {
@@ -137,9 +145,6 @@ impl Geometry {
             units(f64::from(fx) / f as f64 * (kx - c) + f64::from(fy) / f as f64 * ky)
         };
         let offsets = (0..f).map(|k| at(k as f64, row)).collect();
-        let offsets_all = (0..f * f)
-            .map(|k| at((k % f) as f64, (k / f) as f64 - c))
-            .collect();
         Geometry {
             w,
             h,
@@ -148,8 +153,9 @@ impl Geometry {
             bw: w.div_ceil(block_px),
             bh: h.div_ceil(block_px),
             offsets,
-            offsets_all,
             row_step: (block_px / 3).max(1),
+            carrier_units: [units(f64::from(fx)), units(f64::from(fy))],
+            carrier2: i64::from(units(f64::from(fx.hypot(fy)))).pow(2).max(1),
         }
     }
 
@@ -170,7 +176,8 @@ impl Geometry {
 /// phase along working row `y`, units; only working pixels where `reliable` (the FTP trusted their phase: away
 /// from the image edge, with fringe contrast) are read, since elsewhere the stripes cannot
 /// be told apart. Blocks read one input row of every [`Geometry::row_step`]-th working row;
-/// the contact region, small and what a user asks about most, reads every input pixel.
+/// the contact region, small and what a user asks about most, reads every input pixel, at
+/// its local grating (`local_phases`, `keep_units`).
 pub fn accumulate(
     frame: &RgbImage,
     g: &Geometry,
@@ -205,14 +212,22 @@ fn run<const F: usize, const REGIONS: bool>(
 ) -> (Vec<Sums>, [Sums; 2]) {
     let f = if F == 0 { g.factor } else { F };
     let mut theta = theta;
-    let mut trow = vec![0u16; g.w];
+    // Rows of the frame's phase, row y in slot y mod 3: a contact row reads its neighbours
+    // above and below, each computed once.
+    let mut rows = [vec![0u16; g.w], vec![0u16; g.w], vec![0u16; g.w]];
+    let mut rows_at = [usize::MAX; 3];
+    let mut fill = |y: usize, rows: &mut [Vec<u16>; 3]| {
+        if rows_at[y % 3] != y {
+            theta(y, &mut rows[y % 3]);
+            rows_at[y % 3] = y;
+        }
+    };
     let mut blocks = vec![Sums::default(); g.bw * g.bh];
     let mut contact = [Sums::default(); 2];
     let class = class_table();
     let offsets: Vec<u16> = g.offsets.iter().map(|&o| o as u16).collect();
     let width = frame.width() as usize;
     let raw: &[u8] = frame.as_raw();
-    let offsets_all: Vec<u16> = g.offsets_all.iter().map(|&o| o as u16).collect();
     let f3 = 3 * f;
     let stride = width * 3;
     let mut tin = vec![0u16; g.w * f];
@@ -235,12 +250,18 @@ fn run<const F: usize, const REGIONS: bool>(
         if !on_grid && rx1 == rx0 {
             continue;
         }
-        theta(yw, &mut trow);
+        let (ya, yb) = (yw.saturating_sub(1), (yw + 1).min(g.h - 1));
+        fill(yw, &mut rows);
+        if rx1 > rx0 {
+            fill(ya, &mut rows);
+            fill(yb, &mut rows);
+        }
+        let (up, trow, down) = (&rows[ya % 3], &rows[yw % 3], &rows[yb % 3]);
         let rel = &reliable[row.clone()];
         if on_grid {
             // The sampled input row's phases; an unreliable working pixel's inputs get a
             // stripe edge's phase, so the pixel loop has no other test.
-            for ((tk, &t0), &ok) in tin.chunks_exact_mut(f).zip(&trow).zip(rel) {
+            for ((tk, &t0), &ok) in tin.chunks_exact_mut(f).zip(trow).zip(rel) {
                 for (t, &o) in tk.iter_mut().zip(&offsets) {
                     *t = if ok { t0.wrapping_add(o) } else { EDGE_UNITS };
                 }
@@ -260,22 +281,27 @@ fn run<const F: usize, const REGIONS: bool>(
                 part.add_to(acc);
             }
         }
-        // Every input pixel of the row's contact working pixels.
+        // Every input pixel of the row's contact working pixels, at the frame's own local
+        // grating (see `local_phases` and `keep_units`).
         for xw in (rx0..rx1).filter(|&x| rel[x]) {
             let reg = regions[row.start + xw];
             if reg == region::NONE {
                 continue;
             }
-            let t0 = trow[xw];
+            let (xa, xb) = (xw.saturating_sub(1), (xw + 1).min(g.w - 1));
+            let gx = gradient(trow[xa], trow[xb], xb - xa, g.carrier_units[0]);
+            let gy = gradient(up[xw], down[xw], yb - ya, g.carrier_units[1]);
+            let keep = keep_units(gx, gy, g.carrier2);
             let mut part = Part::default();
-            for ky in 0..f {
+            local_phases(trow[xw], gx, gy, f, |ky, ts| {
                 let base = (yw * f + ky) * stride + xw * f3;
                 let (px, _) = raw[base..base + f3].as_chunks::<3>();
-                let offs = &offsets_all[ky * f..(ky + 1) * f];
-                for (p, &o) in px.iter().zip(offs) {
-                    part.sample(&class, lin, t0.wrapping_add(o), p);
+                for (p, &t) in px.iter().zip(ts) {
+                    if let Some(pop) = kept(t, keep) {
+                        part.add(pop, lin, p);
+                    }
                 }
-            }
+            });
             part.add_to(&mut contact[0]);
             if reg == region::CORE {
                 part.add_to(&mut contact[1]);
@@ -297,9 +323,14 @@ impl Part {
     #[inline(always)]
     fn sample(&mut self, class: &[u8; 1024], lin: &[u32; 256], t: u16, p: &[u8; 3]) {
         let pop = usize::from(class[usize::from(t >> 6)]);
-        if pop > 1 {
-            return;
+        if pop <= 1 {
+            self.add(pop, lin, p);
         }
+    }
+
+    /// One input pixel `p` of population `pop`, unless a channel is saturated.
+    #[inline(always)]
+    fn add(&mut self, pop: usize, lin: &[u32; 256], p: &[u8; 3]) {
         let (r, g, b) = (
             lin[usize::from(p[0])],
             lin[usize::from(p[1])],
@@ -322,6 +353,71 @@ impl Part {
             }
             acc.n[p] += self.0[p][3];
         }
+    }
+}
+
+/// Phase advance per working pixel between two phases `n` working pixels apart, units:
+/// the carrier's advance `c` (units per working pixel) plus the wrapped deviation from it,
+/// so a period of a few working pixels (a forced downsampling), whose advance over two
+/// pixels reaches half a turn, is not read the wrong way round.
+fn gradient(a: u16, b: u16, n: usize, c: i32) -> i32 {
+    let n = (n as i32).max(1);
+    let deviation = b.wrapping_sub(a).wrapping_sub((c * n) as u16) as i16;
+    c + i32::from(deviation) / n
+}
+
+/// The phases of a contact working pixel's `f × f` input pixels, into `row(ky, phases)`
+/// one input row at a time: its own phase `t0` plus the local gradient (`gx`, `gy`, units
+/// per working pixel, from its neighbours) times each input pixel's offset from its centre.
+/// Under an indentation the stripes are squeezed or stretched by up to half their period,
+/// which the reference carrier would not follow. Fixed point with 8 fraction bits, one
+/// division per working pixel; `f` ≤ 8 (the largest downsampling factor).
+fn local_phases(t0: u16, gx: i32, gy: i32, f: usize, mut row: impl FnMut(usize, &[u16])) {
+    let f = f.clamp(1, 8);
+    let fi = f as i32;
+    let (sx, sy) = ((gx << 8) / fi, (gy << 8) / fi);
+    let mut start = (i32::from(t0) << 8) - (fi - 1) * (sx + sy) / 2;
+    let mut phases = [0u16; 8];
+    let phases = &mut phases[..f];
+    for ky in 0..f {
+        let mut t = start;
+        for p in phases.iter_mut() {
+            *p = (t >> 8) as u16;
+            t += sx;
+        }
+        row(ky, phases);
+        start += sy;
+    }
+}
+
+/// Half-width of the kept band around a stripe centre, units, for a local grating advancing
+/// `gx`, `gy` units per working pixel against the reference's `carrier2` (units²). Where an
+/// indentation squeezes the stripes by a ratio ρ, the band narrows so its edge stays as far
+/// from the stripe's edge in pixels as [`KEEP_UNITS`] keeps it on flat skin: the optics'
+/// blur, fixed in pixels, would otherwise mix the neighbouring stripes' colour into a
+/// squeezed stripe's kept pixels (unit 54, 20 px period on a 320×240 camera, read a 38 °C
+/// contact +0.87 °C through its black stripes). Where they are stretched it stays at
+/// [`KEEP_UNITS`], the calibration's band. Never below 1/64 turn.
+fn keep_units(gx: i32, gy: i32, carrier2: i64) -> i32 {
+    const QUARTER: i64 = 16_384;
+    let local2 = i64::from(gx).pow(2) + i64::from(gy).pow(2);
+    if local2 <= carrier2 {
+        return KEEP_UNITS;
+    }
+    // ρ in Q8, above 1.
+    let rho = (((local2 << 16) / carrier2.max(1)) as u64).isqrt() as i64;
+    (QUARTER - (((QUARTER - i64::from(KEEP_UNITS)) * rho) >> 8)).max(1_024) as i32
+}
+
+/// The population whose centre phase `t` lies within `keep` units of: 0 coloured, 1 black.
+fn kept(t: u16, keep: i32) -> Option<usize> {
+    let a = i32::from(t as i16).abs();
+    if a < keep {
+        Some(0)
+    } else if a >= 32_768 - keep {
+        Some(1)
+    } else {
+        None
     }
 }
 
@@ -440,18 +536,16 @@ mod tests {
             );
             let mut want = vec![Sums::default(); g.bw * g.bh];
             let mut want_contact = [Sums::default(); 2];
-            let read = |x: usize, y: usize, t: i32, s: &mut Sums| {
-                let p = img.get_pixel(x as u32, y as u32).0;
-                // Classified in steps of 64 units, as the table does.
+            // The blocks classify in steps of 64 units, as the table does.
+            let grid_pop = |t: i32| {
                 let t = i32::from((t as u16 & !63) as i16).abs();
-                if p.contains(&255) {
-                    return;
-                }
-                let pop = if t < KEEP_UNITS {
-                    0
-                } else if t >= 32_768 - KEEP_UNITS {
-                    1
-                } else {
+                (t < KEEP_UNITS)
+                    .then_some(0)
+                    .or((t >= 32_768 - KEEP_UNITS).then_some(1))
+            };
+            let read = |x: usize, y: usize, pop: Option<usize>, s: &mut Sums| {
+                let p = img.get_pixel(x as u32, y as u32).0;
+                let Some(pop) = pop.filter(|_| !p.contains(&255)) else {
                     return;
                 };
                 for k in 0..3 {
@@ -459,23 +553,37 @@ mod tests {
                 }
                 s.n[pop] += 1;
             };
+            let th = |x: usize, y: usize| theta[y * w + x];
             for yw in 0..h {
                 for xw in (0..w).filter(|&x| rel[yw * w + x]) {
                     let t0 = i32::from(theta[yw * w + xw]);
                     if yw % g.row_step == 0 {
                         let b = &mut want[(yw / g.block_px) * g.bw + xw / g.block_px];
                         for k in 0..f {
-                            read(xw * f + k, yw * f + f / 2, t0 + g.offsets[k], b);
+                            let pop = grid_pop(t0 + g.offsets[k]);
+                            read(xw * f + k, yw * f + f / 2, pop, b);
                         }
                     }
                     let reg = regions[yw * w + xw];
-                    for k in (0..f * f).filter(|_| reg != region::NONE) {
-                        let (x, y) = (xw * f + k % f, yw * f + k / f);
-                        read(x, y, t0 + g.offsets_all[k], &mut want_contact[0]);
-                        if reg == region::CORE {
-                            read(x, y, t0 + g.offsets_all[k], &mut want_contact[1]);
-                        }
+                    if reg == region::NONE {
+                        continue;
                     }
+                    // The contact: the local gradient from the neighbours (clipped at the
+                    // image's edge), the band it gives, each input pixel's own phase.
+                    let (xa, xb) = (xw.saturating_sub(1), (xw + 1).min(w - 1));
+                    let (ya, yb) = (yw.saturating_sub(1), (yw + 1).min(h - 1));
+                    let gx = gradient(th(xa, yw), th(xb, yw), xb - xa, g.carrier_units[0]);
+                    let gy = gradient(th(xw, ya), th(xw, yb), yb - ya, g.carrier_units[1]);
+                    let keep = keep_units(gx, gy, g.carrier2);
+                    local_phases(th(xw, yw), gx, gy, f, |ky, ts| {
+                        for (kx, &t) in ts.iter().enumerate() {
+                            let (x, y) = (xw * f + kx, yw * f + ky);
+                            read(x, y, kept(t, keep), &mut want_contact[0]);
+                            if reg == region::CORE {
+                                read(x, y, kept(t, keep), &mut want_contact[1]);
+                            }
+                        }
+                    });
                 }
             }
             for (i, (a, b)) in blocks.iter().zip(&want).enumerate() {
@@ -488,6 +596,55 @@ mod tests {
             assert_eq!(contact, want_contact, "factor {f}");
             assert!(contact[1].n[0] > 0 && want.iter().any(|b| b.n[1] > 0));
         }
+    }
+
+    /// On an undisturbed grating the local phases follow the carrier from pixel to pixel
+    /// (to a unit of rounding), and the band is the calibration's.
+    #[test]
+    fn contact_pixels_follow_the_local_grating() {
+        for f in [1usize, 2, 3, 4] {
+            // 0.13 and 0.05 cycles per working pixel, across and down.
+            let (gx, gy) = (
+                (0.13 * 65_536.0f64).round() as i32,
+                (0.05 * 65_536.0f64).round() as i32,
+            );
+            let g = Geometry::new(40, 30, f, 0.13, 0.05);
+            assert_eq!(keep_units(gx, gy, g.carrier2), KEEP_UNITS);
+            let t0 = 60_000u16;
+            local_phases(t0, gx, gy, f, |ky, row| {
+                for (kx, &t) in row.iter().enumerate() {
+                    let c = (f as f64 - 1.0) / 2.0;
+                    let want = f64::from(t0)
+                        + (f64::from(gx) * (kx as f64 - c) + f64::from(gy) * (ky as f64 - c))
+                            / f as f64;
+                    let err = i32::from(t.wrapping_sub(want.round() as i64 as u16) as i16);
+                    assert!(err.abs() <= 1, "f {f} ({kx}, {ky}): {t} for {want}");
+                }
+            });
+        }
+        // Four working pixels per period (a forced ÷4): across two pixels the grating
+        // advances half a turn, read against the carrier, not the wrong way round; and a
+        // grating squeezed to 110° per pixel reads as such.
+        assert_eq!(gradient(0, 32_768, 2, 16_384), 16_384);
+        assert_eq!(
+            gradient(1_000, 1_000u16.wrapping_add(40_050), 2, 16_384),
+            20_025
+        );
+        assert_eq!(gradient(5, 5u16.wrapping_sub(2_000), 1, -1_900), -2_000);
+        // Squeezed by 1.5: the band's edge stays as far from the stripe's edge in pixels
+        // (a quarter turn − 1.5 × (a quarter turn − the flat band)); stretched: the flat
+        // band; squeezed beyond reason: the floor.
+        let carrier2 = 10_000i64.pow(2);
+        assert_eq!(keep_units(15_000, 0, carrier2), 16_384 - 8_192 * 3 / 2);
+        assert_eq!(keep_units(0, 6_000, carrier2), KEEP_UNITS);
+        assert_eq!(keep_units(40_000, 0, carrier2), 1_024);
+        assert_eq!(kept(0, 4_096), Some(0));
+        assert_eq!(kept(32_768, 4_096), Some(1));
+        assert_eq!(kept(16_384, 4_096), None);
+        assert_eq!(kept(4_095, 4_096), Some(0));
+        assert_eq!(kept(4_096, 4_096), None);
+        assert_eq!(kept(4_095u16.wrapping_neg(), 4_096), Some(0));
+        assert_eq!(kept(32_768 - 4_096, 4_096), Some(1));
     }
 
     #[test]

@@ -78,7 +78,7 @@ pub const NOISE_STEP: usize = 2;
 /// Phase noise (1σ, phase units): the robust spread of the phase minus its local mean over
 /// a box of `box_px` samples (about two periods), so smooth deformation does not count as
 /// noise. `phi` is `w × h` samples (the coarse grid); the spread is taken over every
-/// [`NOISE_STEP`]-th of them each way.
+/// `NOISE_STEP`-th of them each way.
 pub fn local_noise_units(phi: &[i32], reliable: &[bool], w: usize, h: usize, box_px: usize) -> i32 {
     let r = (box_px / 2).max(1);
     let mut ii = vec![0i64; (w + 1) * (h + 1)];
