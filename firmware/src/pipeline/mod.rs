@@ -188,11 +188,10 @@ fn with_temperature(
     const _: () = assert!(region::NONE == 0 && region::CONTACT == 1 && region::CORE == 2);
     let (half, core) = (half.max(1), core.max(1));
     let regions: Option<Vec<u8>> = d.contact.then(|| {
-        let mut codes = vec![0u8; d.depth_um.len()];
-        for (c, &u) in codes.iter_mut().zip(&d.depth_um) {
-            *c = u8::from(u >= half) + u8::from(u >= core);
-        }
-        codes
+        d.depth_um
+            .iter()
+            .map(|&u| u8::from(u >= half) + u8::from(u >= core))
+            .collect()
     });
     d.temperature = thermo.measure(frame, wrapped, &d.reliable, regions.as_deref());
     if d.temperature.as_ref().is_some_and(|t| t.out_of_range) {
