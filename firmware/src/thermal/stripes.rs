@@ -433,6 +433,8 @@ fn keep_units(gx: i32, gy: i32, carrier2: i64) -> i32 {
 }
 
 /// The population whose centre phase `t` lies within `keep` units of: 0 coloured, 1 black.
+/// The blocks' band is fixed and read from [`class_table`] (one look-up per pixel); this
+/// is the same rule for the contact region's band, which changes from pixel to pixel.
 fn kept(t: u16, keep: i32) -> Option<usize> {
     let a = i32::from(t as i16).abs();
     if a < keep {
