@@ -454,20 +454,15 @@ fn coloured_span(samples: &[Sample], sp: &[f64], idx: &[usize]) -> (Vec<bool>, V
             d[0].hypot(d[1]) / (sp[k + 1] - sp[k]).max(1e-6)
         })
         .collect();
-    let at = |k: usize| {
-        let l = if k > 0 { speed[k - 1] } else { 0.0 };
-        let r = speed.get(k).copied().unwrap_or(0.0);
-        l.max(r)
-    };
+    // The speeds of the intervals either side of setpoint `k` (none beyond the ends).
+    let beside = |k: usize| [k.checked_sub(1).map(|j| speed[j]), speed.get(k).copied()];
+    // Whether the colour moves at `k`: the faster side.
+    let at = |k: usize| beside(k).into_iter().flatten().fold(0.0, f64::max);
+    // How fast: the mean of the sides there are.
     let rate: Vec<f64> = (0..g)
         .map(|k| {
-            let l = k.checked_sub(1).map(|j| speed[j]);
-            let r = speed.get(k).copied();
-            match (l, r) {
-                (Some(l), Some(r)) => 0.5 * (l + r),
-                (Some(v), None) | (None, Some(v)) => v,
-                (None, None) => 0.0,
-            }
+            let s: Vec<f64> = beside(k).into_iter().flatten().collect();
+            s.iter().sum::<f64>() / s.len().max(1) as f64
         })
         .collect();
     let Some(peak) = (0..g).max_by(|&a, &b| at(a).total_cmp(&at(b))) else {

@@ -52,20 +52,24 @@ enum Eval {
         exps: Vec<[u32; FEATURES]>,
         coef: Vec<i64>,
     },
-    Curve {
-        /// Knots, whitened, Q12.
-        knots: Vec<[i64; FEATURES]>,
-        /// 1/σ per feature, Q16.
-        inv_scale: [i64; FEATURES],
-        /// Whitened segment vectors, Q12 (σ = 4096).
-        d: Vec<[i64; FEATURES]>,
-        /// Their squared lengths, Q24.
-        bb: Vec<i64>,
-        /// Knot temperatures, Q16 °C.
-        t: Vec<i64>,
-        /// `e^{−Δ/2}` for Δ = k/32 σ², Q16 (see [`super::model::softmin_weight`]).
-        softmin: Vec<i64>,
-    },
+    Curve(CurveQ),
+}
+
+/// The calibration curve in integers.
+#[derive(Debug, Clone)]
+struct CurveQ {
+    /// Knots, whitened, Q12.
+    knots: Vec<[i64; FEATURES]>,
+    /// 1/σ per feature, Q16.
+    inv_scale: [i64; FEATURES],
+    /// Whitened segment vectors, Q12 (σ = 4096).
+    d: Vec<[i64; FEATURES]>,
+    /// Their squared lengths, Q24.
+    bb: Vec<i64>,
+    /// Knot temperatures, Q16 °C.
+    t: Vec<i64>,
+    /// `e^{−Δ/2}` for Δ = k/32 σ², Q16 (see [`super::model::softmin_weight`]).
+    softmin: Vec<i64>,
 }
 
 /// The first [`FEATURES`] values of `v` (a consistent model has exactly that many).
@@ -164,7 +168,7 @@ impl Pop {
                     })
                     .collect();
                 let bb = d.iter().map(|v| v.iter().map(|&x| x * x).sum()).collect();
-                Eval::Curve {
+                Eval::Curve(CurveQ {
                     knots,
                     inv_scale: scale.map(|s| q16(1.0 / s)),
                     d,
@@ -173,7 +177,7 @@ impl Pop {
                     softmin: (0..=(super::model::SOFTMIN_CUT * 32.0) as usize)
                         .map(|k| q16(super::model::softmin_weight(k as f64 / 32.0)))
                         .collect(),
-                }
+                })
             }
         };
         Pop {
@@ -206,122 +210,119 @@ impl Pop {
                 }
                 (acc >> 16) as i64
             }
-            Eval::Curve {
-                knots,
-                inv_scale,
-                d,
-                bb,
-                t,
-                softmin,
-            } => curve(x, knots, inv_scale, d, bb, t, softmin),
+            Eval::Curve(c) => c.eval(x),
         }
     }
 }
 
-/// The calibration curve's temperature at features `x` (Q16), as `Curve::eval` in the float
-/// model: the nearest points of the segments meeting at the two nearest knots, blended by
-/// likelihood. Whitened values in Q12 (2⁻¹² σ); distances clamped at 4096 σ (far outside
-/// any calibrated colour): squares and dot products stay below 2⁵⁰, and only the
-/// projection's product takes 128 bits (a multiplication, no division). Fixed-size
-/// feature vectors and one pass over the knots keep it near 25 instructions per knot.
-fn curve(
-    x: [i64; FEATURES],
-    knots: &[[i64; FEATURES]],
-    inv_scale: &[i64; FEATURES],
-    d: &[[i64; FEATURES]],
-    bb: &[i64],
-    t: &[i64],
-    softmin: &[i64],
-) -> i64 {
-    let n = t.len().min(knots.len()).min(d.len() + 1);
-    if n < 2 {
-        return t.first().copied().unwrap_or(0);
-    }
-    // Knots lie within ±2²³ (2048 σ) of the calibrated colours; clamping the block's
-    // whitened features to ±2²⁴ keeps every difference below 2²⁵. A product that would
-    // overflow saturates, and the clamp then gives what 128 bits would.
-    let lim = 1i64 << 24;
-    let xw: [i64; FEATURES] =
-        std::array::from_fn(|j| (x[j].saturating_mul(inv_scale[j]) >> 20).clamp(-lim, lim));
-    let diff = |k: &[i64; FEATURES]| -> [i64; FEATURES] { std::array::from_fn(|j| xw[j] - k[j]) };
-    let dot = |a: &[i64; FEATURES], b: &[i64; FEATURES]| -> i64 {
-        a.iter().zip(b).map(|(p, q)| p * q).sum()
-    };
-    // The two nearest knots (the earlier one on a tie), and the segments meeting at either.
-    let (mut k1, mut k2) = ((i64::MAX, 0usize), (i64::MAX, 0usize));
-    for (k, kn) in knots[..n].iter().enumerate() {
-        let (e0, e1, e2) = (xw[0] - kn[0], xw[1] - kn[1], xw[2] - kn[2]);
-        let d2 = e0 * e0 + e1 * e1 + e2 * e2;
-        if d2 < k2.0 {
-            if d2 < k1.0 {
-                k2 = k1;
-                k1 = (d2, k);
-            } else {
-                k2 = (d2, k);
-            }
+impl CurveQ {
+    /// The calibration curve's temperature at features `x` (Q16), as `Curve::eval` in the
+    /// float model: the nearest points of the segments meeting at the two nearest knots,
+    /// blended by likelihood. Whitened values in Q12 (2⁻¹² σ); distances clamped at 4096 σ
+    /// (far outside any calibrated colour): squares and dot products stay below 2⁵⁰, and
+    /// only the projection's product takes 128 bits (a multiplication, no division).
+    /// Fixed-size feature vectors and one pass over the knots: about 17 instructions per
+    /// knot on x86-64.
+    fn eval(&self, x: [i64; FEATURES]) -> i64 {
+        let CurveQ {
+            knots,
+            inv_scale,
+            d,
+            bb,
+            t,
+            softmin,
+        } = self;
+        let n = t.len().min(knots.len()).min(d.len() + 1);
+        if n < 2 {
+            return t.first().copied().unwrap_or(0);
         }
-    }
-    let last = n - 2;
-    let mut segs = [
-        k1.1.saturating_sub(1),
-        k1.1.min(last),
-        k2.1.saturating_sub(1),
-        k2.1.min(last),
-    ];
-    segs.sort_unstable();
-    let mut found = [(i64::MAX, 0i64); 4];
-    for (i, &k) in segs.iter().enumerate() {
-        if i > 0 && segs[i - 1] == k {
-            continue;
-        }
-        let e = diff(&knots[k]);
-        let (ab, ax) = (dot(&d[k], &e), dot(&e, &e));
-        let bk = bb[k].max(1);
-        // u in Q16; the end segments extrapolate without bound.
-        let mut u = (ab << 8) / (bk >> 8).max(1);
-        let lo = if k == 0 { i64::MIN } else { 0 };
-        let hi = if k + 2 == n { i64::MAX } else { ONE };
-        let dist = if u < lo || u > hi {
-            u = u.clamp(lo, hi);
-            if u == 0 {
-                ax
-            } else {
-                ax - 2 * ab + bk
-            }
-        } else {
-            // ab·u = ab²/bb ≤ ax in exact arithmetic; the clamp only guards.
-            let proj = (i128::from(ab) * i128::from(u)) >> 16;
-            ax - proj.clamp(0, i128::from(i64::MAX)) as i64
+        // Knots lie within ±2²³ (2048 σ) of the calibrated colours; clamping the block's
+        // whitened features to ±2²⁴ keeps every difference below 2²⁵. A product that would
+        // overflow saturates, and the clamp then gives what 128 bits would.
+        let lim = 1i64 << 24;
+        let xw: [i64; FEATURES] =
+            std::array::from_fn(|j| (x[j].saturating_mul(inv_scale[j]) >> 20).clamp(-lim, lim));
+        let diff =
+            |k: &[i64; FEATURES]| -> [i64; FEATURES] { std::array::from_fn(|j| xw[j] - k[j]) };
+        let dot = |a: &[i64; FEATURES], b: &[i64; FEATURES]| -> i64 {
+            a.iter().zip(b).map(|(p, q)| p * q).sum()
         };
-        found[i] = (
-            dist,
-            t[k] + ((i128::from(u) * i128::from(t[k + 1] - t[k])) >> 16) as i64,
-        );
-    }
-    // Likelihood-weighted mean of the segments' nearest points (see `Curve::eval`): weights
-    // e^{−Δd/2} from a table in 1/32 σ² steps.
-    let best = found.iter().map(|f| f.0).min().unwrap_or(i64::MAX);
-    let (mut sw, mut st) = (0i64, 0i128);
-    for &(dist, ti) in &found {
-        if dist == i64::MAX {
-            continue;
+        // The two nearest knots (the earlier one on a tie), and the segments meeting at either.
+        let (mut k1, mut k2) = ((i64::MAX, 0usize), (i64::MAX, 0usize));
+        for (k, kn) in knots[..n].iter().enumerate() {
+            let (e0, e1, e2) = (xw[0] - kn[0], xw[1] - kn[1], xw[2] - kn[2]);
+            let d2 = e0 * e0 + e1 * e1 + e2 * e2;
+            if d2 < k2.0 {
+                if d2 < k1.0 {
+                    k2 = k1;
+                    k1 = (d2, k);
+                } else {
+                    k2 = (d2, k);
+                }
+            }
         }
-        // Δd is Q24 σ²; the table steps are 1/32 σ² = 2¹⁹; keep 8 fraction bits.
-        let pos = (dist - best) >> 11;
-        let k = (pos >> 8) as usize;
-        if k + 1 >= softmin.len() {
-            continue;
+        let last = n - 2;
+        let mut segs = [
+            k1.1.saturating_sub(1),
+            k1.1.min(last),
+            k2.1.saturating_sub(1),
+            k2.1.min(last),
+        ];
+        segs.sort_unstable();
+        let mut found = [(i64::MAX, 0i64); 4];
+        for (i, &k) in segs.iter().enumerate() {
+            if i > 0 && segs[i - 1] == k {
+                continue;
+            }
+            let e = diff(&knots[k]);
+            let (ab, ax) = (dot(&d[k], &e), dot(&e, &e));
+            let bk = bb[k].max(1);
+            // u in Q16; the end segments extrapolate without bound.
+            let mut u = (ab << 8) / (bk >> 8).max(1);
+            let lo = if k == 0 { i64::MIN } else { 0 };
+            let hi = if k + 2 == n { i64::MAX } else { ONE };
+            let dist = if u < lo || u > hi {
+                u = u.clamp(lo, hi);
+                if u == 0 {
+                    ax
+                } else {
+                    ax - 2 * ab + bk
+                }
+            } else {
+                // ab·u = ab²/bb ≤ ax in exact arithmetic; the clamp only guards.
+                let proj = (i128::from(ab) * i128::from(u)) >> 16;
+                ax - proj.clamp(0, i128::from(i64::MAX)) as i64
+            };
+            found[i] = (
+                dist,
+                t[k] + ((i128::from(u) * i128::from(t[k + 1] - t[k])) >> 16) as i64,
+            );
         }
-        let f = pos & 255;
-        let w = softmin[k] + (((softmin[k + 1] - softmin[k]) * f) >> 8);
-        sw += w;
-        st += i128::from(w) * i128::from(ti);
-    }
-    match (sw, i64::try_from(st)) {
-        (0, _) => t[0],
-        // The common case in 64 bits (a 128-bit division is a library call).
-        (_, Ok(st)) => st / sw,
-        (_, Err(_)) => (st / i128::from(sw)) as i64,
+        // Likelihood-weighted mean of the segments' nearest points (see `Curve::eval`): weights
+        // e^{−Δd/2} from a table in 1/32 σ² steps.
+        let best = found.iter().map(|f| f.0).min().unwrap_or(i64::MAX);
+        let (mut sw, mut st) = (0i64, 0i128);
+        for &(dist, ti) in &found {
+            if dist == i64::MAX {
+                continue;
+            }
+            // Δd is Q24 σ²; the table steps are 1/32 σ² = 2¹⁹; keep 8 fraction bits.
+            let pos = (dist - best) >> 11;
+            let k = (pos >> 8) as usize;
+            if k + 1 >= softmin.len() {
+                continue;
+            }
+            let f = pos & 255;
+            let w = softmin[k] + (((softmin[k + 1] - softmin[k]) * f) >> 8);
+            sw += w;
+            st += i128::from(w) * i128::from(ti);
+        }
+        match (sw, i64::try_from(st)) {
+            (0, _) => t[0],
+            // The common case in 64 bits (a 128-bit division is a library call).
+            (_, Ok(st)) => st / sw,
+            (_, Err(_)) => (st / i128::from(sw)) as i64,
+        }
     }
 }
 

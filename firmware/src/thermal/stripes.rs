@@ -124,11 +124,9 @@ pub struct Geometry {
     /// Working rows advanced between the rows a block reads: a third of a block, so every
     /// block reads three rows (the black stripes are pooled over nine blocks anyway).
     pub row_step: usize,
-    /// The reference carrier's phase advance per working pixel across and down, units.
+    /// The reference carrier's phase advance per working pixel across and down, units: the
+    /// contact region reads its local grating against it (`gradient`, `keep_units`).
     pub carrier_units: [i32; 2],
-    /// Its square length, units²: the contact region compares its local grating with it
-    /// (`keep_units`).
-    pub carrier2: i64,
 }
 
 impl Geometry {
@@ -155,7 +153,6 @@ impl Geometry {
             offsets,
             row_step: (block_px / 3).max(1),
             carrier_units: [units(f64::from(fx)), units(f64::from(fy))],
-            carrier2: i64::from(units(f64::from(fx.hypot(fy)))).pow(2).max(1),
         }
     }
 
@@ -205,13 +202,12 @@ pub fn accumulate(
 fn run<const F: usize, const REGIONS: bool>(
     frame: &RgbImage,
     g: &Geometry,
-    theta: impl FnMut(usize, &mut [u16]),
+    mut theta: impl FnMut(usize, &mut [u16]),
     reliable: &[bool],
     regions: &[u8],
     lin: &[u32; 256],
 ) -> (Vec<Sums>, [Sums; 2]) {
     let f = if F == 0 { g.factor } else { F };
-    let mut theta = theta;
     // Rows of the frame's phase, row y in slot y mod 3: a contact row reads its neighbours
     // above and below, each computed once.
     let mut rows = [vec![0u16; g.w], vec![0u16; g.w], vec![0u16; g.w]];
@@ -284,7 +280,7 @@ fn run<const F: usize, const REGIONS: bool>(
             let (xa, xb) = (xw.saturating_sub(1), (xw + 1).min(g.w - 1));
             let gx = gradient(trow[xa], trow[xb], xb - xa, g.carrier_units[0]);
             let gy = gradient(up[xw], down[xw], yb - ya, g.carrier_units[1]);
-            let keep = keep_units(gx, gy, g.carrier2);
+            let keep = keep_units(gx, gy, g.carrier_units);
             let mut part = Part::default();
             local_phases(trow[xw], gx, gy, f, |ky, ts| {
                 let base = (yw * f + ky) * stride + xw * f3;
@@ -414,21 +410,23 @@ fn local_phases(t0: u16, gx: i32, gy: i32, f: usize, mut row: impl FnMut(usize, 
 }
 
 /// Half-width of the kept band around a stripe centre, units, for a local grating advancing
-/// `gx`, `gy` units per working pixel against the reference's `carrier2` (units²). Where an
+/// `gx`, `gy` units per working pixel against the reference's `carrier` (the same, across
+/// and down). Where an
 /// indentation squeezes the stripes by a ratio ρ, the band narrows so its edge stays as far
 /// from the stripe's edge in pixels as [`KEEP_UNITS`] keeps it on flat skin: the optics'
 /// blur, fixed in pixels, would otherwise mix the neighbouring stripes' colour into a
 /// squeezed stripe's kept pixels (unit 54, 20 px period on a 320×240 camera, read a 38 °C
 /// contact +0.87 °C through its black stripes). Where they are stretched it stays at
 /// [`KEEP_UNITS`], the calibration's band. Never below 1/64 turn.
-fn keep_units(gx: i32, gy: i32, carrier2: i64) -> i32 {
+fn keep_units(gx: i32, gy: i32, carrier: [i32; 2]) -> i32 {
     const QUARTER: i64 = 16_384;
-    let local2 = i64::from(gx).pow(2) + i64::from(gy).pow(2);
+    let square = |x: i32, y: i32| i64::from(x).pow(2) + i64::from(y).pow(2);
+    let (local2, carrier2) = (square(gx, gy), square(carrier[0], carrier[1]).max(1));
     if local2 <= carrier2 {
         return KEEP_UNITS;
     }
     // ρ in Q8, above 1.
-    let rho = (((local2 << 16) / carrier2.max(1)) as u64).isqrt() as i64;
+    let rho = (((local2 << 16) / carrier2) as u64).isqrt() as i64;
     (QUARTER - (((QUARTER - i64::from(KEEP_UNITS)) * rho) >> 8)).max(1_024) as i32
 }
 
@@ -599,7 +597,7 @@ mod tests {
                     let (ya, yb) = (yw.saturating_sub(1), (yw + 1).min(h - 1));
                     let gx = gradient(th(xa, yw), th(xb, yw), xb - xa, g.carrier_units[0]);
                     let gy = gradient(th(xw, ya), th(xw, yb), yb - ya, g.carrier_units[1]);
-                    let keep = keep_units(gx, gy, g.carrier2);
+                    let keep = keep_units(gx, gy, g.carrier_units);
                     local_phases(th(xw, yw), gx, gy, f, |ky, ts| {
                         for (kx, &t) in ts.iter().enumerate() {
                             let (x, y) = (xw * f + kx, yw * f + ky);
@@ -634,7 +632,7 @@ mod tests {
                 (0.05 * 65_536.0f64).round() as i32,
             );
             let g = Geometry::new(40, 30, f, 0.13, 0.05);
-            assert_eq!(keep_units(gx, gy, g.carrier2), KEEP_UNITS);
+            assert_eq!(keep_units(gx, gy, g.carrier_units), KEEP_UNITS);
             let t0 = 60_000u16;
             local_phases(t0, gx, gy, f, |ky, row| {
                 for (kx, &t) in row.iter().enumerate() {
@@ -659,10 +657,10 @@ mod tests {
         // Squeezed by 1.5: the band's edge stays as far from the stripe's edge in pixels
         // (a quarter turn − 1.5 × (a quarter turn − the flat band)); stretched: the flat
         // band; squeezed beyond reason: the floor.
-        let carrier2 = 10_000i64.pow(2);
-        assert_eq!(keep_units(15_000, 0, carrier2), 16_384 - 8_192 * 3 / 2);
-        assert_eq!(keep_units(0, 6_000, carrier2), KEEP_UNITS);
-        assert_eq!(keep_units(40_000, 0, carrier2), 1_024);
+        let carrier = [6_000, 8_000]; // 10 000 units per working pixel
+        assert_eq!(keep_units(15_000, 0, carrier), 16_384 - 8_192 * 3 / 2);
+        assert_eq!(keep_units(0, 6_000, carrier), KEEP_UNITS);
+        assert_eq!(keep_units(40_000, 0, carrier), 1_024);
         assert_eq!(kept(0, 4_096), Some(0));
         assert_eq!(kept(32_768, 4_096), Some(1));
         assert_eq!(kept(16_384, 4_096), None);
