@@ -112,6 +112,8 @@ pub struct Deformation {
     pub floor_um: i32,
     /// Contact tiles processed.
     pub tiles: usize,
+    /// The contact window `[x0, y0, x1, y1)`, working pixels: `depth_um` is zero outside it.
+    pub window: Option<[usize; 4]>,
     /// Temperatures, when the calibration has a colour → temperature model.
     pub temperature: Option<crate::thermal::Temperature>,
 }
@@ -177,7 +179,7 @@ fn with_temperature(
     if !thermo.has_model() {
         return d;
     }
-    use crate::thermal::stripes::region;
+    use crate::thermal::stripes::{region, Regions};
     let peak_um = d.peak_depth_mm * 1000.0;
     let (half, core) = (
         (peak_um * 0.5).round() as i32,
@@ -187,13 +189,21 @@ fn with_temperature(
     // passed.
     const _: () = assert!(region::NONE == 0 && region::CONTACT == 1 && region::CORE == 2);
     let (half, core) = (half.max(1), core.max(1));
-    let regions: Option<Vec<u8>> = d.contact.then(|| {
-        d.depth_um
-            .iter()
-            .map(|&u| u8::from(u >= half) + u8::from(u >= core))
-            .collect()
-    });
-    d.temperature = thermo.measure(frame, wrapped, &d.reliable, regions.as_deref());
+    // Over the contact window only: depth is zero outside it.
+    let window = d.window.filter(|_| d.contact);
+    let mut codes = Vec::new();
+    if let Some([x0, y0, x1, y1]) = window {
+        codes.reserve(x1.saturating_sub(x0) * y1.saturating_sub(y0));
+        for y in y0..y1 {
+            let row = &d.depth_um[y * d.w + x0..y * d.w + x1];
+            codes.extend(
+                row.iter()
+                    .map(|&u| u8::from(u >= half) + u8::from(u >= core)),
+            );
+        }
+    }
+    let regions = window.map(|[x0, y0, x1, _]| Regions::new(&codes, x0, y0, x1 - x0));
+    d.temperature = thermo.measure(frame, wrapped, &d.reliable, regions);
     if d.temperature.as_ref().is_some_and(|t| t.out_of_range) {
         d.flags.insert(vistaf_protocol::Flag::TemperatureOutOfRange);
     }

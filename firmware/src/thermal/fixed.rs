@@ -86,6 +86,9 @@ struct Table {
 
 const UNKNOWN_Q16: i64 = (VarianceTable::UNKNOWN_C2 * 65_536.0) as i64;
 
+/// The range check's cap on a reading's standard deviation, Q16 °C.
+const SIGMA_CAP_Q16: i64 = (super::model::OUT_OF_RANGE_SIGMA_C * 65_536.0) as i64;
+
 impl Table {
     fn new(v: &VarianceTable) -> Table {
         Table {
@@ -426,29 +429,46 @@ impl FixedModel {
         (t, in_domain)
     }
 
+    /// The black estimate's weight in the inverse-variance blend, vc / (vc + vb) as a Q16
+    /// fraction (so every product fits 64 bits), and the black variance vb (Q16 °C²), both
+    /// variances read at `at` (Q16 °C).
+    fn weight(&self, at: i64) -> (i64, i64) {
+        let (vc, vb) = (self.coloured.table.at(at), self.black.table.at(at));
+        ((vc << 16) / (vc + vb).max(1), vb)
+    }
+
+    /// The black estimate's weight (Q16) with the variances read at `guess` (Q16 °C): the
+    /// blend's first pass, the same for every block that shares the guess.
+    pub fn guess_weight(&self, guess: i64) -> i64 {
+        self.weight(guess).0
+    }
+
     /// The two populations' estimates blended as [`super::model::blend`] does, from the
-    /// black estimate `guess` (Q16 °C): temperature (°C), variance (°C²) and whether it is
-    /// inside what was calibrated.
-    pub fn fuse(&self, c: (i64, bool), b: (i64, bool), guess: i64) -> (f64, f64, bool) {
+    /// black estimate's weight at the guess ([`FixedModel::guess_weight`]): temperature
+    /// (°C), variance (°C²) and whether it is inside what was calibrated.
+    pub fn fuse(&self, c: (i64, bool), b: (i64, bool), guess_weight: i64) -> (f64, f64, bool) {
         let ((tc, ic), (tb, ib)) = (c, b);
-        // (tc·vb + tb·vc) / (vc + vb), the weights as Q16 fractions so every product fits
-        // 64 bits; the variance vc·vb / (vc + vb).
-        let inverse_variance = |at: i64| -> (i64, i64) {
-            let (vc, vb) = (self.coloured.table.at(at), self.black.table.at(at));
-            let share_b = (vc << 16) / (vc + vb).max(1); // black's weight = vc / (vc + vb)
-            (tc + (((tb - tc) * share_b) >> 16), (vb * share_b) >> 16)
-        };
-        let (t, var) = inverse_variance(inverse_variance(guess).0);
-        // Two standard deviations (capped like the float model's), Q16: 2·sqrt(var · 2¹⁶).
-        let sigma = ((var.max(0) as u64).saturating_mul(1 << 16)).isqrt() as i64;
-        let two_sigma = 2 * sigma.min(q16(super::model::OUT_OF_RANGE_SIGMA_C));
-        let in_range =
-            t - two_sigma <= self.range[1] + ONE / 2 && t + two_sigma >= self.range[0] - ONE / 2;
+        // (tc·vb + tb·vc) / (vc + vb) = tc + (tb − tc)·w; the variance vc·vb / (vc + vb) = vb·w.
+        let blend = |w: i64| tc + (((tb - tc) * w) >> 16);
+        let (w, vb) = self.weight(blend(guess_weight));
+        let (t, var) = (blend(w), (vb * w) >> 16);
         (
             t as f64 / 65_536.0,
             var as f64 / 65_536.0,
-            in_range && ic && ib,
+            self.in_range(t, var) && ic && ib,
         )
+    }
+
+    /// Whether a reading `t` (Q16 °C) of variance `var` (Q16 °C²) lies inside the
+    /// calibrated range (± half a degree) within two standard deviations, capped like the
+    /// float model's: 2·min(σ, cap) ≥ need, with σ = ⌊√(var · 2¹⁶)⌋ in Q16 °C. That holds
+    /// exactly when min(σ, cap) ≥ m = ⌈need / 2⌉, that is cap ≥ m and var · 2¹⁶ ≥ m², so
+    /// no square root is taken.
+    fn in_range(&self, t: i64, var: i64) -> bool {
+        let need = (t - self.range[1] - ONE / 2).max(self.range[0] - ONE / 2 - t);
+        let m = (need + 1) >> 1;
+        need <= 0
+            || (m <= SIGMA_CAP_Q16 && (var.max(0) as u64).saturating_mul(1 << 16) >= (m * m) as u64)
     }
 }
 
@@ -457,6 +477,51 @@ mod tests {
     use super::*;
     use crate::calibration::Calibration;
     use crate::thermal::lab::Invariants;
+
+    /// The range check decides as its square-root form does, also at the edges where
+    /// rounding matters.
+    #[test]
+    fn range_check_matches_its_square_root_form() {
+        let fixed = FixedModel::new(&Calibration::default_sim().temperature.unwrap());
+        let sqrt_form = |t: i64, var: i64| {
+            let sigma = ((var.max(0) as u64).saturating_mul(1 << 16)).isqrt() as i64;
+            let two_sigma = 2 * sigma.min(SIGMA_CAP_Q16);
+            t - two_sigma <= fixed.range[1] + ONE / 2 && t + two_sigma >= fixed.range[0] - ONE / 2
+        };
+        let (mut inside, mut outside) = (0, 0);
+        for edge in [fixed.range[0] - ONE / 2, fixed.range[1] + ONE / 2] {
+            // Coarse steps, and the edge itself and two capped deviations away, finely.
+            let fine = [0, 2 * ONE, -2 * ONE].map(|c| c - 40..c + 40);
+            for dt in (-3 * ONE..3 * ONE)
+                .step_by(997)
+                .chain(fine.into_iter().flatten())
+            {
+                for var in [
+                    0,
+                    1,
+                    2,
+                    3,
+                    1_000,
+                    16_383,
+                    16_384,
+                    65_535,
+                    65_536,
+                    1 << 20,
+                    -5,
+                ] {
+                    let t = edge + dt;
+                    let want = sqrt_form(t, var);
+                    assert_eq!(fixed.in_range(t, var), want, "t {t} var {var}");
+                    if want {
+                        inside += 1;
+                    } else {
+                        outside += 1;
+                    }
+                }
+            }
+        }
+        assert!(inside > 100 && outside > 100);
+    }
 
     /// Over the whole box of calibrated colours, almost everywhere. (Far from the calibration
     /// curve two of its segments can be nearly equally near, and rounding may pick the other

@@ -26,7 +26,7 @@ use image::RgbImage;
 use self::fixed::FixedModel;
 use self::lab::Invariants;
 use self::model::{Population, TemperatureModel};
-use self::stripes::{Geometry, Sums};
+use self::stripes::{Geometry, Regions, Sums};
 
 /// A frame's temperatures.
 #[derive(Debug, Clone, PartialEq)]
@@ -97,6 +97,16 @@ impl PopEstimate {
     }
 }
 
+/// Where a block's blend first reads the populations' variances: the black estimate of
+/// its neighbourhood, prepared once for every block that shares it.
+#[derive(Debug, Clone, Copy)]
+enum Guess {
+    /// °C.
+    Float(f64),
+    /// The black estimate's weight there, Q16 ([`FixedModel::guess_weight`]).
+    Fixed(i64),
+}
+
 /// One reading: temperature (°C), variance (°C²), and whether it is trusted (inside the
 /// calibrated colours and range).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -159,15 +169,13 @@ impl Thermometer {
 
     /// Colour sums of a frame whose wrapped phase difference to the reference along
     /// working row `y` is what `wrapped(y, row)` writes into `row` (units), over the working
-    /// pixels the FTP found
-    /// `reliable`; `regions` marks the contact region and its core
-    /// ([`stripes::region`] codes).
+    /// pixels the FTP found `reliable`; `regions` marks the contact region and its core.
     pub fn sums(
         &self,
         frame: &RgbImage,
         wrapped: impl Fn(usize, &mut [i32]),
         reliable: &[bool],
-        regions: Option<&[u8]>,
+        regions: Option<Regions<'_>>,
     ) -> (Vec<Sums>, [Sums; 2]) {
         let w = self.geom.w;
         let mut dphi = vec![0i32; w];
@@ -201,7 +209,7 @@ impl Thermometer {
     fn read_with(&self, own: &Sums, pooled: &Sums, exact: bool) -> Option<Reading> {
         let c = self.population(Population::Coloured, own, exact)?;
         let b = self.population(Population::Black, pooled, exact)?;
-        self.fuse(c, b, b)
+        self.fuse(c, b, self.guess(b)?)
     }
 
     /// One population's estimate from sums: (°C, in the calibrated box) in the path's own
@@ -223,17 +231,26 @@ impl Thermometer {
         })
     }
 
+    /// The blend's first pass at the black estimate `b` (a block's own, or its
+    /// neighbourhood's median), in `b`'s arithmetic.
+    fn guess(&self, b: PopEstimate) -> Option<Guess> {
+        Some(match (b, &self.model.as_ref()?.1) {
+            (PopEstimate::Fixed((t, _)), Eval::Fixed(f)) => Guess::Fixed(f.guess_weight(t)),
+            (PopEstimate::Float(t, _), _) => Guess::Float(t),
+            (PopEstimate::Fixed(_), Eval::Float) => return None,
+        })
+    }
+
     /// The inverse-variance blend of a coloured and a black estimate, the populations'
-    /// variances read at the black estimate `guess` (the block's own, or its
-    /// neighbourhood's median).
-    fn fuse(&self, c: PopEstimate, b: PopEstimate, guess: PopEstimate) -> Option<Reading> {
+    /// variances read first at the `guess` ([`Thermometer::guess`]), then at the result.
+    fn fuse(&self, c: PopEstimate, b: PopEstimate, guess: Guess) -> Option<Reading> {
         let (model, eval) = self.model.as_ref()?;
         let (t, var, trusted) = match (c, b, guess) {
-            (PopEstimate::Fixed(c), PopEstimate::Fixed(b), PopEstimate::Fixed(g)) => match eval {
-                Eval::Fixed(f) => f.fuse(c, b, g.0),
+            (PopEstimate::Fixed(c), PopEstimate::Fixed(b), Guess::Fixed(w)) => match eval {
+                Eval::Fixed(f) => f.fuse(c, b, w),
                 Eval::Float => return None,
             },
-            (PopEstimate::Float(tc, ic), PopEstimate::Float(tb, ib), PopEstimate::Float(g, _)) => {
+            (PopEstimate::Float(tc, ic), PopEstimate::Float(tb, ib), Guess::Float(g)) => {
                 let (t, var) = model.blend(tc, tb, g);
                 (t, var, ic && ib && !model.out_of_range(t, var))
             }
@@ -254,7 +271,7 @@ impl Thermometer {
         frame: &RgbImage,
         wrapped: impl Fn(usize, &mut [i32]),
         reliable: &[bool],
-        regions: Option<&[u8]>,
+        regions: Option<Regions<'_>>,
     ) -> Option<Temperature> {
         self.model.as_ref()?;
         let g = &self.geom;
@@ -274,7 +291,7 @@ impl Thermometer {
         // block's black estimate is noisy (a few °C on a pale unit), and where it decides
         // whether the coloured stripes are inside their transition, its noise would choose
         // blocks by their error and bias the map.
-        let guess: Vec<Option<PopEstimate>> = (0..gw * gh)
+        let guess: Vec<Option<Guess>> = (0..gw * gh)
             .map(|k| {
                 let (x, y) = (k % gw, k / gw);
                 // (temperature, index) of the measured neighbours; their median by key.
@@ -293,7 +310,7 @@ impl Thermometer {
                     return None;
                 }
                 let (_, mid, _) = near.select_nth_unstable_by(m / 2, |a, b| a.0.total_cmp(&b.0));
-                black[mid.1]
+                self.guess(black[mid.1]?)
             })
             .collect();
         let mut map_c = vec![f32::NAN; blocks.len()];

@@ -85,6 +85,35 @@ pub mod region {
     pub const CORE: u8 = 2;
 }
 
+/// The contact region and its core as [`region`] codes over a box of working pixels (the
+/// contact window; [`region::NONE`] outside it), so rows and columns away from the contact
+/// cost nothing.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Regions<'a> {
+    codes: &'a [u8],
+    x0: usize,
+    y0: usize,
+    w: usize,
+}
+
+impl<'a> Regions<'a> {
+    /// `codes`, `w` to a row, for the box whose top-left working pixel is (`x0`, `y0`); a
+    /// last partial row is ignored.
+    pub fn new(codes: &'a [u8], x0: usize, y0: usize, w: usize) -> Regions<'a> {
+        Regions { codes, x0, y0, w }
+    }
+
+    /// Working row `y`'s codes and the column of the first; empty outside the box.
+    fn row(&self, y: usize) -> (usize, &'a [u8]) {
+        let w = self.w;
+        let codes = y
+            .checked_sub(self.y0)
+            .and_then(|r| self.codes.get(r * w..(r + 1) * w))
+            .unwrap_or(&[]);
+        (self.x0, codes)
+    }
+}
+
 /// Population of a phase (units ≫ 6): 0 coloured, 1 black, 2 neither (near an edge).
 fn class_table() -> [u8; 1024] {
     std::array::from_fn(|k| {
@@ -168,43 +197,39 @@ impl Geometry {
     }
 }
 
-/// Sums colours per block, and over the contact region and its core (`regions`, one
-/// [`region`] code per working pixel). `theta(y, row)` fills `row` with the frame's grating
-/// phase along working row `y`, units; only working pixels where `reliable` (the FTP trusted their phase: away
-/// from the image edge, with fringe contrast) are read, since elsewhere the stripes cannot
-/// be told apart. Blocks read one input row of every [`Geometry::row_step`]-th working row;
-/// the contact region, small and what a user asks about most, reads every input pixel, at
-/// its local grating (`local_phases`, `keep_units`).
+/// Sums colours per block, and over the contact region and its core (`regions`).
+/// `theta(y, row)` fills `row` with the frame's grating phase along working row `y`,
+/// units; only working pixels where `reliable` (the FTP trusted their phase: away from the
+/// image edge, with fringe contrast) are read, since elsewhere the stripes cannot be told
+/// apart. Blocks read one input row of every [`Geometry::row_step`]-th working row; the
+/// contact region, small and what a user asks about most, reads every input pixel, at its
+/// local grating (`local_phases`, `keep_units`).
 pub fn accumulate(
     frame: &RgbImage,
     g: &Geometry,
     theta: impl FnMut(usize, &mut [u16]),
     reliable: &[bool],
-    regions: Option<&[u8]>,
+    regions: Option<Regions<'_>>,
     lin: &[u32; 256],
 ) -> (Vec<Sums>, [Sums; 2]) {
+    let regions = regions.unwrap_or_default();
     // The inner loop is specialised for the common factors, so it unrolls.
-    match (g.factor, regions) {
-        (1, None) => run::<1, false>(frame, g, theta, reliable, &[], lin),
-        (2, None) => run::<2, false>(frame, g, theta, reliable, &[], lin),
-        (3, None) => run::<3, false>(frame, g, theta, reliable, &[], lin),
-        (4, None) => run::<4, false>(frame, g, theta, reliable, &[], lin),
-        (1, Some(r)) => run::<1, true>(frame, g, theta, reliable, r, lin),
-        (2, Some(r)) => run::<2, true>(frame, g, theta, reliable, r, lin),
-        (3, Some(r)) => run::<3, true>(frame, g, theta, reliable, r, lin),
-        (4, Some(r)) => run::<4, true>(frame, g, theta, reliable, r, lin),
-        (_, None) => run::<0, false>(frame, g, theta, reliable, &[], lin),
-        (_, Some(r)) => run::<0, true>(frame, g, theta, reliable, r, lin),
+    match g.factor {
+        1 => run::<1>(frame, g, theta, reliable, regions, lin),
+        2 => run::<2>(frame, g, theta, reliable, regions, lin),
+        3 => run::<3>(frame, g, theta, reliable, regions, lin),
+        4 => run::<4>(frame, g, theta, reliable, regions, lin),
+        _ => run::<0>(frame, g, theta, reliable, regions, lin),
     }
 }
 
-/// [`accumulate`] for factor `F` (0: any, read from `g`), with or without contact regions.
-fn run<const F: usize, const REGIONS: bool>(
+/// [`accumulate`] for factor `F` (0: any, read from `g`).
+fn run<const F: usize>(
     frame: &RgbImage,
     g: &Geometry,
     mut theta: impl FnMut(usize, &mut [u16]),
     reliable: &[bool],
-    regions: &[u8],
+    regions: Regions<'_>,
     lin: &[u32; 256],
 ) -> (Vec<Sums>, [Sums; 2]) {
     let f = if F == 0 { g.factor } else { F };
@@ -231,11 +256,9 @@ fn run<const F: usize, const REGIONS: bool>(
         let on_grid = yw % g.row_step == 0;
         let row = yw * g.w..(yw + 1) * g.w;
         // The row's stretch of contact region, if any.
-        let (rx0, rx1) = if REGIONS {
-            extent(&regions[row.clone()])
-        } else {
-            (0, 0)
-        };
+        let (cx0, codes) = regions.row(yw);
+        let (a, b) = extent(codes);
+        let (rx0, rx1) = ((cx0 + a).min(g.w), (cx0 + b).min(g.w));
         if !on_grid && rx1 == rx0 {
             continue;
         }
@@ -264,8 +287,13 @@ fn run<const F: usize, const REGIONS: bool>(
                 let x0 = bx * g.block_px * f;
                 let x1 = (x0 + g.block_px * f).min(g.w * f);
                 let mut part = Part::default();
-                for (p, &t) in line[x0..x1].iter().zip(&tin[x0..x1]) {
-                    part.sample(&class, lin, t, p);
+                // A working pixel's inputs at a time: for the specialised factors the
+                // inner loop unrolls.
+                let (px, ts) = (line[x0..x1].chunks_exact(f), tin[x0..x1].chunks_exact(f));
+                for (pk, tk) in px.zip(ts) {
+                    for (p, &t) in pk.iter().zip(tk) {
+                        part.sample(&class, lin, t, p);
+                    }
                 }
                 part.add_to(acc);
             }
@@ -273,7 +301,7 @@ fn run<const F: usize, const REGIONS: bool>(
         // Every input pixel of the row's contact working pixels, at the frame's own local
         // grating (see `local_phases` and `keep_units`).
         for xw in (rx0..rx1).filter(|&x| rel[x]) {
-            let reg = regions[row.start + xw];
+            let reg = codes[xw - cx0];
             if reg == region::NONE {
                 continue;
             }
@@ -301,32 +329,15 @@ fn run<const F: usize, const REGIONS: bool>(
 }
 
 /// The stretch `(first, one past the last)` of a row's region codes that are not
-/// [`region::NONE`], `(0, 0)` when there is none. Sixteen codes at a time: most rows have
-/// no contact, and a byte-by-byte search cost 0.2 M instructions per frame.
+/// [`region::NONE`], `(0, 0)` when there is none. The codes cover the contact window only.
 fn extent(codes: &[u8]) -> (usize, usize) {
-    const N: usize = 16;
-    // The OR of a chunk's codes is NONE only when all of them are.
-    const _: () = assert!(region::NONE == 0);
-    let any = |c: &[u8]| c.iter().fold(0u8, |a, &b| a | b) != region::NONE;
-    let chunks = codes.len().div_ceil(N);
-    let chunk = |k: usize| &codes[k * N..((k + 1) * N).min(codes.len())];
-    let Some(first) = (0..chunks).find(|&k| any(chunk(k))) else {
+    let Some(a) = codes.iter().position(|&v| v != region::NONE) else {
         return (0, 0);
     };
-    let last = (first..chunks)
-        .rev()
-        .find(|&k| any(chunk(k)))
-        .unwrap_or(first);
-    let a = first * N
-        + chunk(first)
-            .iter()
-            .position(|&v| v != region::NONE)
-            .unwrap_or(0);
-    let b = last * N
-        + chunk(last)
-            .iter()
-            .rposition(|&v| v != region::NONE)
-            .map_or(0, |i| i + 1);
+    let b = codes
+        .iter()
+        .rposition(|&v| v != region::NONE)
+        .map_or(a, |i| i + 1);
     (a, b)
 }
 
@@ -425,8 +436,11 @@ fn keep_units(gx: i32, gy: i32, carrier: [i32; 2]) -> i32 {
     if local2 <= carrier2 {
         return KEEP_UNITS;
     }
-    // ρ in Q8, above 1.
-    let rho = (((local2 << 16) / carrier2) as u64).isqrt() as i64;
+    // ρ in Q8, above 1; from ρ = 480/256 on the floor holds, so ρ² is clamped there and
+    // the square root taken in 32 bits.
+    const RHO_FLOOR2: i64 = 480 * 480;
+    const _: () = assert!(QUARTER - (QUARTER - KEEP_UNITS as i64) * 480 / 256 == 1_024);
+    let rho = i64::from((((local2 << 16) / carrier2).min(RHO_FLOOR2) as u32).isqrt());
     (QUARTER - (((QUARTER - i64::from(KEEP_UNITS)) * rho) >> 8)).max(1_024) as i32
 }
 
@@ -504,7 +518,8 @@ mod tests {
             let rel = vec![true; w * h];
             let regions = vec![region::CONTACT; w * h];
             let (plain, none) = accumulate(&img, &g, theta, &rel, None, &lin);
-            let (with, contact) = accumulate(&img, &g, theta, &rel, Some(&regions), &lin);
+            let with_regions = Some(Regions::new(&regions, 0, 0, w));
+            let (with, contact) = accumulate(&img, &g, theta, &rel, with_regions, &lin);
             assert_eq!(plain, with, "factor {f}");
             assert_eq!(none, [Sums::default(); 2]);
             assert!(contact[0].n[0] > 0 && contact[0].n[1] > 0, "factor {f}");
@@ -540,21 +555,23 @@ mod tests {
             let g = Geometry::new(w, h, f, 0.11 * f as f32, 0.03 * f as f32);
             let theta: Vec<u16> = (0..w * h).map(|_| next() as u16).collect();
             let rel: Vec<bool> = (0..w * h).map(|_| next() % 5 != 0).collect();
-            let regions: Vec<u8> = (0..w * h)
-                .map(|i| {
-                    if (i % w) > 20 {
-                        (next() % 3) as u8
-                    } else {
-                        region::NONE
-                    }
-                })
-                .collect();
+            // Codes over a box of working pixels: columns 21 to w − 3, rows 2 to h − 2.
+            let (bx0, by0, bw) = (21usize, 2usize, w - 24);
+            let codes: Vec<u8> = (0..bw * (h - 3)).map(|_| (next() % 3) as u8).collect();
+            let code = |x: usize, y: usize| {
+                let inside = (bx0..bx0 + bw).contains(&x) && (by0..h - 1).contains(&y);
+                if inside {
+                    codes[(y - by0) * bw + x - bx0]
+                } else {
+                    region::NONE
+                }
+            };
             let (blocks, contact) = accumulate(
                 &img,
                 &g,
                 |y, row: &mut [u16]| row.copy_from_slice(&theta[y * w..(y + 1) * w]),
                 &rel,
-                Some(&regions),
+                Some(Regions::new(&codes, bx0, by0, bw)),
                 &lin,
             );
             let mut want = vec![Sums::default(); g.bw * g.bh];
@@ -587,7 +604,7 @@ mod tests {
                             read(xw * f + k, yw * f + f / 2, pop, b);
                         }
                     }
-                    let reg = regions[yw * w + xw];
+                    let reg = code(xw, yw);
                     if reg == region::NONE {
                         continue;
                     }

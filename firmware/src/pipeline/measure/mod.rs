@@ -279,6 +279,7 @@ pub fn measure<M: PhaseMap>(
         offset_rad,
         floor_um: 0,
         tiles: 0,
+        window: None,
         temperature: None,
     };
     // The region is found on |Δφ|: at the centre of a deep press the wrapped phase has
@@ -451,6 +452,7 @@ pub fn measure<M: PhaseMap>(
         force_n,
         tiles,
         floor_um: thr_um,
+        window: Some([x0, y0, x0 + cols, y0 + bh.min(h - y0)]),
         ..result(flags, reliable, depth_um)
     };
     (d, wrapped)
