@@ -21,8 +21,9 @@ pub fn contact_tiles(
     let mut count = vec![0usize; tw * th];
     for (cy, row) in above.chunks_exact(cw).take(ch).enumerate() {
         let trow = &mut count[(cy / per) * tw..(cy / per + 1) * tw];
-        for (cx, a) in row.iter().enumerate() {
-            trow[cx / per] += usize::from(*a);
+        // A tile's samples along the row at a time: no division per sample.
+        for (t, run) in trow.iter_mut().zip(row.chunks(per)) {
+            *t += run.iter().map(|&a| usize::from(a)).sum::<usize>();
         }
     }
     if count.iter().all(|&c| c < TILE_MIN_SAMPLES) || count.iter().sum::<usize>() < min_total {
@@ -51,13 +52,18 @@ pub(super) fn dilate(on: &[bool], tw: usize, th: usize) -> Vec<bool> {
     dil
 }
 
-/// Per coarse sample (`cw × ch`), whether its tile is set in `tiles` (`tw` across).
+/// Per coarse sample (`cw × ch`), whether its tile is set in `tiles` (`tw` across). The
+/// rows of a tile row are the same: the first is built, the others copied.
 pub(super) fn samples_in(tiles: &[bool], (cw, ch): (usize, usize), tw: usize) -> Vec<bool> {
     let per = TILE_PX / GRID;
     let mut out = Vec::with_capacity(cw * ch);
     for cy in 0..ch {
-        let trow = &tiles[(cy / per) * tw..(cy / per + 1) * tw];
-        out.extend((0..cw).map(|cx| trow[cx / per]));
+        if cy % per == 0 {
+            let trow = &tiles[(cy / per) * tw..(cy / per + 1) * tw];
+            out.extend(trow.iter().flat_map(|&t| [t; TILE_PX / GRID]).take(cw));
+        } else {
+            out.extend_from_within((cy - 1) * cw..cy * cw);
+        }
     }
     out
 }
@@ -178,4 +184,59 @@ pub(super) fn read_coarse<M: PhaseMap>(map: &M, lim: u32, margin: &Margin) -> Co
         }
     }
     c
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Random masks of working sizes whose sides are not multiples of a tile.
+    fn masks() -> impl Iterator<Item = (Vec<bool>, (usize, usize))> {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        [(320usize, 240usize), (322, 243), (38, 17)]
+            .into_iter()
+            .flat_map(|(w, h)| [1u64, 5, 40].map(|ppm| (w, h, ppm)))
+            .map(move |(w, h, ppm)| {
+                let (cw, ch) = (w.div_ceil(GRID), h.div_ceil(GRID));
+                let mask = (0..cw * ch)
+                    .map(|_| {
+                        state ^= state << 13;
+                        state ^= state >> 7;
+                        state ^= state << 17;
+                        state % 100 < ppm
+                    })
+                    .collect();
+                (mask, (w, h))
+            })
+    }
+
+    /// Tile counts and per-sample tile membership against a plain reading, sample by
+    /// sample (`cx / per`).
+    #[test]
+    fn tiles_and_samples_follow_the_grid() {
+        let per = TILE_PX / GRID;
+        for (above, (w, h)) in masks() {
+            let (cw, ch) = (w.div_ceil(GRID), h.div_ceil(GRID));
+            let (tw, th) = (w.div_ceil(TILE_PX), h.div_ceil(TILE_PX));
+            let mut count = vec![0usize; tw * th];
+            for (k, a) in above.iter().enumerate() {
+                count[(k / cw / per) * tw + (k % cw) / per] += usize::from(*a);
+            }
+            let active: Vec<bool> = count.iter().map(|&c| c >= TILE_MIN_SAMPLES).collect();
+            let want = dilate(&active, tw, th);
+            let got = contact_tiles(&above, (cw, ch), (tw, th), 0);
+            match got {
+                Some((tiles, n)) => {
+                    assert_eq!(tiles, want, "{w}x{h}");
+                    assert_eq!(n, want.iter().filter(|t| **t).count());
+                }
+                None => assert!(active.iter().all(|a| !a), "{w}x{h}"),
+            }
+            let samples = samples_in(&want, (cw, ch), tw);
+            assert_eq!(samples.len(), cw * ch);
+            for (k, s) in samples.iter().enumerate() {
+                assert_eq!(*s, want[(k / cw / per) * tw + (k % cw) / per], "{w}x{h} {k}");
+            }
+        }
+    }
 }

@@ -156,22 +156,33 @@ pub fn measure<M: PhaseMap>(
 
     // Registration: amplitude-weighted mean direction of the background phase; first over
     // everything, then without outliers, then outside the contact region once it is known.
-    let direction = |keep: &[bool]| -> M::P {
-        <M::P as PhaseNum>::direction(
+    // Each later set is the reliable samples less some: its resultant is the whole's less
+    // that of the samples it drops (`dropped`, which are few).
+    let dropped = |keep: &[bool]| {
+        <M::P as PhaseNum>::resultant(
             phase
                 .iter()
                 .zip(&amp)
-                .zip(keep)
-                .filter(|(_, k)| **k)
+                .zip(rel.iter().zip(keep))
+                .filter(|(_, (r, k))| **r && !**k)
                 .map(|((p, a), _)| (*p, *a)),
         )
     };
-    let first = direction(&rel);
+    let all = <M::P as PhaseNum>::resultant(
+        phase
+            .iter()
+            .zip(&amp)
+            .zip(&rel)
+            .filter(|(_, r)| **r)
+            .map(|((p, a), _)| (*p, *a)),
+    );
+    // The direction of the reliable samples where `keep` holds.
+    let direction = |keep: &[bool]| <M::P as PhaseNum>::angle(all - dropped(keep));
+    let first = <M::P as PhaseNum>::angle(all);
     let near = <M::P as PhaseNum>::from_rad(0.5).units();
     let close: Vec<bool> = phase
         .iter()
-        .zip(&rel)
-        .map(|(p, r)| *r && p.minus(first).units().abs() < near)
+        .map(|p| p.minus(first).units().abs() < near)
         .collect();
     let mut offset = direction(&close);
     let units_of =

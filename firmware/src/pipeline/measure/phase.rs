@@ -22,8 +22,38 @@ pub trait PhaseNum: Phase {
     fn from_units(u: i32) -> Self;
     /// `sign · self` for a sign of ±1.
     fn signed(self, sign: i32) -> Self;
+    /// What a sum of directions is kept in: `f64` or, exactly, `i64`.
+    type Sum: Copy + Default + std::ops::Sub<Output = Self::Sum>;
+    /// The amplitude-weighted resultant of `(phase, amplitude)` samples: the numerator of
+    /// their mean direction.
+    fn resultant(samples: impl Iterator<Item = (Self, u32)>) -> Resultant<Self::Sum>;
+    /// The direction of a resultant.
+    fn angle(r: Resultant<Self::Sum>) -> Self;
     /// Amplitude-weighted mean direction of `(phase, amplitude)` samples.
-    fn direction(samples: impl Iterator<Item = (Self, u32)>) -> Self;
+    fn direction(samples: impl Iterator<Item = (Self, u32)>) -> Self {
+        Self::angle(Self::resultant(samples))
+    }
+}
+
+/// `(Σ a·sin φ, Σ a·cos φ)` of samples. In integers the sums are exact, so a subset's
+/// resultant is the whole's minus the rest's: registration, which drops a few outliers and
+/// then the contact from the same samples, sums only what it drops.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Resultant<T> {
+    /// Σ a·sin φ.
+    pub s: T,
+    /// Σ a·cos φ.
+    pub c: T,
+}
+
+impl<T: std::ops::Sub<Output = T>> std::ops::Sub for Resultant<T> {
+    type Output = Resultant<T>;
+    fn sub(self, o: Resultant<T>) -> Resultant<T> {
+        Resultant {
+            s: self.s - o.s,
+            c: self.c - o.c,
+        }
+    }
 }
 
 /// `(cos, sin)` of 4 096 phases around the circle, Q15: the device path's mean direction.
@@ -53,13 +83,17 @@ impl PhaseNum for f32 {
     fn signed(self, sign: i32) -> f32 {
         self * sign as f32
     }
-    fn direction(samples: impl Iterator<Item = (f32, u32)>) -> f32 {
+    type Sum = f64;
+    fn resultant(samples: impl Iterator<Item = (f32, u32)>) -> Resultant<f64> {
         let (mut s, mut c) = (0.0f64, 0.0f64);
         for (p, a) in samples {
             s += f64::from(a) * f64::from(p).sin();
             c += f64::from(a) * f64::from(p).cos();
         }
-        s.atan2(c) as f32
+        Resultant { s, c }
+    }
+    fn angle(r: Resultant<f64>) -> f32 {
+        r.s.atan2(r.c) as f32
     }
 }
 
@@ -76,7 +110,8 @@ impl PhaseNum for i32 {
     fn signed(self, sign: i32) -> i32 {
         self * sign
     }
-    fn direction(samples: impl Iterator<Item = (i32, u32)>) -> i32 {
+    type Sum = i64;
+    fn resultant(samples: impl Iterator<Item = (i32, u32)>) -> Resultant<i64> {
         let trig = trig_q15();
         let (mut s, mut c) = (0i64, 0i64);
         for (p, a) in samples {
@@ -84,7 +119,10 @@ impl PhaseNum for i32 {
             c += i64::from(a) * i64::from(t[0]);
             s += i64::from(a) * i64::from(t[1]);
         }
-        atan2_units(s, c, atan_table())
+        Resultant { s, c }
+    }
+    fn angle(r: Resultant<i64>) -> i32 {
+        atan2_units(r.s, r.c, atan_table())
     }
 }
 
