@@ -53,11 +53,12 @@ fn gray_down_with<const F: usize>(img: &RgbImage) -> Vec<u16> {
     let (w, h) = (img.width() as usize, img.height() as usize);
     let (ow, oh) = (w / F, h / F);
     let raw: &[u8] = img.as_raw();
-    let mut out = vec![0u16; ow * oh];
+    // Every output is written once: no zeroed buffer first.
+    let mut out = Vec::with_capacity(ow * oh);
     let span = ow * F * 3;
     let mut sum = vec![0u16; span];
     let n = (F * F) as u32;
-    for (oy, out_row) in out.chunks_exact_mut(ow.max(1)).enumerate().take(oh) {
+    for oy in 0..oh {
         let first = oy * F * w * 3;
         for (s, v) in sum.iter_mut().zip(&raw[first..first + span]) {
             *s = u16::from(*v);
@@ -68,7 +69,7 @@ fn gray_down_with<const F: usize>(img: &RgbImage) -> Vec<u16> {
                 *s += u16::from(*v);
             }
         }
-        for (o, block) in out_row.iter_mut().zip(sum.chunks_exact(3 * F)) {
+        out.extend(sum.chunks_exact(3 * F).map(|block| {
             let (mut r, mut g, mut b) = (0u32, 0u32, 0u32);
             for px in block.chunks_exact(3) {
                 r += u32::from(px[0]);
@@ -76,8 +77,8 @@ fn gray_down_with<const F: usize>(img: &RgbImage) -> Vec<u16> {
                 b += u32::from(px[2]);
             }
             let acc = LUMA_Q8[0] * r + LUMA_Q8[1] * g + LUMA_Q8[2] * b;
-            *o = ((acc + n / 2) / n) as u16;
-        }
+            ((acc + n / 2) / n) as u16
+        }));
     }
     out
 }

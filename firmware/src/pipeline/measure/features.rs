@@ -93,22 +93,101 @@ pub fn force_of(calib: &Calibration, f: &Features, integrated_phase: f32) -> f32
     fm.model.force_n(f64::from(u)) as f32
 }
 
-/// 98th percentile of the phase slope (units per working pixel) over `mask`.
-pub(super) fn slope_p98(u: &[i32], mask: &[bool], w: usize, h: usize) -> i32 {
-    let mut s = Vec::new();
+/// Whether the 98th percentile of the phase slope (⌊|∇u|⌋, units per working pixel) over
+/// `mask` exceeds `limit`. Counted, not selected: a monotone map keeps order statistics, so
+/// the percentile reaches the integer m = ⌊limit⌋ + 1 exactly when at most k of the n
+/// samples (k = ⌊0.98 n⌋) have |∇u|² < m². One pass, no buffer, no square root.
+pub(super) fn slope_p98_exceeds(u: &[i32], mask: &[bool], w: usize, h: usize, limit: f32) -> bool {
+    if limit.is_nan() {
+        return false;
+    }
+    let m = if limit < 0.0 {
+        0
+    } else {
+        limit.floor() as i64 + 1
+    };
+    let m2 = m.saturating_mul(m);
+    let (mut n, mut below) = (0usize, 0usize);
     for y in 1..h.saturating_sub(1) {
         for x in 1..w.saturating_sub(1) {
             let i = y * w + x;
             if mask[i] {
                 let gx = i64::from(u[i + 1] - u[i - 1]) / 2;
                 let gy = i64::from(u[i + w] - u[i - w]) / 2;
-                s.push(((gx * gx + gy * gy) as f64).sqrt() as u32);
+                n += 1;
+                below += usize::from(gx * gx + gy * gy < m2);
             }
         }
     }
-    if s.is_empty() {
-        return 0;
+    if n == 0 {
+        return 0.0 > limit;
     }
-    let k = (s.len() * 98 / 100).min(s.len() - 1);
-    *s.select_nth_unstable(k).1 as i32
+    let k = (n * 98 / 100).min(n - 1);
+    below <= k
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The percentile by selection, as it was computed before it was counted.
+    fn slope_p98(u: &[i32], mask: &[bool], w: usize, h: usize) -> i32 {
+        let mut s = Vec::new();
+        for y in 1..h.saturating_sub(1) {
+            for x in 1..w.saturating_sub(1) {
+                let i = y * w + x;
+                if mask[i] {
+                    let gx = i64::from(u[i + 1] - u[i - 1]) / 2;
+                    let gy = i64::from(u[i + w] - u[i - w]) / 2;
+                    s.push(((gx * gx + gy * gy) as f64).sqrt() as u32);
+                }
+            }
+        }
+        if s.is_empty() {
+            return 0;
+        }
+        let k = (s.len() * 98 / 100).min(s.len() - 1);
+        *s.select_nth_unstable(k).1 as i32
+    }
+
+    /// The count decides as the selected percentile does, at limits on and around it.
+    #[test]
+    fn slope_percentile_by_count_matches_selection() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for (w, h, spread) in [
+            (30usize, 20usize, 3_000i64),
+            (57, 41, 200),
+            (3, 3, 50),
+            (9, 2, 9),
+        ] {
+            let u: Vec<i32> = (0..w * h)
+                .map(|_| (next() % (2 * spread as u64)) as i32 - spread as i32)
+                .collect();
+            let mask: Vec<bool> = (0..w * h).map(|_| next() % 4 != 0).collect();
+            let p = slope_p98(&u, &mask, w, h);
+            for limit in [
+                -1.0,
+                0.0,
+                0.5,
+                p as f32 - 1.0,
+                p as f32 - 0.5,
+                p as f32,
+                p as f32 + 0.25,
+                p as f32 + 1.0,
+                f32::NAN,
+            ] {
+                assert_eq!(
+                    slope_p98_exceeds(&u, &mask, w, h, limit),
+                    p as f32 > limit,
+                    "{w}x{h} p98 {p} limit {limit}"
+                );
+            }
+        }
+    }
 }

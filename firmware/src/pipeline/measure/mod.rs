@@ -23,7 +23,7 @@ pub use phase::{PhaseMap, PhaseNum, WrappedPhase, UNITS_PER_RAD};
 pub use window::upsample2;
 
 use coarse::{dilate, median_u32, read_coarse, samples_in, Coarse, Margin, NOISE_STEP};
-use features::slope_p98;
+use features::slope_p98_exceeds;
 
 use super::carrier::Carrier;
 use super::float_ftp::BAND_HALF_WIDTH;
@@ -432,7 +432,7 @@ pub fn measure<M: PhaseMap>(
     let sharper = ctx.calib.shape.as_ref().is_some_and(|s| {
         f64::from(feats.area_mm2) < SHARPNESS_RATIO * s.area_mm2_at(f64::from(feats.peak_mm))
     });
-    if sharper || band_lost || slope_p98(&up, &deformed, bw, bh) as f32 > slope_limit {
+    if sharper || band_lost || slope_p98_exceeds(&up, &deformed, bw, bh, slope_limit) {
         flags.insert(Flag::PhaseSlope);
     }
     if unreached > 0 || n_res > MAX_RESIDUES {
