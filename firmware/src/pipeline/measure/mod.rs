@@ -257,10 +257,15 @@ pub fn measure<M: PhaseMap>(
     let mut reliable = vec![false; n];
     let (xa, xb) = (margin.xs.start, margin.xs.end);
     for y in margin.ys.clone() {
+        // The rows of one coarse row are the same: the first is built, the next copied.
+        if y % GRID != 0 && y > margin.ys.start {
+            reliable.copy_within((y - 1) * w..y * w, y * w);
+            continue;
+        }
         let crow = &rel[(y / GRID) * cw..(y / GRID + 1) * cw];
         let row = &mut reliable[y * w..(y + 1) * w];
-        for (x, o) in row.iter_mut().enumerate() {
-            *o = crow[x / GRID];
+        for (run, &r) in row.chunks_mut(GRID).zip(crow) {
+            run.fill(r);
         }
         // The coarse samples' own margin test is a pixel coarse; the pixel's is exact.
         row[..xa].fill(false);
@@ -304,16 +309,19 @@ pub fn measure<M: PhaseMap>(
     // seed the unwrapping and feed the interpolation.
     let creg = samples_in(&tiles_on, (cw, ch), tw);
     let (mut cx0, mut cy0, mut cx1, mut cy1) = (cw, ch, 0, 0);
-    for (k, _) in creg.iter().enumerate().filter(|(_, r)| **r) {
-        let (cx, cy) = (k % cw, k / cw);
-        (cx0, cy0, cx1, cy1) = (cx0.min(cx), cy0.min(cy), cx1.max(cx), cy1.max(cy));
+    for (cy, row) in creg.chunks_exact(cw).enumerate() {
+        if let (Some(a), Some(b)) = (row.iter().position(|r| *r), row.iter().rposition(|r| *r)) {
+            (cx0, cy0, cx1, cy1) = (cx0.min(a), cy0.min(cy), cx1.max(b), cy1.max(cy));
+        }
     }
     let (wx0, wy0) = (cx0.saturating_sub(2), cy0.saturating_sub(2));
     let (wx1, wy1) = ((cx1 + 3).min(cw), (cy1 + 3).min(ch));
     let (cbw, cbh) = (wx1 - wx0, wy1 - wy0);
-    let at = |j: usize| (wy0 + j / cbw) * cw + wx0 + j % cbw;
-    let lphi: Vec<M::P> = (0..cbw * cbh).map(|j| phase[at(j)].minus(offset)).collect();
-    let lreg: Vec<bool> = (0..cbw * cbh).map(|j| creg[at(j)]).collect();
+    let (wxs, wys) = ((wx0, wx1), wy0..wy1);
+    let lphi: Vec<M::P> = window_of(&phase, cw, wxs, wys.clone())
+        .map(|p| p.minus(offset))
+        .collect();
+    let lreg: Vec<bool> = window_of(&creg, cw, wxs, wys.clone()).collect();
 
     let trigger = <M::P as PhaseNum>::from_rad(UNWRAP_TRIGGER_RAD).units();
     let max_abs = (0..lphi.len())
@@ -327,8 +335,9 @@ pub fn measure<M: PhaseMap>(
         Unwrap::Never => false,
     };
     let (u, unreached, n_res) = if unwrap {
-        let quality: Vec<u32> = (0..lphi.len())
-            .map(|j| amp[at(j)].min(amp_r[at(j)]))
+        let quality: Vec<u32> = window_of(&amp, cw, wxs, wys.clone())
+            .zip(window_of(&amp_r, cw, wxs, wys.clone()))
+            .map(|(a, r)| a.min(r))
             .collect();
         let (u, unreached) = unwrap_region(&lphi, &quality, &lreg, cbw, cbh);
         (u, unreached, residues(&lphi, &lreg, cbw, cbh))
@@ -380,15 +389,18 @@ pub fn measure<M: PhaseMap>(
     // the spot (a dipole): when the opposite-signed phase carries a comparable share,
     // there is no contact to report.
     let (mut pos, mut neg) = (0i64, 0i64);
-    for (j, &v) in up.iter().enumerate() {
-        if !won[j] || !reliable[(y0 + j / bw) * w + x0 + j % bw] {
-            continue;
-        }
-        let v = i64::from(v);
-        if v > i64::from(thr) {
-            pos += v;
-        } else if v < -i64::from(thr) {
-            neg -= v;
+    for (ly, (urow, orow)) in up.chunks_exact(bw).zip(won.chunks_exact(bw)).enumerate() {
+        let rrow = &reliable[(y0 + ly) * w + x0..(y0 + ly) * w + x0 + bw];
+        for ((&v, &on), &ok) in urow.iter().zip(orow).zip(rrow) {
+            if !on || !ok {
+                continue;
+            }
+            let v = i64::from(v);
+            if v > i64::from(thr) {
+                pos += v;
+            } else if v < -i64::from(thr) {
+                neg -= v;
+            }
         }
     }
     if (neg as f32) > DIPOLE_RATIO * pos as f32 {
@@ -413,14 +425,13 @@ pub fn measure<M: PhaseMap>(
     // became unreliable, mean the spectrum has left the band there.
     let (mut lost, mut seen) = (0usize, 0usize);
     let (fm, rm) = (u64::from(med_frame.max(1)), u64::from(med_ref));
-    for j in 0..su.len() {
-        let (cx, cy) = (wx0 + j % cbw, wy0 + j / cbw);
+    for (cx, cy) in (wy0..wy1).flat_map(|cy| (wx0..wx1).map(move |cx| (cx, cy))) {
         let (x, y) = (cx * GRID, cy * GRID);
         let lj = (y - y0) * bw + (x - x0);
         if lj >= m || !deformed[lj] || !margin.contains(x, y) {
             continue;
         }
-        let k = at(j);
+        let k = cy * cw + cx;
         seen += 1;
         if !rel[k] || u64::from(amp[k]) * 2 * rm < u64::from(amp_r[k]) * fm {
             lost += 1;
@@ -467,4 +478,15 @@ pub fn measure<M: PhaseMap>(
         ..result(flags, reliable, depth_um)
     };
     (d, wrapped)
+}
+
+/// The samples of a coarse map (`cw` across) in the window of columns `xs` and rows `ys`,
+/// row by row.
+fn window_of<T: Copy>(
+    v: &[T],
+    cw: usize,
+    xs: (usize, usize),
+    ys: std::ops::Range<usize>,
+) -> impl Iterator<Item = T> + '_ {
+    ys.flat_map(move |cy| v[cy * cw + xs.0..cy * cw + xs.1].iter().copied())
 }
