@@ -264,8 +264,13 @@ pub fn measure<M: PhaseMap>(
         }
         let crow = &rel[(y / GRID) * cw..(y / GRID + 1) * cw];
         let row = &mut reliable[y * w..(y + 1) * w];
-        for (run, &r) in row.chunks_mut(GRID).zip(crow) {
-            run.fill(r);
+        // Fixed-size runs (a `fill` of a run of unknown length would be a call per run).
+        let (runs, rest) = row.as_chunks_mut::<GRID>();
+        for (run, &r) in runs.iter_mut().zip(crow) {
+            *run = [r; GRID];
+        }
+        if let Some(&r) = crow.get(runs.len()) {
+            rest.fill(r);
         }
         // The coarse samples' own margin test is a pixel coarse; the pixel's is exact.
         row[..xa].fill(false);
