@@ -5,25 +5,40 @@ use super::{GRID, TILE_MIN_SAMPLES};
 use crate::pipeline::TILE_PX;
 
 /// Contact tiles ([`TILE_PX`] working pixels square) from the coarse grid (`cw × ch`
-/// samples, [`GRID`] pixels apart): a tile is active when at least [`TILE_MIN_SAMPLES`] of
-/// its samples are `above`; the active tiles dilated by one tile are the region (`tw × th`
-/// tiles). `None` when there is none, or when fewer than `min_total` samples are above in
-/// all: the band-pass spreads any indentation over about a period each way, so a blob
-/// smaller than a disc one period across is a speck of the image (an illumination edge
-/// under a shifted grating, a hot pixel), not a contact.
+/// samples, [`GRID`] pixels apart): a sample is above when it is `rel`iable and its phase
+/// `phi` exceeds `thr` in magnitude (units), and a tile is active when at least
+/// [`TILE_MIN_SAMPLES`] of its samples are above; the active tiles dilated by one tile are
+/// the region (`tw × th` tiles). `None` when there is none, or when fewer than `min_total`
+/// samples are above in all: the band-pass spreads any indentation over about a period
+/// each way, so a blob smaller than a disc one period across is a speck of the image (an
+/// illumination edge under a shifted grating, a hot pixel), not a contact.
 pub fn contact_tiles(
-    above: &[bool],
+    phi: &[i32],
+    rel: &[bool],
+    thr: i32,
     (cw, ch): (usize, usize),
     (tw, th): (usize, usize),
     min_total: usize,
 ) -> Option<(Vec<bool>, usize)> {
-    let per = TILE_PX / GRID;
+    const PER: usize = TILE_PX / GRID;
     let mut count = vec![0usize; tw * th];
-    for (cy, row) in above.chunks_exact(cw).take(ch).enumerate() {
-        let trow = &mut count[(cy / per) * tw..(cy / per + 1) * tw];
-        // A tile's samples along the row at a time: no division per sample.
-        for (t, run) in trow.iter_mut().zip(row.chunks(per)) {
-            *t += run.iter().map(|&a| usize::from(a)).sum::<usize>();
+    let above = |p: &[i32], r: &[bool]| -> usize {
+        p.iter()
+            .zip(r)
+            .map(|(p, r)| usize::from(*r && p.abs() > thr))
+            .sum()
+    };
+    let rows = phi.chunks_exact(cw).zip(rel.chunks_exact(cw)).take(ch);
+    for (cy, (prow, rrow)) in rows.enumerate() {
+        let trow = &mut count[(cy / PER) * tw..(cy / PER + 1) * tw];
+        // A tile's samples along the row at a time (fixed-size runs: no division per
+        // sample, and the run's test unrolls), then the row's partial last tile.
+        let ((pr, p_rest), (rr, r_rest)) = (prow.as_chunks::<PER>(), rrow.as_chunks::<PER>());
+        for ((t, p), r) in trow.iter_mut().zip(pr).zip(rr) {
+            *t += above(p, r);
+        }
+        if let Some(t) = trow.get_mut(pr.len()) {
+            *t += above(p_rest, r_rest);
         }
     }
     if count.iter().all(|&c| c < TILE_MIN_SAMPLES) || count.iter().sum::<usize>() < min_total {
@@ -325,7 +340,23 @@ mod tests {
                 })
                 .collect();
             assert_eq!(dilate(&active, tw, th), want, "{w}x{h}");
-            let got = contact_tiles(&above, (cw, ch), (tw, th), 0);
+            // The mask as phases: above the threshold where set, on reliable samples
+            // or not, and a reliable sample below it elsewhere.
+            let phi: Vec<i32> = above
+                .iter()
+                .enumerate()
+                .map(|(k, a)| {
+                    if *a {
+                        [50, -50][k % 2]
+                    } else {
+                        7 * (k % 2) as i32
+                    }
+                })
+                .collect();
+            let got = contact_tiles(&phi, &vec![true; phi.len()], 10, (cw, ch), (tw, th), 0);
+            let unreliable =
+                contact_tiles(&phi, &vec![false; phi.len()], 10, (cw, ch), (tw, th), 0);
+            assert!(unreliable.is_none());
             match got {
                 Some((tiles, n)) => {
                     assert_eq!(tiles, want, "{w}x{h}");

@@ -197,13 +197,7 @@ pub fn measure<M: PhaseMap>(
     let min_total = ((carrier.period_px() / GRID as f32).powi(2) * std::f32::consts::FRAC_PI_4)
         .round()
         .max(TILE_MIN_SAMPLES as f32) as usize;
-    let above = |phi: &[i32], thr: i32| -> Vec<bool> {
-        phi.iter()
-            .zip(&rel)
-            .map(|(p, r)| *r && p.abs() > thr)
-            .collect()
-    };
-    let mut found = contact_tiles(&above(&phi, thr), (cw, ch), (tw, th), min_total);
+    let mut found = contact_tiles(&phi, &rel, thr, (cw, ch), (tw, th), min_total);
     // Whether the noise was measured on the background alone (a contact's curvature
     // counts as noise in the first estimate).
     let mut noise_clean = found.is_none();
@@ -240,7 +234,7 @@ pub fn measure<M: PhaseMap>(
             noise_clean = true;
         }
         thr = ((CONTACT_SIGMAS * noise as f32) as i32).max(min_thr);
-        found = contact_tiles(&above(&phi, thr), (cw, ch), (tw, th), min_total);
+        found = contact_tiles(&phi, &rel, thr, (cw, ch), (tw, th), min_total);
     }
     let offset_rad = offset.units() as f32 / UNITS_PER_RAD;
     if offset_rad.abs() > MISREGISTRATION_RAD {
