@@ -357,9 +357,14 @@ pub fn measure<M: PhaseMap>(
     // The window's pixels that belong to the region (all inside the image: the coarse
     // grid's last sample is at most the last pixel).
     let mut won = vec![false; m];
-    for (ly, row) in won.chunks_exact_mut(bw).enumerate() {
+    for ly in 0..bh {
+        // The rows of one tile row are the same: the first is built, the others copied.
+        if ly > 0 && (y0 + ly) % TILE_PX != 0 {
+            won.copy_within((ly - 1) * bw..ly * bw, ly * bw);
+            continue;
+        }
         let trow = &tiles_on[((y0 + ly) / TILE_PX) * tw..((y0 + ly) / TILE_PX + 1) * tw];
-        for (lx, o) in row.iter_mut().enumerate() {
+        for (lx, o) in won[ly * bw..(ly + 1) * bw].iter_mut().enumerate() {
             *o = trow[(x0 + lx) / TILE_PX];
         }
     }
