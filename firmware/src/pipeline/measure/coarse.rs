@@ -202,30 +202,32 @@ pub(super) fn read_coarse<M: PhaseMap>(map: &M, lim: u32, margin: &Margin) -> Co
     let (w, h) = map.size();
     let (cw, ch) = (w.div_ceil(GRID), h.div_ceil(GRID));
     let n = cw * ch;
-    let mut c = Coarse {
-        phase: Vec::with_capacity(n),
-        amp: Vec::with_capacity(n),
-        amp_r: Vec::with_capacity(n),
-        rel: Vec::with_capacity(n),
-        inside_n: 0,
-        reliable_n: 0,
-    };
+    // One plain pass per map (collected from exact-size iterators: no capacity test per
+    // sample).
+    let phase: Vec<M::P> = (0..n).map(|k| map.wrapped(k)).collect();
+    let amp: Vec<u32> = (0..n).map(|k| map.amp_frame(k)).collect();
+    let amp_r: Vec<u32> = (0..n).map(|k| map.amp_ref(k)).collect();
+    let (mut inside_n, mut reliable_n) = (0, 0);
+    let mut rel = Vec::with_capacity(n);
     for cy in 0..ch {
         let row_inside = margin.ys.contains(&(cy * GRID));
-        for cx in 0..cw {
-            let k = cy * cw + cx;
-            let (a, ar) = (map.amp_frame(k), map.amp_ref(k));
+        let k0 = cy * cw;
+        rel.extend((0..cw).map(|cx| {
             let ins = row_inside && margin.xs.contains(&(cx * GRID));
-            let r = ins && a > lim && ar > lim;
-            c.inside_n += usize::from(ins);
-            c.reliable_n += usize::from(r);
-            c.phase.push(map.wrapped(k));
-            c.amp.push(a);
-            c.amp_r.push(ar);
-            c.rel.push(r);
-        }
+            let r = ins && amp[k0 + cx] > lim && amp_r[k0 + cx] > lim;
+            inside_n += usize::from(ins);
+            reliable_n += usize::from(r);
+            r
+        }));
     }
-    c
+    Coarse {
+        phase,
+        amp,
+        amp_r,
+        rel,
+        inside_n,
+        reliable_n,
+    }
 }
 
 #[cfg(test)]
