@@ -13,4 +13,6 @@ pub mod maps;
 pub mod pipeline;
 pub mod service;
 pub mod source_spec;
+#[cfg(test)]
+mod test_rng;
 pub mod thermal;

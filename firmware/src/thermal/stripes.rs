@@ -530,13 +530,8 @@ mod tests {
     /// random colours (saturated channels included), phases, reliability and regions.
     #[test]
     fn block_and_contact_sums_follow_the_rule_pixel_by_pixel() {
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
+        let mut rng = crate::test_rng::XorShift(0x2545_f491_4f6c_dd1d);
+        let mut next = move || rng.next();
         let lin = linear_q16();
         for f in [1usize, 2, 3, 5] {
             let (w, h) = (37usize, 29usize);

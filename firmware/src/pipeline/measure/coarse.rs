@@ -277,13 +277,8 @@ mod tests {
     /// odd and even sides and boxes of several sizes.
     #[test]
     fn noise_floor_follows_the_integral_image() {
-        let mut state = 0x0123_4567_89ab_cdefu64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut rng = crate::test_rng::XorShift(0x0123_4567_89ab_cdef);
+        let mut next = move || rng.next();
         for (w, h) in [(160usize, 120usize), (37, 23), (9, 8), (5, 4)] {
             for box_px in [2usize, 5, 8, 12] {
                 let phi: Vec<i32> = (0..w * h)
@@ -301,20 +296,13 @@ mod tests {
 
     /// Random masks of working sizes whose sides are not multiples of a tile.
     fn masks() -> impl Iterator<Item = (Vec<bool>, (usize, usize))> {
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut rng = crate::test_rng::XorShift(0x9e37_79b9_7f4a_7c15);
         [(320usize, 240usize), (322, 243), (38, 17)]
             .into_iter()
             .flat_map(|(w, h)| [1u64, 5, 40].map(|ppm| (w, h, ppm)))
             .map(move |(w, h, ppm)| {
                 let (cw, ch) = (w.div_ceil(GRID), h.div_ceil(GRID));
-                let mask = (0..cw * ch)
-                    .map(|_| {
-                        state ^= state << 13;
-                        state ^= state >> 7;
-                        state ^= state << 17;
-                        state % 100 < ppm
-                    })
-                    .collect();
+                let mask = (0..cw * ch).map(|_| rng.next() % 100 < ppm).collect();
                 (mask, (w, h))
             })
     }

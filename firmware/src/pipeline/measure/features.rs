@@ -153,13 +153,8 @@ mod tests {
     /// The count decides as the selected percentile does, at limits on and around it.
     #[test]
     fn slope_percentile_by_count_matches_selection() {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut rng = crate::test_rng::XorShift(0x2545_f491_4f6c_dd1d);
+        let mut next = move || rng.next();
         for (w, h, spread) in [
             (30usize, 20usize, 3_000i64),
             (57, 41, 200),

@@ -78,7 +78,7 @@ mod tests {
 
     #[test]
     fn upsampling_matches_its_plain_form_on_any_size() {
-        let mut state = 0x51_7cc1_b727_220au64;
+        let mut rng = crate::test_rng::XorShift(0x51_7cc1_b727_220a);
         for (w, h) in [
             (1usize, 1usize),
             (2, 1),
@@ -89,12 +89,7 @@ mod tests {
             (37, 23),
         ] {
             let v: Vec<i32> = (0..w * h)
-                .map(|_| {
-                    state ^= state << 13;
-                    state ^= state >> 7;
-                    state ^= state << 17;
-                    (state % 20_001) as i32 - 10_000
-                })
+                .map(|_| (rng.next() % 20_001) as i32 - 10_000)
                 .collect();
             assert_eq!(upsample2(&v, w, h), upsample2_plain(&v, w, h), "{w}x{h}");
         }
