@@ -27,12 +27,8 @@ pub trait PhaseNum: Phase {
     /// The amplitude-weighted resultant of `(phase, amplitude)` samples: the numerator of
     /// their mean direction.
     fn resultant(samples: impl Iterator<Item = (Self, u32)>) -> Resultant<Self::Sum>;
-    /// The direction of a resultant.
+    /// The direction of a resultant: the samples' amplitude-weighted mean direction.
     fn angle(r: Resultant<Self::Sum>) -> Self;
-    /// Amplitude-weighted mean direction of `(phase, amplitude)` samples.
-    fn direction(samples: impl Iterator<Item = (Self, u32)>) -> Self {
-        Self::angle(Self::resultant(samples))
-    }
 }
 
 /// `(Σ a·sin φ, Σ a·cos φ)` of samples. In integers the sums are exact, so a subset's
