@@ -55,6 +55,9 @@ pub fn contact_tiles(
 /// tiles set.
 pub(super) fn dilate(on: &[bool], tw: usize, th: usize) -> Vec<bool> {
     let n = tw * th;
+    if n == 0 {
+        return Vec::new();
+    }
     let mut across = vec![false; n];
     for (a, o) in across.chunks_exact_mut(tw).zip(on.chunks_exact(tw)) {
         for x in 0..tw {
@@ -64,13 +67,11 @@ pub(super) fn dilate(on: &[bool], tw: usize, th: usize) -> Vec<bool> {
         }
     }
     let mut dil = across.clone();
-    if tw > 0 {
-        for (d, up) in dil[tw..].iter_mut().zip(&across[..n - tw]) {
-            *d |= *up;
-        }
-        for (d, down) in dil[..n - tw].iter_mut().zip(&across[tw..]) {
-            *d |= *down;
-        }
+    for (d, up) in dil[tw..].iter_mut().zip(&across[..n - tw]) {
+        *d |= *up;
+    }
+    for (d, down) in dil[..n - tw].iter_mut().zip(&across[tw..]) {
+        *d |= *down;
     }
     dil
 }
@@ -78,12 +79,12 @@ pub(super) fn dilate(on: &[bool], tw: usize, th: usize) -> Vec<bool> {
 /// Per coarse sample (`cw × ch`), whether its tile is set in `tiles` (`tw` across). The
 /// rows of a tile row are the same: the first is built, the others copied.
 pub(super) fn samples_in(tiles: &[bool], (cw, ch): (usize, usize), tw: usize) -> Vec<bool> {
-    let per = TILE_PX / GRID;
+    const PER: usize = TILE_PX / GRID;
     let mut out = Vec::with_capacity(cw * ch);
     for cy in 0..ch {
-        if cy % per == 0 {
-            let trow = &tiles[(cy / per) * tw..(cy / per + 1) * tw];
-            out.extend(trow.iter().flat_map(|&t| [t; TILE_PX / GRID]).take(cw));
+        if cy % PER == 0 {
+            let trow = &tiles[(cy / PER) * tw..(cy / PER + 1) * tw];
+            out.extend(trow.iter().flat_map(|&t| [t; PER]).take(cw));
         } else {
             out.extend_from_within((cy - 1) * cw..cy * cw);
         }
