@@ -128,10 +128,6 @@ fn class_table() -> [u8; 1024] {
     })
 }
 
-/// A phase at a stripe edge (a quarter turn from either centre): what [`class_table`] never
-/// keeps.
-const EDGE_UNITS: u16 = 16_384;
-
 /// Where the blocks are and how the phase advances between input pixels.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Geometry {
@@ -245,13 +241,18 @@ fn run<const F: usize>(
     };
     let mut blocks = vec![Sums::default(); g.bw * g.bh];
     let mut contact = [Sums::default(); 2];
-    let class = class_table();
-    let offsets: Vec<u16> = g.offsets.iter().map(|&o| o as u16).collect();
+    let class = &class_table();
+    // Each input pixel's phase offset from its working pixel's, padded to the largest factor
+    // so that for a specialised factor the slice has a length the compiler knows.
+    let mut offsets = [0u16; 8];
+    for (o, &v) in offsets.iter_mut().zip(&g.offsets) {
+        *o = v as u16;
+    }
+    let offsets = &offsets[..f.min(8)];
     let width = frame.width() as usize;
     let raw: &[u8] = frame.as_raw();
     let f3 = 3 * f;
     let stride = width * 3;
-    let mut tin = vec![0u16; g.w * f];
     for yw in 0..g.h {
         let on_grid = yw % g.row_step == 0;
         let row = yw * g.w..(yw + 1) * g.w;
@@ -271,28 +272,26 @@ fn run<const F: usize>(
         let (up, trow, down) = (&rows[ya % 3], &rows[yw % 3], &rows[yb % 3]);
         let rel = &reliable[row.clone()];
         if on_grid {
-            // The sampled input row's phases; an unreliable working pixel's inputs get a
-            // stripe edge's phase, so the pixel loop has no other test.
-            for ((tk, &t0), &ok) in tin.chunks_exact_mut(f).zip(trow).zip(rel) {
-                for (t, &o) in tk.iter_mut().zip(&offsets) {
-                    *t = if ok { t0.wrapping_add(o) } else { EDGE_UNITS };
-                }
-            }
             let y = yw * f + f / 2;
             let (line, _) = raw[y * stride..y * stride + g.w * f3].as_chunks::<3>();
             let brow = &mut blocks[(yw / g.block_px) * g.bw..(yw / g.block_px + 1) * g.bw];
             // Block by block along the row: no division per pixel, and 32-bit sums (a
             // block row holds at most 16 · 8 samples of ≤ 2¹⁶).
             for (bx, acc) in brow.iter_mut().enumerate() {
-                let x0 = bx * g.block_px * f;
-                let x1 = (x0 + g.block_px * f).min(g.w * f);
+                let x0 = bx * g.block_px;
+                let x1 = (x0 + g.block_px).min(g.w);
                 let mut part = Part::default();
-                // A working pixel's inputs at a time: for the specialised factors the
-                // inner loop unrolls.
-                let (px, ts) = (line[x0..x1].chunks_exact(f), tin[x0..x1].chunks_exact(f));
-                for (pk, tk) in px.zip(ts) {
-                    for (p, &t) in pk.iter().zip(tk) {
-                        part.sample(&class, lin, t, p);
+                // A working pixel's inputs at a time, at its phase plus their offsets (for
+                // the specialised factors the inner loop unrolls); an unreliable working
+                // pixel is skipped whole.
+                let px = line[x0 * f..x1 * f].chunks_exact(f);
+                for ((pk, &t0), _) in px
+                    .zip(&trow[x0..x1])
+                    .zip(&rel[x0..x1])
+                    .filter(|(_, ok)| **ok)
+                {
+                    for (p, &o) in pk.iter().zip(offsets) {
+                        part.sample(class, lin, t0.wrapping_add(o), p);
                     }
                 }
                 part.add_to(acc);
@@ -445,7 +444,7 @@ fn keep_units(gx: i32, gy: i32, carrier: [i32; 2]) -> i32 {
 }
 
 /// The population whose centre phase `t` lies within `keep` units of: 0 coloured, 1 black.
-/// The blocks' band is fixed and read from [`class_table`] (one look-up per pixel); this
+/// The blocks' band is fixed and read from [`CLASS`] (one look-up per pixel); this
 /// is the same rule for the contact region's band, which changes from pixel to pixel.
 fn kept(t: u16, keep: i32) -> Option<usize> {
     let a = i32::from(t as i16).abs();
