@@ -60,6 +60,10 @@ enum Eval {
 struct CurveQ {
     /// Knots, whitened, Q12.
     knots: Vec<[i64; FEATURES]>,
+    /// Per knot `k`: −2·k and |k|² (Q24), so a block's squared distance to it, less the
+    /// block's own |x|² (the same for every knot), is |k|² − 2·x·k: three multiply-adds,
+    /// and the knots rank as by distance.
+    near: Vec<[i64; FEATURES + 1]>,
     /// 1/σ per feature, Q16.
     inv_scale: [i64; FEATURES],
     /// Whitened segment vectors, Q12 (σ = 4096).
@@ -171,8 +175,20 @@ impl Pop {
                     })
                     .collect();
                 let bb = d.iter().map(|v| v.iter().map(|&x| x * x).sum()).collect();
+                let near = knots
+                    .iter()
+                    .map(|k| {
+                        [
+                            -2 * k[0],
+                            -2 * k[1],
+                            -2 * k[2],
+                            k.iter().map(|&v| v * v).sum(),
+                        ]
+                    })
+                    .collect();
                 Eval::Curve(CurveQ {
                     knots,
+                    near,
                     inv_scale: scale.map(|s| q16(1.0 / s)),
                     d,
                     bb,
@@ -229,13 +245,14 @@ impl CurveQ {
     fn eval(&self, x: [i64; FEATURES]) -> i64 {
         let CurveQ {
             knots,
+            near,
             inv_scale,
             d,
             bb,
             t,
             softmin,
         } = self;
-        let n = t.len().min(knots.len()).min(d.len() + 1);
+        let n = t.len().min(knots.len()).min(near.len()).min(d.len() + 1);
         if n < 2 {
             return t.first().copied().unwrap_or(0);
         }
@@ -251,10 +268,11 @@ impl CurveQ {
             a.iter().zip(b).map(|(p, q)| p * q).sum()
         };
         // The two nearest knots (the earlier one on a tie), and the segments meeting at either.
+        // Ranked by |k|² − 2·x·k, the squared distance less |x|²: exact integers (below
+        // 2⁵⁰ in magnitude), so the order and the ties are the distances'.
         let (mut k1, mut k2) = ((i64::MAX, 0usize), (i64::MAX, 0usize));
-        for (k, kn) in knots[..n].iter().enumerate() {
-            let (e0, e1, e2) = (xw[0] - kn[0], xw[1] - kn[1], xw[2] - kn[2]);
-            let d2 = e0 * e0 + e1 * e1 + e2 * e2;
+        for (k, kn) in near[..n].iter().enumerate() {
+            let d2 = kn[3] + xw[0] * kn[0] + xw[1] * kn[1] + xw[2] * kn[2];
             if d2 < k2.0 {
                 if d2 < k1.0 {
                     k2 = k1;
