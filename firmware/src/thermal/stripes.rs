@@ -146,8 +146,10 @@ pub struct Geometry {
     /// Phase of input pixel `k` (0…factor−1) of a working pixel, relative to the working
     /// pixel's centre, on the sampled input row; units.
     pub offsets: Vec<i32>,
-    /// Working rows advanced between the rows a block reads: a third of a block, so every
-    /// block reads three rows (the black stripes are pooled over nine blocks anyway).
+    /// Working rows advanced between the rows a block reads: a third of a block, rounded
+    /// down (the black stripes are pooled over nine blocks anyway). The rows are every
+    /// `row_step`-th of the image, so a block reads three of them when its side is a
+    /// multiple of three, and three to five otherwise.
     pub row_step: usize,
     /// The reference carrier's phase advance per working pixel across and down, units: the
     /// contact region reads its local grating against it (`gradient`, `keep_units`).
@@ -292,7 +294,9 @@ fn run<const F: usize>(
             }
         }
         // Every input pixel of the row's contact working pixels, at the frame's own local
-        // grating (see `local_phases` and `keep_units`).
+        // grating (see `local_phases` and `keep_units`), summed over the row in 32 bits
+        // (the core, and the rest of the region) and added to the region's sums at its end.
+        let mut row_parts = RowParts::default();
         for xw in (rx0..rx1).filter(|&x| rel[x]) {
             let reg = codes[xw - cx0];
             if reg == region::NONE {
@@ -302,7 +306,7 @@ fn run<const F: usize>(
             let gx = gradient(trow[xa], trow[xb], xb - xa, g.carrier_units[0]);
             let gy = gradient(up[xw], down[xw], yb - ya, g.carrier_units[1]);
             let keep = keep_units(gx, gy, g.carrier_units);
-            let mut part = Part::default();
+            let part = row_parts.part(reg == region::CORE, f * f, &mut contact);
             local_phases(trow[xw], gx, gy, f, |ky, ts| {
                 let base = (yw * f + ky) * stride + xw * f3;
                 let (px, _) = raw[base..base + f3].as_chunks::<3>();
@@ -312,25 +316,81 @@ fn run<const F: usize>(
                     }
                 }
             });
-            part.add_to(&mut contact[0]);
-            if reg == region::CORE {
-                part.add_to(&mut contact[1]);
-            }
         }
+        row_parts.flush(&mut contact);
     }
     (blocks, contact)
 }
 
+/// A row's contact samples in 32 bits: the region outside its core, and the core.
+#[derive(Default)]
+struct RowParts {
+    ring: Part,
+    core: Part,
+    /// Samples that may have been added since the last flush.
+    held: usize,
+}
+
+impl RowParts {
+    /// Most samples held before a flush: each adds at most 2¹⁶ to a 32-bit sum.
+    const MAX_HELD: usize = 65_535;
+
+    /// The part the next `n` samples of a working pixel go to (the core's when `core`),
+    /// after adding what is held to `contact` (the region's sums and its core's) if they
+    /// could overflow it.
+    fn part(&mut self, core: bool, n: usize, contact: &mut [Sums; 2]) -> &mut Part {
+        if self.held + n > Self::MAX_HELD {
+            self.flush(contact);
+        }
+        self.held += n;
+        if core {
+            &mut self.core
+        } else {
+            &mut self.ring
+        }
+    }
+
+    /// Adds what is held to `contact` and empties the parts.
+    fn flush(&mut self, contact: &mut [Sums; 2]) {
+        if self.held > 0 {
+            self.ring.add_to(&mut contact[0]);
+            self.core.add_to(&mut contact[0]);
+            self.core.add_to(&mut contact[1]);
+            *self = RowParts::default();
+        }
+    }
+}
+
 /// The stretch `(first, one past the last)` of a row's region codes that are not
-/// [`region::NONE`], `(0, 0)` when there is none. The codes cover the contact window only.
+/// [`region::NONE`], `(0, 0)` when there is none. The codes cover the contact window only,
+/// whose rows mostly start and end with a stretch of [`region::NONE`]: it is skipped 16
+/// codes at a time.
 fn extent(codes: &[u8]) -> (usize, usize) {
-    let Some(a) = codes.iter().position(|&v| v != region::NONE) else {
+    const _: () = assert!(region::NONE == 0);
+    let none = |c: &[u8; 16]| u128::from_ne_bytes(*c) == 0;
+    let skip = codes
+        .as_chunks::<16>()
+        .0
+        .iter()
+        .take_while(|c| none(c))
+        .count()
+        * 16;
+    let Some(a) = codes[skip..].iter().position(|&v| v != 0).map(|i| skip + i) else {
         return (0, 0);
     };
-    let b = codes
+    let tail = &codes[a..];
+    let skip = tail
+        .as_rchunks::<16>()
+        .1
         .iter()
-        .rposition(|&v| v != region::NONE)
-        .map_or(a, |i| i + 1);
+        .rev()
+        .take_while(|c| none(c))
+        .count()
+        * 16;
+    let b = tail[..tail.len() - skip]
+        .iter()
+        .rposition(|&v| v != 0)
+        .map_or(a, |i| a + i + 1);
     (a, b)
 }
 
@@ -753,6 +813,27 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// A contact row holding more samples than 32-bit sums can take is flushed on the way.
+    #[test]
+    fn a_long_contact_row_does_not_overflow_its_sums() {
+        let lin = [1u32 << 16; 256];
+        let mut contact = [Sums::default(); 2];
+        let mut parts = RowParts::default();
+        let n = 8 * RowParts::MAX_HELD;
+        for k in 0..n {
+            let core = k % 3 == 0;
+            parts
+                .part(core, 1, &mut contact)
+                .add::<false>(k % 2, &lin, &[7, 8, 9]);
+        }
+        parts.flush(&mut contact);
+        let total: u32 = contact[0].n.iter().sum();
+        assert_eq!(total as usize, n);
+        assert_eq!(contact[1].n.iter().sum::<u32>() as usize, n.div_ceil(3));
+        let sum: u64 = contact[0].sum.iter().map(|s| s[1]).sum();
+        assert_eq!(sum, n as u64 * (1 << 16));
     }
 
     #[test]
