@@ -166,15 +166,16 @@ pub struct AnalyzerOptions {
     pub rows_only: bool,
 }
 
-/// Adds the frame's temperatures to its force-side result `d`: the FTP's wrapped phase
-/// difference (units, a working row at a time) places the stripes, the contact region (depth ≥ half the
-/// peak, read from its core at ≥ ¾ of the peak where that is big enough) gets its own
+/// Adds the frame's temperatures to its force-side result `d`: the frame's grating phase
+/// (`phase(y, reference, row)`: the reference's plus the FTP's wrapped phase difference, units,
+/// a working row at a time) places the stripes, the contact region (depth ≥ half the peak,
+/// read from its core at ≥ ¾ of the peak where that is big enough) gets its own
 /// temperature, and a reading outside the calibration is flagged.
 fn with_temperature(
     mut d: Deformation,
     frame: &RgbImage,
     thermo: &Thermometer,
-    wrapped: impl Fn(usize, &mut [i32]),
+    phase: impl Fn(usize, &[u16], &mut [u16]),
 ) -> Deformation {
     if !thermo.has_model() {
         return d;
@@ -206,7 +207,7 @@ fn with_temperature(
         }
     }
     let regions = window.map(|[x0, y0, x1, _]| Regions::new(&codes, x0, y0, x1 - x0));
-    d.temperature = thermo.measure(frame, wrapped, &d.reliable, regions);
+    d.temperature = thermo.measure(frame, phase, &d.reliable, regions);
     if d.temperature.as_ref().is_some_and(|t| t.out_of_range) {
         d.flags.insert(vistaf_protocol::Flag::TemperatureOutOfRange);
     }
@@ -316,9 +317,12 @@ impl Analyzer {
         frame: &RgbImage,
     ) -> Result<(Deformation, Vec<crate::thermal::stripes::Sums>), PipelineError> {
         self.run(frame, |d, wrapped| {
-            let (s, _) = self
-                .thermo
-                .sums(frame, |y, row| wrapped.row(y, row), &d.reliable, None);
+            let (s, _) = self.thermo.sums(
+                frame,
+                |y, r, row| wrapped.frame_row(y, r, row),
+                &d.reliable,
+                None,
+            );
             (d, s)
         })
     }
@@ -374,7 +378,9 @@ impl Analyzer {
     /// Analyses one frame.
     pub fn analyze(&self, frame: &RgbImage) -> Result<Deformation, PipelineError> {
         self.run(frame, |d, wrapped| {
-            with_temperature(d, frame, &self.thermo, |y, row| wrapped.row(y, row))
+            with_temperature(d, frame, &self.thermo, |y, r, row| {
+                wrapped.frame_row(y, r, row)
+            })
         })
     }
 }

@@ -167,26 +167,24 @@ impl Thermometer {
         &self.geom
     }
 
-    /// Colour sums of a frame whose wrapped phase difference to the reference along
-    /// working row `y` is what `wrapped(y, row)` writes into `row` (units), over the working
-    /// pixels the FTP found `reliable`; `regions` marks the contact region and its core.
+    /// Colour sums of a frame whose grating phase along working row `y` is what
+    /// `phase(y, reference, row)` writes into `row` (units) from the reference's along that
+    /// row (`reference`), over the working pixels the FTP found `reliable`; `regions` marks
+    /// the contact region and its core.
     pub fn sums(
         &self,
         frame: &RgbImage,
-        wrapped: impl Fn(usize, &mut [i32]),
+        phase: impl Fn(usize, &[u16], &mut [u16]),
         reliable: &[bool],
         regions: Option<Regions<'_>>,
     ) -> (Vec<Sums>, [Sums; 2]) {
         let w = self.geom.w;
-        let mut dphi = vec![0i32; w];
         stripes::accumulate(
             frame,
             &self.geom,
             |y, row: &mut [u16]| {
-                wrapped(y, &mut dphi);
-                for ((t, r), d) in row.iter_mut().zip(&self.theta_ref[y * w..]).zip(&dphi) {
-                    *t = r.wrapping_add(*d as u16);
-                }
+                let reference = self.theta_ref.get(y * w..(y + 1) * w).unwrap_or(&[]);
+                phase(y, reference, row);
             },
             reliable,
             regions,
@@ -269,13 +267,13 @@ impl Thermometer {
     pub fn measure(
         &self,
         frame: &RgbImage,
-        wrapped: impl Fn(usize, &mut [i32]),
+        phase: impl Fn(usize, &[u16], &mut [u16]),
         reliable: &[bool],
         regions: Option<Regions<'_>>,
     ) -> Option<Temperature> {
         self.model.as_ref()?;
         let g = &self.geom;
-        let (blocks, [inside, core]) = self.sums(frame, &wrapped, reliable, regions);
+        let (blocks, [inside, core]) = self.sums(frame, &phase, reliable, regions);
         // The black stripes' estimate on every other block each way (their 3 × 3 pooling
         // makes neighbours nearly the same), shared by the 2 × 2 blocks it stands for.
         let (gw, gh) = (g.bw.div_ceil(2), g.bh.div_ceil(2));

@@ -241,7 +241,11 @@ fn run<const F: usize>(
             rows_at[y % 3] = y;
         }
     };
-    let mut blocks = vec![Sums::default(); g.bw * g.bh];
+    // Blocks sum in 32 bits: a block reads at most five rows of 16 working pixels of at most
+    // eight input pixels each, 640 samples of ≤ 2¹⁶.
+    let mut parts: Vec<Part> = std::iter::repeat_with(Part::default)
+        .take(g.bw * g.bh)
+        .collect();
     let mut contact = [Sums::default(); 2];
     let class = &class_table();
     // Each input pixel's phase offset from its working pixel's, padded to the largest factor
@@ -275,7 +279,7 @@ fn run<const F: usize>(
         if on_grid {
             let y = yw * f + f / 2;
             let (line, _) = raw[y * stride..y * stride + g.w * f3].as_chunks::<3>();
-            let brow = &mut blocks[(yw / g.block_px) * g.bw..(yw / g.block_px + 1) * g.bw];
+            let brow = &mut parts[(yw / g.block_px) * g.bw..(yw / g.block_px + 1) * g.bw];
             let row = BlockRow {
                 line,
                 theta: trow,
@@ -319,6 +323,14 @@ fn run<const F: usize>(
         }
         row_parts.flush(&mut contact);
     }
+    let blocks = parts
+        .iter()
+        .map(|p| {
+            let mut s = Sums::default();
+            p.add_to(&mut s);
+            s
+        })
+        .collect();
     (blocks, contact)
 }
 
@@ -413,34 +425,34 @@ struct BlockRow<'a> {
 
 impl BlockRow<'_> {
     /// Adds the row's samples to its blocks' sums (`blocks`, one per block across), block
-    /// by block: no division per pixel, and 32-bit sums (a block row holds at most 16 · 8
-    /// samples of ≤ 2¹⁶). A working pixel's inputs at a time, at its phase plus their
+    /// by block: no division per pixel. A working pixel's inputs at a time, at its phase plus their
     /// offsets (for the specialised factors `F` the inner loop unrolls); an unreliable
     /// working pixel is skipped whole. `CHECK`: whether a channel can be saturated.
     fn add_to<const F: usize, const CHECK: bool>(
         &self,
-        blocks: &mut [Sums],
+        blocks: &mut [Part],
         class: &[u8; 1024],
         lin: &[u32; 256],
     ) {
         let f = if F == 0 { self.factor.max(1) } else { F };
         let offsets = &self.offsets[..f.min(8)];
-        let w = self.theta.len().min(self.reliable.len());
-        for (bx, acc) in blocks.iter_mut().enumerate() {
-            let x0 = (bx * self.block_px).min(w);
-            let x1 = (x0 + self.block_px).min(w);
-            let mut part = Part::default();
-            let px = self.line[x0 * f..x1 * f].chunks_exact(f);
-            for ((pk, &t0), _) in px
-                .zip(&self.theta[x0..x1])
-                .zip(&self.reliable[x0..x1])
+        let n = self.block_px.max(1);
+        let blocks = blocks
+            .iter_mut()
+            .zip(self.line.chunks(n * f))
+            .zip(self.theta.chunks(n))
+            .zip(self.reliable.chunks(n));
+        for (((part, line), theta), reliable) in blocks {
+            for ((pk, &t0), _) in line
+                .chunks_exact(f)
+                .zip(theta)
+                .zip(reliable)
                 .filter(|(_, ok)| **ok)
             {
                 for (p, &o) in pk.iter().zip(offsets) {
                     part.sample::<CHECK>(class, lin, t0.wrapping_add(o), p);
                 }
             }
-            part.add_to(acc);
         }
     }
 }
@@ -557,7 +569,7 @@ fn keep_units(gx: i32, gy: i32, carrier: [i32; 2]) -> i32 {
 }
 
 /// The population whose centre phase `t` lies within `keep` units of: 0 coloured, 1 black.
-/// The blocks' band is fixed and read from [`CLASS`] (one look-up per pixel); this
+/// The blocks' band is fixed and read from [`class_table`] (one look-up per pixel); this
 /// is the same rule for the contact region's band, which changes from pixel to pixel.
 fn kept(t: u16, keep: i32) -> Option<usize> {
     let a = i32::from(t as i16).abs();

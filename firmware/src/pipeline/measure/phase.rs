@@ -159,26 +159,81 @@ pub struct WrappedPhase {
 }
 
 impl WrappedPhase {
-    /// The wrapped phase difference along working row `y` into `out` (the row's width).
-    pub fn row(&self, y: usize, out: &mut [i32]) {
+    /// The frame's grating phase along working row `y` into `out` (units): `reference` (the
+    /// reference's phase along that row) plus the wrapped phase difference, in one pass.
+    pub fn frame_row(&self, y: usize, reference: &[u16], out: &mut [u16]) {
+        let n = out.len().min(reference.len());
+        let (out, reference) = (&mut out[..n], &reference[..n]);
         let c = (y / GRID) * self.cw;
-        if let Some(crow) = self.coarse.get(c..c + self.cw) {
-            let mut pairs = out.chunks_exact_mut(GRID);
-            for (o, &c) in (&mut pairs).zip(crow) {
-                for v in o {
-                    *v = c;
-                }
+        let crow = self.coarse.get(c..c + self.cw).unwrap_or(&[]);
+        let full = (n / GRID).min(crow.len()) * GRID;
+        let groups = out[..full]
+            .chunks_exact_mut(GRID)
+            .zip(reference[..full].chunks_exact(GRID))
+            .zip(crow);
+        for ((o, r), &d) in groups {
+            for (v, &t) in o.iter_mut().zip(r) {
+                *v = t.wrapping_add(d as u16);
             }
-            // A partial last group (odd width): the last sample.
-            if let Some(&c) = crow.last() {
-                pairs.into_remainder().fill(c);
-            }
+        }
+        // A partial last group (odd width): the last sample; no sample: no difference.
+        let d = crow.last().map_or(0, |&d| d as u16);
+        for (v, &t) in out[full..].iter_mut().zip(&reference[full..]) {
+            *v = t.wrapping_add(d);
         }
         if let Some((x0, y0, bw, bh, v)) = &self.local {
             if y >= *y0 && y < y0 + bh {
                 let src = &v[(y - y0) * bw..(y - y0 + 1) * bw];
-                for (o, &u) in out.iter_mut().skip(*x0).zip(src) {
-                    *o = u;
+                let at = (*x0).min(n);
+                for ((o, &t), &u) in out[at..].iter_mut().zip(&reference[at..]).zip(src) {
+                    *o = t.wrapping_add(u as u16);
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The frame's phase row against its plain reading, pixel by pixel: the reference's
+    /// phase plus the contact window's value inside it and the nearest coarse sample
+    /// elsewhere, on odd and even widths, with and without a window.
+    #[test]
+    fn frame_rows_add_the_difference_to_the_reference() {
+        let mut rng = crate::test_rng::XorShift(0x9e37_79b9_7f4a_7c15);
+        for (w, h) in [(9usize, 7usize), (10, 6), (1, 3)] {
+            let cw = w.div_ceil(GRID);
+            let coarse: Vec<i32> = (0..cw * h.div_ceil(GRID))
+                .map(|_| rng.next() as i16 as i32)
+                .collect();
+            let reference: Vec<u16> = (0..w * h).map(|_| rng.next() as u16).collect();
+            for local in [None, Some((w / 3, 1, w - w / 3, h - 2))] {
+                let local = local.map(|(x0, y0, bw, bh)| {
+                    let v = (0..bw * bh).map(|_| rng.next() as i16 as i32).collect();
+                    (x0, y0, bw, bh, v)
+                });
+                let wrapped = WrappedPhase {
+                    cw,
+                    coarse: coarse.clone(),
+                    local: local.clone(),
+                };
+                for y in 0..h {
+                    let r = &reference[y * w..(y + 1) * w];
+                    let mut out = vec![0u16; w];
+                    wrapped.frame_row(y, r, &mut out);
+                    for x in 0..w {
+                        let d = match &local {
+                            Some((x0, y0, bw, bh, v))
+                                if (*x0..x0 + bw).contains(&x) && (*y0..y0 + bh).contains(&y) =>
+                            {
+                                v[(y - y0) * bw + x - x0]
+                            }
+                            _ => coarse[(y / GRID) * cw + x / GRID],
+                        };
+                        assert_eq!(out[x], r[x].wrapping_add(d as u16), "{w}×{h} ({x}, {y})");
+                    }
                 }
             }
         }
