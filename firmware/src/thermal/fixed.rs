@@ -127,6 +127,9 @@ impl Table {
         let f = x & (ONE - 1);
         let next = self.var[(k + 1).min(self.var.len() - 1)];
         let v = self.var[k] + (((next - self.var[k]) * f) >> 16);
+        if beyond == 0 {
+            return v.min(UNKNOWN_Q16);
+        }
         let keep = ONE - 2 * beyond; // > 0 here
         ((v << 16) / keep).min(UNKNOWN_Q16)
     }

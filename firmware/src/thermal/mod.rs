@@ -88,11 +88,16 @@ enum PopEstimate {
 }
 
 impl PopEstimate {
-    /// The temperature, for ordering estimates of one path.
-    fn key(&self) -> f64 {
+    /// The temperature as an integer that orders estimates of one path as their
+    /// temperatures: the Q16 value itself, or a float's bits mapped as `f64::total_cmp`
+    /// orders them.
+    fn key(&self) -> i64 {
         match self {
-            PopEstimate::Float(t, _) => *t,
-            PopEstimate::Fixed((t, _)) => *t as f64,
+            PopEstimate::Float(t, _) => {
+                let b = t.to_bits() as i64;
+                b ^ (((b >> 63) as u64) >> 1) as i64
+            }
+            PopEstimate::Fixed((t, _)) => *t,
         }
     }
 }
@@ -293,7 +298,7 @@ impl Thermometer {
             .map(|k| {
                 let (x, y) = (k % gw, k / gw);
                 // (temperature, index) of the measured neighbours; their median by key.
-                let mut near = [(0.0f64, 0usize); 9];
+                let mut near = [(0i64, 0usize); 9];
                 let mut m = 0;
                 for j in y.saturating_sub(1)..(y + 2).min(gh) {
                     for i in x.saturating_sub(1)..(x + 2).min(gw) {
@@ -307,7 +312,7 @@ impl Thermometer {
                 if m == 0 {
                     return None;
                 }
-                let (_, mid, _) = near.select_nth_unstable_by(m / 2, |a, b| a.0.total_cmp(&b.0));
+                let (_, mid, _) = near.select_nth_unstable_by_key(m / 2, |a| a.0);
                 self.guess(black[mid.1]?)
             })
             .collect();
@@ -362,5 +367,44 @@ impl Thermometer {
             out_of_range,
             measured: n,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Estimates order by their integer keys as by their temperatures, on either path
+    /// (negative, zero and positive, near and far apart).
+    #[test]
+    fn keys_order_estimates_as_their_temperatures() {
+        let mut rng = crate::test_rng::XorShift(0x2545_f491_4f6c_dd1d);
+        let mut ts: Vec<f64> = (0..400)
+            .map(|_| (rng.next() as i32) as f64 / (1 + rng.next() % 1000) as f64)
+            .collect();
+        ts.extend([
+            0.0,
+            -0.0,
+            1e-300,
+            -1e-300,
+            37.5,
+            37.500_000_000_000_01,
+            -40.0,
+        ]);
+        for a in &ts {
+            for b in &ts {
+                let (ka, kb) = (
+                    PopEstimate::Float(*a, true).key(),
+                    PopEstimate::Float(*b, true).key(),
+                );
+                assert_eq!(ka.cmp(&kb), a.total_cmp(b), "{a} {b}");
+                let (qa, qb) = ((a * 65_536.0) as i64, (b * 65_536.0) as i64);
+                let (ka, kb) = (
+                    PopEstimate::Fixed((qa, true)).key(),
+                    PopEstimate::Fixed((qb, false)).key(),
+                );
+                assert_eq!(ka.cmp(&kb), qa.cmp(&qb));
+            }
+        }
     }
 }

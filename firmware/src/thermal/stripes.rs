@@ -297,31 +297,23 @@ fn run<const F: usize>(
                 row.add_to::<F, false>(brow, class, lin);
             }
         }
-        // Every input pixel of the row's contact working pixels, at the frame's own local
-        // grating (see `local_phases` and `keep_units`), summed over the row in 32 bits
-        // (the core, and the rest of the region) and added to the region's sums at its end.
-        let mut row_parts = RowParts::default();
-        for xw in (rx0..rx1).filter(|&x| rel[x]) {
-            let reg = codes[xw - cx0];
-            if reg == region::NONE {
-                continue;
-            }
-            let (xa, xb) = (xw.saturating_sub(1), (xw + 1).min(g.w - 1));
-            let gx = gradient(trow[xa], trow[xb], xb - xa, g.carrier_units[0]);
-            let gy = gradient(up[xw], down[xw], yb - ya, g.carrier_units[1]);
-            let keep = keep_units(gx, gy, g.carrier_units);
-            let part = row_parts.part(reg == region::CORE, f * f, &mut contact);
-            local_phases(trow[xw], gx, gy, f, |ky, ts| {
-                let base = (yw * f + ky) * stride + xw * f3;
-                let (px, _) = raw[base..base + f3].as_chunks::<3>();
-                for (p, &t) in px.iter().zip(ts) {
-                    if let Some(pop) = kept(t, keep) {
-                        part.add::<true>(pop, lin, p);
-                    }
-                }
-            });
+        if rx1 > rx0 {
+            let row = ContactRow {
+                pixels: raw,
+                stride,
+                y0: yw * f,
+                up,
+                theta: trow,
+                down,
+                ny: yb - ya,
+                reliable: rel,
+                codes,
+                cx0,
+                span: (rx0, rx1),
+                carrier: g.carrier_units,
+            };
+            row.add_to::<F>(f, lin, &mut contact);
         }
-        row_parts.flush(&mut contact);
     }
     let blocks = parts
         .iter()
@@ -332,6 +324,70 @@ fn run<const F: usize>(
         })
         .collect();
     (blocks, contact)
+}
+
+/// One working row of the contact region.
+struct ContactRow<'a> {
+    /// The frame (sRGB, row-major) and its row stride, bytes.
+    pixels: &'a [u8],
+    stride: usize,
+    /// The first input row of the working row.
+    y0: usize,
+    /// The frame's grating phase along the working rows above, this one and below, units.
+    up: &'a [u16],
+    theta: &'a [u16],
+    down: &'a [u16],
+    /// Working rows between `up` and `down` (2, or 1 at the image's top and bottom).
+    ny: usize,
+    /// Whether the FTP trusted each working pixel's phase.
+    reliable: &'a [bool],
+    /// The row's region codes, from working column `cx0`.
+    codes: &'a [u8],
+    cx0: usize,
+    /// The working columns that hold the row's contact region.
+    span: (usize, usize),
+    /// The reference carrier's advance per working pixel across and down, units.
+    carrier: [i32; 2],
+}
+
+impl ContactRow<'_> {
+    /// Adds every input pixel of the row's contact working pixels to the contact region's
+    /// sums (`contact`: the region, its core), at the frame's own local grating (see
+    /// `local_phases` and `keep_units`): summed over the row in 32 bits (the core, and the
+    /// rest of the region) and added to the region's sums at its end. `f` input pixels per
+    /// working pixel each way (`F` when not 0).
+    fn add_to<const F: usize>(&self, f: usize, lin: &[u32; 256], contact: &mut [Sums; 2]) {
+        let f = if F == 0 { f } else { F };
+        let f3 = 3 * f;
+        let w = self.theta.len();
+        let (x0, x1) = self.span;
+        let mut parts = RowParts::default();
+        for xw in (x0..x1.min(w)).filter(|&x| self.reliable[x]) {
+            let reg = self
+                .codes
+                .get(xw - self.cx0)
+                .copied()
+                .unwrap_or(region::NONE);
+            if reg == region::NONE {
+                continue;
+            }
+            let (xa, xb) = (xw.saturating_sub(1), (xw + 1).min(w - 1));
+            let gx = gradient(self.theta[xa], self.theta[xb], xb - xa, self.carrier[0]);
+            let gy = gradient(self.up[xw], self.down[xw], self.ny, self.carrier[1]);
+            let keep = keep_units(gx, gy, self.carrier);
+            let part = parts.part(reg == region::CORE, f * f, contact);
+            local_phases(self.theta[xw], gx, gy, f, |ky, ts| {
+                let base = (self.y0 + ky) * self.stride + xw * f3;
+                let (px, _) = self.pixels[base..base + f3].as_chunks::<3>();
+                for (p, &t) in px.iter().zip(ts) {
+                    if let Some(pop) = kept(t, keep) {
+                        part.add::<true>(pop, lin, p);
+                    }
+                }
+            });
+        }
+        parts.flush(contact);
+    }
 }
 
 /// A row's contact samples in 32 bits: the region outside its core, and the core.
