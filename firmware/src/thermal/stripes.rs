@@ -241,11 +241,19 @@ fn run<const F: usize>(
             rows_at[y % 3] = y;
         }
     };
-    // Blocks sum in 32 bits: a block reads at most five rows of 16 working pixels of at most
-    // eight input pixels each, 640 samples of ≤ 2¹⁶.
-    let mut parts: Vec<Part> = std::iter::repeat_with(Part::default)
-        .take(g.bw * g.bh)
-        .collect();
+    // A row of blocks sums in 32 bits (a block reads at most five rows of 16 working pixels
+    // of at most eight input pixels each, 640 samples of ≤ 2¹⁶), and is added to the
+    // blocks' sums when the next begins.
+    let mut blocks: Vec<Sums> = Vec::with_capacity(g.bw * g.bh);
+    let mut parts = vec![Part::default(); g.bw];
+    let flush = |parts: &mut [Part], blocks: &mut Vec<Sums>| {
+        blocks.extend(parts.iter_mut().map(|p| {
+            let mut s = Sums::default();
+            p.add_to(&mut s);
+            *p = Part::default();
+            s
+        }));
+    };
     let mut contact = [Sums::default(); 2];
     let class = &class_table();
     // Each input pixel's phase offset from its working pixel's, padded to the largest factor
@@ -259,6 +267,9 @@ fn run<const F: usize>(
     let f3 = 3 * f;
     let stride = width * 3;
     for yw in 0..g.h {
+        if yw > 0 && yw % g.block_px == 0 {
+            flush(&mut parts, &mut blocks);
+        }
         let on_grid = yw % g.row_step == 0;
         let row = yw * g.w..(yw + 1) * g.w;
         // The row's stretch of contact region, if any.
@@ -279,7 +290,7 @@ fn run<const F: usize>(
         if on_grid {
             let y = yw * f + f / 2;
             let (line, _) = raw[y * stride..y * stride + g.w * f3].as_chunks::<3>();
-            let brow = &mut parts[(yw / g.block_px) * g.bw..(yw / g.block_px + 1) * g.bw];
+            let brow = &mut parts[..];
             let row = BlockRow {
                 line,
                 theta: trow,
@@ -315,14 +326,9 @@ fn run<const F: usize>(
             row.add_to::<F>(f, lin, &mut contact);
         }
     }
-    let blocks = parts
-        .iter()
-        .map(|p| {
-            let mut s = Sums::default();
-            p.add_to(&mut s);
-            s
-        })
-        .collect();
+    if g.h > 0 {
+        flush(&mut parts, &mut blocks);
+    }
     (blocks, contact)
 }
 
@@ -515,7 +521,7 @@ impl BlockRow<'_> {
 
 /// A few samples' sums in 32 bits (linear R, G, B and the count, per population), added
 /// to a [`Sums`] at the end.
-#[derive(Default)]
+#[derive(Default, Clone, Copy)]
 struct Part([[u32; 4]; 2]);
 
 impl Part {
@@ -806,6 +812,7 @@ mod tests {
                     });
                 }
             }
+            assert_eq!(blocks.len(), want.len());
             for (i, (a, b)) in blocks.iter().zip(&want).enumerate() {
                 assert_eq!(
                     a, b,
