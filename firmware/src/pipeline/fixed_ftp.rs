@@ -48,6 +48,7 @@ pub fn atan_table() -> &'static [u16; 257] {
 }
 
 /// Integer `atan2(y, x)` in phase units, in [−32 768, 32 767].
+#[inline]
 pub fn atan2_units(y: i64, x: i64, table: &[u16; 257]) -> i32 {
     let (ax, ay) = (x.unsigned_abs(), y.unsigned_abs());
     if ax == 0 && ay == 0 {
@@ -434,6 +435,20 @@ impl PhaseMap for FixedField<'_> {
         let (c, d) = (i64::from(r.re[k]), i64::from(r.im[k]));
         atan2_units(b * c - a * d, a * c + b * d, self.ftp.atan)
     }
+    /// [`PhaseMap::wrapped`] of every sample in one loop over the four planes.
+    fn wrapped_all(&self) -> Vec<i32> {
+        let (f, r, table) = (&self.frame, &self.ftp.reference, self.ftp.atan);
+        // The frame's and the reference's planes are sampled on the same coarse grid.
+        debug_assert!(f.re.len() == r.re.len() && f.im.len() == r.im.len());
+        f.re.iter()
+            .zip(&f.im)
+            .zip(r.re.iter().zip(&r.im))
+            .map(|((&a, &b), (&c, &d))| {
+                let (a, b, c, d) = (i64::from(a), i64::from(b), i64::from(c), i64::from(d));
+                atan2_units(b * c - a * d, a * c + b * d, table)
+            })
+            .collect()
+    }
     fn amp_frame(&self, k: usize) -> u32 {
         amp(self.frame.re[k], self.frame.im[k])
     }
@@ -454,6 +469,32 @@ impl PhaseMap for FixedField<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The one-pass phases equal the per-sample ones, on a frame with a bump and a shift.
+    #[test]
+    fn all_wrapped_phases_in_one_pass_equal_each_one() {
+        let stripes = |shift: f64, bump: f64| {
+            RgbImage::from_fn(160, 120, move |x, y| {
+                let (dx, dy) = (f64::from(x) - 80.0, f64::from(y) - 60.0);
+                let d = bump * (-(dx * dx + dy * dy) / 200.0).exp();
+                let t =
+                    (f64::from(x) + 0.1 * f64::from(y) + shift + d) * std::f64::consts::TAU / 13.0;
+                let v = (127.0 + 100.0 * t.cos()) as u8;
+                image::Rgb([v, v, v])
+            })
+        };
+        let reference = stripes(0.0, 0.0);
+        let working = carrier::working(&reference, None).expect("carrier");
+        let ftp = FixedFtp::new(&reference, &working, &Calibration::default_sim()).expect("ftp");
+        let field = ftp.phase(&stripes(0.7, 3.0));
+        let all = field.wrapped_all();
+        let (w, h) = field.size();
+        assert_eq!(all.len(), w.div_ceil(GRID) * h.div_ceil(GRID));
+        for (k, &p) in all.iter().enumerate() {
+            assert_eq!(p, field.wrapped(k), "sample {k}");
+        }
+        assert!(all.iter().any(|&p| p != all[0]));
+    }
 
     #[test]
     fn integer_atan2_matches_float_everywhere() {

@@ -205,7 +205,7 @@ pub(super) fn read_coarse<M: PhaseMap>(map: &M, lim: u32, margin: &Margin) -> Co
     let n = cw * ch;
     // One plain pass per map (collected from exact-size iterators: no capacity test per
     // sample).
-    let phase: Vec<M::P> = (0..n).map(|k| map.wrapped(k)).collect();
+    let phase: Vec<M::P> = map.wrapped_all();
     let amp: Vec<u32> = (0..n).map(|k| map.amp_frame(k)).collect();
     let amp_r: Vec<u32> = (0..n).map(|k| map.amp_ref(k)).collect();
     let (mut inside_n, mut reliable_n) = (0, 0);

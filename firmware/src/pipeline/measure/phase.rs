@@ -133,6 +133,13 @@ pub trait PhaseMap {
     /// `(GRID·(k % cw), GRID·(k / cw))`, `cw = w.div_ceil(GRID)` (the measurement reads
     /// each sample once, so a path may compute it here).
     fn wrapped(&self, k: usize) -> Self::P;
+    /// Every coarse sample's wrapped phase difference, in order: [`PhaseMap::wrapped`] for
+    /// `k` = 0, 1, …; a path may compute them in one pass.
+    fn wrapped_all(&self) -> Vec<Self::P> {
+        let (w, h) = self.size();
+        let n = w.div_ceil(GRID) * h.div_ceil(GRID);
+        (0..n).map(|k| self.wrapped(k)).collect()
+    }
     /// Fringe amplitude of the frame at coarse sample `k` (any fixed scale shared with
     /// `amp_ref`).
     fn amp_frame(&self, k: usize) -> u32;
