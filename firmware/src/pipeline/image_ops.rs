@@ -30,9 +30,8 @@ pub const SATURATION_ROW_STEP: usize = 4;
 /// dropped. Also returns the fraction of pixels with a saturated channel
 /// ([`saturated_fraction`]).
 ///
-/// The `f` rows of a block are first summed channel by channel (`u16`, a loop the compiler
-/// vectorises), then each block weighted once: three multiplications per output pixel
-/// instead of three per input pixel.
+/// Two orders of the same integer sums, chosen by the target: pixels first on AArch64,
+/// rows first elsewhere (see the two functions; measured on AArch64 and x86-64 only).
 pub fn gray_down_q8(img: &RgbImage, f: usize) -> (Vec<u16>, usize, usize, f32) {
     let gray = match f {
         0 | 1 => gray_down_with::<1>(img),
@@ -50,6 +49,19 @@ pub fn gray_down_q8(img: &RgbImage, f: usize) -> (Vec<u16>, usize, usize, f32) {
 }
 
 fn gray_down_with<const F: usize>(img: &RgbImage) -> Vec<u16> {
+    // The two orders give the same integers; each is the cheaper on one kind of core.
+    if cfg!(target_arch = "aarch64") {
+        gray_down_pixels_first::<F>(img)
+    } else {
+        gray_down_rows_first::<F>(img)
+    }
+}
+
+/// [`gray_down_q8`] summing the block's rows channel by channel first (`u16`, a loop the
+/// compiler vectorises on any core), then weighting each block once: three
+/// multiplications per output pixel instead of three per input pixel. The cheaper order
+/// where vectors have no 32-bit multiply (baseline x86-64).
+fn gray_down_rows_first<const F: usize>(img: &RgbImage) -> Vec<u16> {
     let (w, h) = (img.width() as usize, img.height() as usize);
     let (ow, oh) = (w / F, h / F);
     let raw: &[u8] = img.as_raw();
@@ -79,6 +91,46 @@ fn gray_down_with<const F: usize>(img: &RgbImage) -> Vec<u16> {
             let acc = LUMA_Q8[0] * r + LUMA_Q8[1] * g + LUMA_Q8[2] * b;
             ((acc + n / 2) / n) as u16
         }));
+    }
+    out
+}
+
+/// [`gray_down_q8`] weighting every input pixel first, in 16 bits (a luminance is at most
+/// 65 280, so 16-bit arithmetic is exact), then summing the block's rows and columns in 32
+/// bits. The pixel loop vectorises where loads de-interleave RGB (AArch64's `ld3`), which
+/// makes this the cheaper order there: 1.3 M instructions fewer per 640×480 frame than
+/// rows first, which costs 0.5 M fewer on x86-64.
+fn gray_down_pixels_first<const F: usize>(img: &RgbImage) -> Vec<u16> {
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    let (ow, oh) = (w / F, h / F);
+    let raw: &[u8] = img.as_raw();
+    // Every output is written once: no zeroed buffer first.
+    let mut out = Vec::with_capacity(ow * oh);
+    let span = ow * F;
+    let mut luma = vec![0u16; span];
+    let mut sum = vec![0u32; span];
+    let n = (F * F) as u32;
+    const W: [u16; 3] = [LUMA_Q8[0] as u16, LUMA_Q8[1] as u16, LUMA_Q8[2] as u16];
+    for oy in 0..oh {
+        for (k, y) in (oy * F..(oy + 1) * F).enumerate() {
+            let (line, _) = raw[y * w * 3..(y * w + span) * 3].as_chunks::<3>();
+            for (l, p) in luma.iter_mut().zip(line) {
+                *l = W[0] * u16::from(p[0]) + W[1] * u16::from(p[1]) + W[2] * u16::from(p[2]);
+            }
+            if k == 0 {
+                for (s, &l) in sum.iter_mut().zip(&luma) {
+                    *s = u32::from(l);
+                }
+            } else {
+                for (s, &l) in sum.iter_mut().zip(&luma) {
+                    *s += u32::from(l);
+                }
+            }
+        }
+        out.extend(
+            sum.chunks_exact(F)
+                .map(|block| ((block.iter().sum::<u32>() + n / 2) / n) as u16),
+        );
     }
     out
 }
@@ -170,6 +222,55 @@ mod tests {
         assert!(n > 10);
         let want = n as f32 / (rows.len() * 37) as f32;
         assert_eq!(saturated_fraction(&img), want);
+    }
+
+    /// Both orders of the integer luminance against its plain reading, pixel by pixel, for
+    /// every factor and sizes that leave partial blocks.
+    #[test]
+    fn both_luminance_orders_give_the_block_means() {
+        let mut rng = crate::test_rng::XorShift(0x51_7cc1_b727_220a);
+        let img = RgbImage::from_fn(37, 29, |_, _| {
+            let v = rng.next();
+            image::Rgb([v as u8, (v >> 8) as u8, (v >> 16) as u8])
+        });
+        let plain = |f: usize| -> Vec<u16> {
+            let (ow, oh) = (37 / f, 29 / f);
+            let n = (f * f) as u32;
+            (0..ow * oh)
+                .map(|k| {
+                    let (ox, oy) = (k % ow, k / ow);
+                    let mut acc = 0u32;
+                    for y in oy * f..(oy + 1) * f {
+                        for x in ox * f..(ox + 1) * f {
+                            let p = img.get_pixel(x as u32, y as u32);
+                            acc += (0..3).map(|c| LUMA_Q8[c] * u32::from(p[c])).sum::<u32>();
+                        }
+                    }
+                    ((acc + n / 2) / n) as u16
+                })
+                .collect()
+        };
+        fn both<const F: usize>(img: &RgbImage) -> [Vec<u16>; 2] {
+            [
+                gray_down_rows_first::<F>(img),
+                gray_down_pixels_first::<F>(img),
+            ]
+        }
+        let orders = [
+            both::<1>(&img),
+            both::<2>(&img),
+            both::<3>(&img),
+            both::<4>(&img),
+            both::<5>(&img),
+            both::<6>(&img),
+            both::<7>(&img),
+            both::<8>(&img),
+        ];
+        for (i, [rows, pixels]) in orders.iter().enumerate() {
+            let want = plain(i + 1);
+            assert_eq!(rows, &want, "rows first, factor {}", i + 1);
+            assert_eq!(pixels, &want, "pixels first, factor {}", i + 1);
+        }
     }
 
     #[test]
