@@ -63,11 +63,15 @@ pub fn unwrap_region<P: Phase>(
     let mut out = wrapped.to_vec();
     let mut done: Vec<bool> = region.iter().map(|r| !r).collect();
     let qmax = u64::from(quality.iter().copied().max().unwrap_or(0).max(1));
-    let level = |i: usize| ((u64::from(quality[i]) * (QUALITY_LEVELS as u64 - 1)) / qmax) as usize;
+    // Each pixel's queue level, once (a pixel is queued once per neighbour reached).
+    let level: Vec<u8> = quality
+        .iter()
+        .map(|&q| ((u64::from(q) * (QUALITY_LEVELS as u64 - 1)) / qmax) as u8)
+        .collect();
     let mut buckets: Vec<Vec<usize>> = vec![Vec::new(); QUALITY_LEVELS];
     let mut top = 0usize;
-    let neighbours = |i: usize| {
-        let (x, y) = (i % w, i / w);
+    // Pixel `i` at (`x`, `y`): left, right, up, down.
+    let neighbours = |i: usize, x: usize, y: usize| {
         [
             (x > 0).then(|| i - 1),
             (x + 1 < w).then(|| i + 1),
@@ -75,11 +79,19 @@ pub fn unwrap_region<P: Phase>(
             (y + 1 < h).then(|| i + w),
         ]
     };
-    for i in 0..w * h {
-        if region[i] && neighbours(i).into_iter().flatten().any(|n| !region[n]) {
-            let l = level(i);
-            buckets[l].push(i);
-            top = top.max(l);
+    for y in 0..h {
+        for x in 0..w {
+            let i = y * w + x;
+            if region[i]
+                && neighbours(i, x, y)
+                    .into_iter()
+                    .flatten()
+                    .any(|n| !region[n])
+            {
+                let l = usize::from(level[i]);
+                buckets[l].push(i);
+                top = top.max(l);
+            }
         }
     }
     loop {
@@ -90,7 +102,8 @@ pub fn unwrap_region<P: Phase>(
         if done[i] {
             continue;
         }
-        let best = neighbours(i)
+        let near = neighbours(i, i % w, i / w);
+        let best = near
             .into_iter()
             .flatten()
             .filter(|&n| done[n])
@@ -98,9 +111,9 @@ pub fn unwrap_region<P: Phase>(
         let Some(n) = best else { continue };
         out[i] = P::add(out[n], P::wrapped_diff(wrapped[i], wrapped[n]));
         done[i] = true;
-        for m in neighbours(i).into_iter().flatten() {
+        for m in near.into_iter().flatten() {
             if !done[m] {
-                let l = level(m);
+                let l = usize::from(level[m]);
                 buckets[l].push(m);
                 top = top.max(l);
             }
