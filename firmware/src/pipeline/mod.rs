@@ -167,9 +167,9 @@ pub struct AnalyzerOptions {
 }
 
 /// Adds the frame's temperatures to its force-side result `d`: the frame's grating phase
-/// (`phase(y, reference, row)`: the reference's plus the FTP's wrapped phase difference, units,
-/// a working row at a time) places the stripes, the contact region (depth ≥ half the peak,
-/// read from its core at ≥ ¾ of the peak where that is big enough) gets its own
+/// (`phase(y, reference, row)`: the reference's plus the FTP's wrapped phase difference,
+/// units, a working row at a time) places the stripes, the contact region (depth ≥ half
+/// the peak, read from its core at ≥ ¾ of the peak where that is big enough) gets its own
 /// temperature, and a reading outside the calibration is flagged.
 fn with_temperature(
     mut d: Deformation,

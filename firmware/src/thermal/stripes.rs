@@ -290,7 +290,6 @@ fn run<const F: usize>(
         if on_grid {
             let y = yw * f + f / 2;
             let (line, _) = raw[y * stride..y * stride + g.w * f3].as_chunks::<3>();
-            let brow = &mut parts[..];
             let row = BlockRow {
                 line,
                 theta: trow,
@@ -301,11 +300,10 @@ fn run<const F: usize>(
             };
             // Most rows hold no saturated byte, which their maximum (a loop the compiler
             // vectorises) tells; their samples then skip the test.
-            let raw_line = line.as_flattened();
-            if raw_line.iter().fold(0u8, |m, &b| m.max(b)) == 255 {
-                row.add_to::<F, true>(brow, class, lin);
+            if line.as_flattened().iter().fold(0u8, |m, &b| m.max(b)) == 255 {
+                row.add_to::<F, true>(&mut parts, class, lin);
             } else {
-                row.add_to::<F, false>(brow, class, lin);
+                row.add_to::<F, false>(&mut parts, class, lin);
             }
         }
         if rx1 > rx0 {
@@ -487,9 +485,10 @@ struct BlockRow<'a> {
 
 impl BlockRow<'_> {
     /// Adds the row's samples to its blocks' sums (`blocks`, one per block across), block
-    /// by block: no division per pixel. A working pixel's inputs at a time, at its phase plus their
-    /// offsets (for the specialised factors `F` the inner loop unrolls); an unreliable
-    /// working pixel is skipped whole. `CHECK`: whether a channel can be saturated.
+    /// by block: no division per pixel. A working pixel's inputs at a time, at its phase
+    /// plus their offsets (for the specialised factors `F` the inner loop unrolls); an
+    /// unreliable working pixel is skipped whole. `CHECK`: whether a channel can be
+    /// saturated.
     fn add_to<const F: usize, const CHECK: bool>(
         &self,
         blocks: &mut [Part],
@@ -527,8 +526,7 @@ struct Part([[u32; 4]; 2]);
 impl Part {
     /// One input pixel `p` (sRGB bytes) at grating phase `t` (units): skipped at a stripe
     /// edge (before any colour is read: half the pixels) or with a saturated channel
-    /// ([`SATURATED`] in its linear value).
-    /// `CHECK` false: the caller knows no channel is saturated.
+    /// ([`SATURATED`] in its linear value; `CHECK` false: the caller knows none is).
     #[inline(always)]
     fn sample<const CHECK: bool>(
         &mut self,
