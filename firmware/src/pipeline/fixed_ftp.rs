@@ -80,6 +80,15 @@ pub fn atan2_units(y: i64, x: i64, table: &[u16; 257]) -> i32 {
     i32::from(a as i16)
 }
 
+/// `arg(z · conj z_ref)` in phase units, `z` and `z_ref` as (re, im): the product in 64
+/// bits, then the integer `atan2`.
+#[inline]
+fn phase_difference(z: (i32, i32), z_ref: (i32, i32), table: &[u16; 257]) -> i32 {
+    let (a, b) = (i64::from(z.0), i64::from(z.1));
+    let (c, d) = (i64::from(z_ref.0), i64::from(z_ref.1));
+    atan2_units(b * c - a * d, a * c + b * d, table)
+}
+
 /// The demodulated signal's planes, sampled every `step` working pixels each way.
 #[derive(Debug, Clone, Default)]
 struct Sampled {
@@ -427,13 +436,10 @@ impl PhaseMap for FixedField<'_> {
     fn size(&self) -> (usize, usize) {
         (self.ftp.w, self.ftp.h)
     }
-    /// `arg(z · conj z_ref)` in phase units: the product in 64 bits, then the integer
-    /// `atan2`.
     fn wrapped(&self, k: usize) -> i32 {
-        let (a, b) = (i64::from(self.frame.re[k]), i64::from(self.frame.im[k]));
         let r = &self.ftp.reference;
-        let (c, d) = (i64::from(r.re[k]), i64::from(r.im[k]));
-        atan2_units(b * c - a * d, a * c + b * d, self.ftp.atan)
+        let z = (self.frame.re[k], self.frame.im[k]);
+        phase_difference(z, (r.re[k], r.im[k]), self.ftp.atan)
     }
     /// [`PhaseMap::wrapped`] of every sample in one loop over the four planes.
     fn wrapped_all(&self) -> Vec<i32> {
@@ -443,10 +449,7 @@ impl PhaseMap for FixedField<'_> {
         f.re.iter()
             .zip(&f.im)
             .zip(r.re.iter().zip(&r.im))
-            .map(|((&a, &b), (&c, &d))| {
-                let (a, b, c, d) = (i64::from(a), i64::from(b), i64::from(c), i64::from(d));
-                atan2_units(b * c - a * d, a * c + b * d, table)
-            })
+            .map(|((&a, &b), (&c, &d))| phase_difference((a, b), (c, d), table))
             .collect()
     }
     fn amp_frame(&self, k: usize) -> u32 {
