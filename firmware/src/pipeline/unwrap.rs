@@ -10,6 +10,16 @@
 //! among pixels of nearly equal quality, where it does not matter. Generic over the phase
 //! representation: `f32` radians on the float path, `i32` in units of 2π/65 536 on the
 //! device path.
+//!
+//! **Residue-free windows by scan lines.** Where no 2 × 2 loop of the window has a residue,
+//! the unwrapped phase does not depend on the path: it is the one field whose neighbour
+//! differences are the wrapped differences, up to a constant that the seeds fix. The device
+//! path's integer phases are exact, so [`unwrap_window`] builds that field along the rows
+//! and checks every vertical difference against it (which is the residue test), then
+//! checks the seeds against it: when everything holds, the result equals the
+//! quality-guided fill's sample for sample, at a few instructions per sample instead of a
+//! queue. Otherwise (a residue, no seed, a seed off the field) the quality-guided fill
+//! runs. Float phases always take the fill (their loop sums are not exactly zero).
 
 /// Quality levels of the unwrapping queue.
 pub const QUALITY_LEVELS: usize = 64;
@@ -22,6 +32,13 @@ pub trait Phase: Copy + Default {
     fn add(a: Self, b: Self) -> Self;
     /// Whole turns in `x` (rounded).
     fn turns(x: Self) -> i32;
+    /// The unwrapped window when it is free of residues and its seeds (the samples outside
+    /// `region`) agree with it, by scan lines (see the module doc); `None` otherwise, and
+    /// always for a representation whose arithmetic is not exact.
+    fn scan_unwrap(wrapped: &[Self], region: &[bool], w: usize, h: usize) -> Option<Vec<Self>> {
+        let _ = (wrapped, region, w, h);
+        None
+    }
 }
 
 impl Phase for f32 {
@@ -48,6 +65,77 @@ impl Phase for i32 {
     fn turns(x: i32) -> i32 {
         (x + 32_768).div_euclid(65_536)
     }
+    fn scan_unwrap(wrapped: &[i32], region: &[bool], w: usize, h: usize) -> Option<Vec<i32>> {
+        if w == 0 || h == 0 || wrapped.len() != w * h || region.len() != w * h {
+            return None;
+        }
+        let d = |a: i32, b: i32| i32::wrapped_diff(a, b);
+        // Each row from its first sample, the first samples down the first column; every
+        // vertical difference after the first column is then checked against the field:
+        // all hold exactly when no 2 × 2 loop has a residue. Sums stay within ±2³¹: a
+        // window holds far fewer than 65 536 samples along any path.
+        let mut u = Vec::with_capacity(w * h);
+        let mut prev = wrapped[0];
+        for y in 0..h {
+            let row = &wrapped[y * w..(y + 1) * w];
+            if y > 0 {
+                prev = prev.wrapping_add(d(row[0], wrapped[(y - 1) * w]));
+            }
+            let start = u.len();
+            u.push(prev);
+            let mut v = prev;
+            for pair in row.windows(2) {
+                v = v.wrapping_add(d(pair[1], pair[0]));
+                u.push(v);
+            }
+            if y > 0 {
+                let (above, here) = u[start - w..].split_at(w);
+                let up = &wrapped[(y - 1) * w..y * w];
+                let consistent = above
+                    .iter()
+                    .zip(here)
+                    .zip(up.iter().zip(row))
+                    .all(|((&a, &b), (&p, &q))| b.wrapping_sub(a) == d(q, p));
+                if !consistent {
+                    return None;
+                }
+            }
+        }
+        // The seeds fix the constant, and must all agree with it.
+        let s = region.iter().position(|r| !r)?;
+        let c = wrapped[s].wrapping_sub(u[s]);
+        let agree = u
+            .iter()
+            .zip(wrapped)
+            .zip(region)
+            .all(|((&f, &p), &r)| r || f.wrapping_add(c) == p);
+        if !agree {
+            return None;
+        }
+        for f in &mut u {
+            *f = f.wrapping_add(c);
+        }
+        Some(u)
+    }
+}
+
+/// Unwraps the window `wrapped` (`w × h`) inside `region`, seeded from the samples outside
+/// it: by scan lines when the window is free of residues (exact representations; see the
+/// module doc), otherwise by the quality-guided fill ordered by `quality()` (computed only
+/// then). Returns the unwrapped phase, the region samples no seed reaches, and the residues
+/// inside the region.
+pub fn unwrap_window<P: Phase>(
+    wrapped: &[P],
+    region: &[bool],
+    w: usize,
+    h: usize,
+    quality: impl FnOnce() -> Vec<u32>,
+) -> (Vec<P>, usize, usize) {
+    if let Some(u) = P::scan_unwrap(wrapped, region, w, h) {
+        return (u, 0, 0);
+    }
+    let (u, unreached) = unwrap_region(wrapped, &quality(), region, w, h);
+    (u, unreached, residues(wrapped, region, w, h))
 }
 
 /// Unwraps `wrapped` inside `region` (both `w × h`), seeded from the pixels outside it.
@@ -197,6 +285,82 @@ mod tests {
             assert!((*a as f32 / 65_536.0 * std::f32::consts::TAU - b).abs() < 1e-3);
         }
         assert_eq!(residues(&wrapped, &region, w, h), 0);
+    }
+
+    /// A deep bowl in integer units with noise, its region, and random qualities.
+    fn noisy_bowl(seed: u64) -> (Vec<i32>, Vec<bool>, Vec<u32>, usize, usize) {
+        let (w, h) = (41, 37);
+        let mut rng = crate::test_rng::XorShift(seed);
+        let truth = bowl(w, h, 11.0);
+        let wrapped: Vec<i32> = truth
+            .iter()
+            .map(|&p| {
+                let noise = (rng.next() % 301) as i32 - 150;
+                i32::wrapped_diff((p / std::f32::consts::TAU * 65_536.0) as i32 + noise, 0)
+            })
+            .collect();
+        let region: Vec<bool> = truth.iter().map(|p| p.abs() > 0.05).collect();
+        let quality: Vec<u32> = (0..w * h).map(|_| (rng.next() % 1000) as u32).collect();
+        (wrapped, region, quality, w, h)
+    }
+
+    #[test]
+    fn scan_lines_equal_the_quality_guided_fill_on_a_residue_free_window() {
+        for seed in [1, 2, 3, 0x9e37_79b9] {
+            let (wrapped, region, quality, w, h) = noisy_bowl(seed);
+            let scanned = i32::scan_unwrap(&wrapped, &region, w, h).expect("residue-free");
+            let (filled, unreached) = unwrap_region(&wrapped, &quality, &region, w, h);
+            assert_eq!(unreached, 0);
+            assert_eq!(scanned, filled, "seed {seed}");
+            // More than a turn deep: the scan did unwrap.
+            assert!(scanned.iter().any(|&p| p < -65_536));
+            let (u, unreached, n_res) = unwrap_window(&wrapped, &region, w, h, || {
+                panic!("the quality is only computed for the fill")
+            });
+            assert_eq!((u, unreached, n_res), (filled, 0, 0));
+        }
+    }
+
+    #[test]
+    fn windows_the_scan_cannot_take_fall_back_to_the_fill() {
+        let (wrapped, region, quality, w, h) = noisy_bowl(7);
+        // A residue: one sample of the deep slope moved by half a turn.
+        let mut twisted = wrapped.clone();
+        let i = (h / 2) * w + w / 2 + 3;
+        twisted[i] = i32::wrapped_diff(twisted[i], 32_768);
+        assert_eq!(i32::scan_unwrap(&twisted, &region, w, h), None);
+        let (u, unreached, n_res) = unwrap_window(&twisted, &region, w, h, || quality.clone());
+        let (filled, filled_unreached) = unwrap_region(&twisted, &quality, &region, w, h);
+        assert_eq!((u, unreached), (filled, filled_unreached));
+        assert_eq!(n_res, residues(&twisted, &region, w, h));
+        assert!(n_res > 0);
+        // Two opposite residues in one strip of rows: every row and the seed ring agree
+        // with the scan, only the vertical differences across the cut between them do not.
+        let (dw, dh) = (31, 21);
+        let dipole: Vec<i32> = (0..dw * dh)
+            .map(|i| {
+                let (x, y) = ((i % dw) as f32, (i / dw) as f32);
+                let a = (y - 10.5).atan2(x - 10.5) - (y - 10.5).atan2(x - 20.5);
+                i32::wrapped_diff((a / std::f32::consts::TAU * 65_536.0) as i32, 0)
+            })
+            .collect();
+        let ring: Vec<bool> = (0..dw * dh)
+            .map(|i| (1..dw - 1).contains(&(i % dw)) && (1..dh - 1).contains(&(i / dw)))
+            .collect();
+        assert_eq!(residues(&dipole, &ring, dw, dh), 2);
+        assert_eq!(i32::scan_unwrap(&dipole, &ring, dw, dh), None);
+        // A seed a turn off the field: residue-free, yet the seeds disagree.
+        let mut off = region.clone();
+        off[(h / 2) * w + w / 2] = false;
+        assert_eq!(i32::scan_unwrap(&wrapped, &off, w, h), None);
+        // No seed at all: nothing fixes the constant, and the fill reaches nothing.
+        let all = vec![true; w * h];
+        assert_eq!(i32::scan_unwrap(&wrapped, &all, w, h), None);
+        let (_, unreached, _) = unwrap_window(&wrapped, &all, w, h, || quality.clone());
+        assert_eq!(unreached, w * h);
+        // Float phases always take the fill.
+        let f: Vec<f32> = wrapped.iter().map(|&p| p as f32 / 10_000.0).collect();
+        assert_eq!(f32::scan_unwrap(&f, &region, w, h), None);
     }
 
     #[test]

@@ -27,7 +27,7 @@ use features::slope_p98_exceeds;
 
 use super::carrier::Carrier;
 use super::float_ftp::BAND_HALF_WIDTH;
-use super::unwrap::{residues, unwrap_region};
+use super::unwrap::unwrap_window;
 use super::{Deformation, TILE_PX};
 use crate::calibration::Calibration;
 
@@ -334,12 +334,12 @@ pub fn measure<M: PhaseMap>(
         Unwrap::Never => false,
     };
     let (u, unreached, n_res) = if unwrap {
-        let quality: Vec<u32> = window_of(&amp, cw, wxs, wys.clone())
-            .zip(window_of(&amp_r, cw, wxs, wys.clone()))
-            .map(|(a, r)| a.min(r))
-            .collect();
-        let (u, unreached) = unwrap_region(&lphi, &quality, &lreg, cbw, cbh);
-        (u, unreached, residues(&lphi, &lreg, cbw, cbh))
+        unwrap_window(&lphi, &lreg, cbw, cbh, || {
+            window_of(&amp, cw, wxs, wys.clone())
+                .zip(window_of(&amp_r, cw, wxs, wys.clone()))
+                .map(|(a, r)| a.min(r))
+                .collect()
+        })
     } else {
         (lphi, 0, 0)
     };
