@@ -108,14 +108,25 @@ pub(super) fn slope_p98_exceeds(u: &[i32], mask: &[bool], w: usize, h: usize, li
     };
     let m2 = m.saturating_mul(m);
     let (mut n, mut below) = (0usize, 0usize);
-    for y in 1..h.saturating_sub(1) {
-        for x in 1..w.saturating_sub(1) {
-            let i = y * w + x;
-            if mask[i] {
-                let gx = i64::from(u[i + 1] - u[i - 1]) / 2;
-                let gy = i64::from(u[i + w] - u[i - w]) / 2;
-                n += 1;
-                below += usize::from(gx * gx + gy * gy < m2);
+    if w >= 3 {
+        // Row by row over shifted slices, branch-free: the masked-out samples count zero.
+        for y in 1..h.saturating_sub(1) {
+            let (above, row, under) = (
+                &u[(y - 1) * w + 1..y * w - 1],
+                &u[y * w..(y + 1) * w],
+                &u[(y + 1) * w + 1..(y + 2) * w - 1],
+            );
+            let (left, right) = (&row[..w - 2], &row[2..]);
+            let on = &mask[y * w + 1..(y + 1) * w - 1];
+            let samples = on
+                .iter()
+                .zip(left.iter().zip(right))
+                .zip(above.iter().zip(under));
+            for ((&on, (&l, &r)), (&a, &b)) in samples {
+                let gx = (i64::from(r) - i64::from(l)) / 2;
+                let gy = (i64::from(b) - i64::from(a)) / 2;
+                n += usize::from(on);
+                below += usize::from(on & (gx * gx + gy * gy < m2));
             }
         }
     }

@@ -307,12 +307,17 @@ pub fn measure<M: PhaseMap>(
     // The region on the coarse grid, in a window around it: two samples of border, which
     // seed the unwrapping and feed the interpolation.
     let creg = samples_in(&tiles_on, (cw, ch), tw);
-    let (mut cx0, mut cy0, mut cx1, mut cy1) = (cw, ch, 0, 0);
-    for (cy, row) in creg.chunks_exact(cw).enumerate() {
-        if let (Some(a), Some(b)) = (row.iter().position(|r| *r), row.iter().rposition(|r| *r)) {
-            (cx0, cy0, cx1, cy1) = (cx0.min(a), cy0.min(cy), cx1.max(b), cy1.max(cy));
+    // Its bounding box in coarse samples: that of the tiles, each `PER` samples square,
+    // clipped to the grid as `samples_in` clips them.
+    const PER: usize = TILE_PX / GRID;
+    let (mut tx0, mut ty0, mut tx1, mut ty1) = (tw, th, 0, 0);
+    for (ty, row) in tiles_on.chunks_exact(tw).enumerate() {
+        if let (Some(a), Some(b)) = (row.iter().position(|t| *t), row.iter().rposition(|t| *t)) {
+            (tx0, ty0, tx1, ty1) = (tx0.min(a), ty0.min(ty), tx1.max(b), ty1.max(ty));
         }
     }
+    let (cx0, cy0) = (tx0 * PER, ty0 * PER);
+    let (cx1, cy1) = (((tx1 + 1) * PER).min(cw) - 1, ((ty1 + 1) * PER).min(ch) - 1);
     let (wx0, wy0) = (cx0.saturating_sub(2), cy0.saturating_sub(2));
     let (wx1, wy1) = ((cx1 + 3).min(cw), (cy1 + 3).min(ch));
     let (cbw, cbh) = (wx1 - wx0, wy1 - wy0);
@@ -372,38 +377,43 @@ pub fn measure<M: PhaseMap>(
     // Depth is reported (and counted in the volume) only above the depth of the contact
     // threshold: the map carries deformation, not noise.
     let thr_um = map.depth_um(from_units(thr));
-    let mut depth_local = vec![0i32; m];
     let off_units = offset.units();
     let raw: Vec<i32> = up
         .iter()
         .map(|&v| i32::from((sign * v).wrapping_add(off_units) as i16))
         .collect();
-    for ((d, &v), _) in depth_local
-        .iter_mut()
-        .zip(&up)
-        .zip(&won)
-        .filter(|(_, o)| **o)
-    {
-        let z = map.depth_um(from_units(v));
-        *d = if z > thr_um { z } else { 0 };
-    }
     wrapped.local = Some((x0, y0, bw, bh, raw));
-    // An indentation moves the phase one way. A temperature gradient across the stripes
-    // (or a grating shifted under an illumination edge) skews their brightness profile and moves it both ways around
-    // the spot (a dipole): when the opposite-signed phase carries a comparable share,
-    // there is no contact to report.
-    let (mut pos, mut neg) = (0i64, 0i64);
-    for (ly, (urow, orow)) in up.chunks_exact(bw).zip(won.chunks_exact(bw)).enumerate() {
+    // One pass over the window's region: depth, the deformed pixels (the region's, deeper
+    // than the threshold) and their integrated phase, and the dipole test's sums. An indentation moves the phase one way. A
+    // temperature gradient across the stripes (or a grating shifted under an illumination
+    // edge) skews their brightness profile and moves it both ways around the spot (a
+    // dipole): when the opposite-signed phase carries a comparable share, there is no
+    // contact to report.
+    let mut depth_local = vec![0i32; m];
+    let mut deformed = vec![false; m];
+    let (mut pos, mut neg, mut integrated_units) = (0i64, 0i64, 0i64);
+    let rows = up.chunks_exact(bw).zip(won.chunks_exact(bw)).zip(
+        depth_local
+            .chunks_exact_mut(bw)
+            .zip(deformed.chunks_exact_mut(bw)),
+    );
+    for (ly, ((urow, orow), (drow, frow))) in rows.enumerate() {
         let rrow = &reliable[(y0 + ly) * w + x0..(y0 + ly) * w + x0 + bw];
-        for ((&v, &on), &ok) in urow.iter().zip(orow).zip(rrow) {
-            if !on || !ok {
+        for ((((&v, &on), &ok), d), f) in urow.iter().zip(orow).zip(rrow).zip(drow).zip(frow) {
+            if !on {
                 continue;
             }
-            let v = i64::from(v);
-            if v > i64::from(thr) {
-                pos += v;
-            } else if v < -i64::from(thr) {
-                neg -= v;
+            let z = map.depth_um(from_units(v));
+            if z > thr_um {
+                (*d, *f) = (z, true);
+                integrated_units += i64::from(v);
+            }
+            if ok {
+                if v > thr {
+                    pos += i64::from(v);
+                } else if v < -thr {
+                    neg -= i64::from(v);
+                }
             }
         }
     }
@@ -415,11 +425,6 @@ pub fn measure<M: PhaseMap>(
         return (result(flags, reliable, vec![0; n]), wrapped);
     }
     let px_mm = ctx.mm_per_px * factor as f32;
-    let deformed: Vec<bool> = depth_local.iter().map(|&d| d > thr_um).collect();
-    let integrated_units: i64 = (0..m)
-        .filter(|&j| deformed[j])
-        .map(|j| i64::from(up[j]))
-        .sum();
     let integrated = integrated_units as f32 / UNITS_PER_RAD * px_mm * px_mm;
     let slope_limit = SLOPE_LIMIT * 65_536.0 * BAND_HALF_WIDTH * carrier.freq();
     // Beyond the band the demodulator cannot even report the slope; what it shows is the
