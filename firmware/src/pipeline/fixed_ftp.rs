@@ -132,9 +132,16 @@ fn demodulate(
     let mut i1 = [vec![0i32; w], vec![0i32; w]];
     let mut i2 = [vec![0i32; w], vec![0i32; w]];
     let mut ring = [vec![0i32; ring_n * w], vec![0i32; ring_n * w]];
-    let mut col = [vec![0i32; w], vec![0i32; w]];
-    // work[j] = the row's I₂ at sample j − (lx + 1); zero for j ≤ lx.
-    let mut work = [vec![0i32; w + 2 * lx], vec![0i32; w + 2 * lx]];
+    // The column combs of the sampled rows, two rows at a time (their re and im: the four
+    // lanes of the row pass).
+    let mut cols = [
+        [vec![0i32; w], vec![0i32; w]],
+        [vec![0i32; w], vec![0i32; w]],
+    ];
+    let mut pending = 0;
+    // work[j] = the rows' I₂ at sample j − (lx + 1), four lanes; zero for j ≤ lx.
+    let mut work = vec![[0i32; 4]; w + 2 * lx];
+    let mut comb = Vec::with_capacity(ow);
     for k in 0..h + ly - 1 {
         let slot = (k % ring_n) * w;
         for p in 0..2 {
@@ -174,40 +181,85 @@ fn demodulate(
         for p in 0..2 {
             let ring = &ring[p];
             let row = |j: usize| &ring[(j % ring_n) * w..(j % ring_n + 1) * w];
-            let col = &mut col[p];
-            col.copy_from_slice(row(k));
-            if let Some(j) = k.checked_sub(ly) {
-                for (c, v) in col.iter_mut().zip(row(j)) {
-                    *c = c.wrapping_sub(v.wrapping_mul(2));
+            let col = &mut cols[pending][p];
+            // The comb I₂[k] − 2·I₂[k − ly] + I₂[k − 2·ly], rows before the first being 0.
+            match (k.checked_sub(ly), k.checked_sub(2 * ly)) {
+                (Some(j1), Some(j2)) => {
+                    for ((c, &v0), (&v1, &v2)) in
+                        col.iter_mut().zip(row(k)).zip(row(j1).iter().zip(row(j2)))
+                    {
+                        *c = v0.wrapping_sub(v1.wrapping_mul(2)).wrapping_add(v2);
+                    }
                 }
-            }
-            if let Some(j) = k.checked_sub(2 * ly) {
-                for (c, v) in col.iter_mut().zip(row(j)) {
-                    *c = c.wrapping_add(*v);
+                (Some(j1), None) => {
+                    for ((c, &v0), &v1) in col.iter_mut().zip(row(k)).zip(row(j1)) {
+                        *c = v0.wrapping_sub(v1.wrapping_mul(2));
+                    }
                 }
+                _ => col.copy_from_slice(row(k)),
             }
-            // Along the row.
-            let work = &mut work[p];
-            let (mut a, mut b) = (0i32, 0i32);
-            let (head, tail) = work[lx + 1..].split_at_mut(w);
-            for (d, v) in head.iter_mut().zip(col.iter()) {
-                a = a.wrapping_add(*v);
-                b = b.wrapping_add(a);
-                *d = b;
-            }
-            for d in tail.iter_mut() {
-                b = b.wrapping_add(a);
-                *d = b;
-            }
-            let dst = if p == 0 { &mut out.re } else { &mut out.im };
-            dst.extend((0..w).step_by(step).map(|x| {
-                work[x + 2 * lx]
-                    .wrapping_sub(work[x + lx].wrapping_mul(2))
-                    .wrapping_add(work[x])
-            }));
+        }
+        pending += 1;
+        if pending == 2 {
+            along_rows(&cols, 2, &mut work, &mut comb, (lx, step), &mut out);
+            pending = 0;
         }
     }
+    if pending == 1 {
+        along_rows(&cols, 1, &mut work, &mut comb, (lx, step), &mut out);
+    }
     out
+}
+
+/// The triangle along the rows of the first `rows` (1 or 2) column-comb rows in `cols`,
+/// appending every `step`-th sample of each to `out`: their re and im are the four lanes of
+/// one pair of running sums (a lane's sums do not depend on the others', and four of them
+/// fill a vector register where one row's serial sums would leave it a quarter used). The
+/// lanes of a missing second row are computed and dropped.
+fn along_rows(
+    cols: &[[Vec<i32>; 2]; 2],
+    rows: usize,
+    work: &mut [[i32; 4]],
+    comb: &mut Vec<[i32; 4]>,
+    (lx, step): (usize, usize),
+    out: &mut Sampled,
+) {
+    let w = cols[0][0].len();
+    let (mut a, mut b) = ([0i32; 4], [0i32; 4]);
+    let (head, tail) = work[lx + 1..].split_at_mut(w);
+    let lanes = cols[0][0]
+        .iter()
+        .zip(&cols[0][1])
+        .zip(cols[1][0].iter().zip(&cols[1][1]));
+    for (d, ((&r0, &i0), (&r1, &i1))) in head.iter_mut().zip(lanes) {
+        let v = [r0, i0, r1, i1];
+        for l in 0..4 {
+            a[l] = a[l].wrapping_add(v[l]);
+            b[l] = b[l].wrapping_add(a[l]);
+        }
+        *d = b;
+    }
+    for d in tail.iter_mut() {
+        for l in 0..4 {
+            b[l] = b[l].wrapping_add(a[l]);
+        }
+        *d = b;
+    }
+    // The comb at the sampled columns, the four lanes at once, then each lane to its row.
+    comb.clear();
+    let taps = work[2 * lx..]
+        .iter()
+        .step_by(step)
+        .zip(work[lx..].iter().step_by(step))
+        .zip(work.iter().step_by(step))
+        .take(w.div_ceil(step));
+    comb.extend(taps.map(|((p, q), r)| {
+        std::array::from_fn(|l| p[l].wrapping_sub(q[l].wrapping_mul(2)).wrapping_add(r[l]))
+    }));
+    for r in 0..rows {
+        out.re.extend(comb.iter().map(|c| c[2 * r]));
+        out.im.extend(comb.iter().map(|c| c[2 * r + 1]));
+    }
 }
 
 /// The mixing table: Q15 `cos θ` and `sin θ` of the carrier phase per working pixel.
