@@ -510,6 +510,13 @@ impl PhaseMap for FixedField<'_> {
     fn amp_ref(&self, k: usize) -> u32 {
         self.ftp.amp_ref[k]
     }
+    fn amp_frame_all(&self) -> Vec<u32> {
+        let f = &self.frame;
+        f.re.iter().zip(&f.im).map(|(&a, &b)| amp(a, b)).collect()
+    }
+    fn amp_ref_all(&self) -> std::borrow::Cow<'_, [u32]> {
+        std::borrow::Cow::Borrowed(&self.ftp.amp_ref)
+    }
     fn amp_ref_median(&self) -> u32 {
         self.ftp.ref_median
     }
@@ -525,9 +532,10 @@ impl PhaseMap for FixedField<'_> {
 mod tests {
     use super::*;
 
-    /// The one-pass phases equal the per-sample ones, on a frame with a bump and a shift.
+    /// The one-pass phases and amplitudes equal the per-sample ones, on a frame with a bump
+    /// and a shift.
     #[test]
-    fn all_wrapped_phases_in_one_pass_equal_each_one() {
+    fn all_phases_and_amplitudes_in_one_pass_equal_each_one() {
         let stripes = |shift: f64, bump: f64| {
             RgbImage::from_fn(160, 120, move |x, y| {
                 let (dx, dy) = (f64::from(x) - 80.0, f64::from(y) - 60.0);
@@ -545,8 +553,12 @@ mod tests {
         let all = field.wrapped_all();
         let (w, h) = field.size();
         assert_eq!(all.len(), w.div_ceil(GRID) * h.div_ceil(GRID));
+        let (amps, amps_ref) = (field.amp_frame_all(), field.amp_ref_all());
+        assert_eq!((amps.len(), amps_ref.len()), (all.len(), all.len()));
         for (k, &p) in all.iter().enumerate() {
             assert_eq!(p, field.wrapped(k), "sample {k}");
+            assert_eq!(amps[k], field.amp_frame(k), "sample {k}");
+            assert_eq!(amps_ref[k], field.amp_ref(k), "sample {k}");
         }
         assert!(all.iter().any(|&p| p != all[0]));
     }

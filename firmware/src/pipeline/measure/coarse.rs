@@ -92,9 +92,10 @@ pub(super) fn samples_in(tiles: &[bool], (cw, ch): (usize, usize), tw: usize) ->
     out
 }
 
-pub(super) fn median_u32(mut v: Vec<u32>) -> u32 {
+/// The upper median (the `len / 2`-th smallest), 0 for none.
+pub(super) fn median<T: Ord + Copy + Default>(mut v: Vec<T>) -> T {
     if v.is_empty() {
-        return 0;
+        return T::default();
     }
     let k = v.len() / 2;
     *v.select_nth_unstable(k).1
@@ -137,12 +138,10 @@ pub fn local_noise_units(phi: &[i32], reliable: &[bool], w: usize, h: usize, box
                 if !reliable[i] {
                     continue;
                 }
+                // The deviation times the box's area: dividing is monotone, so the median
+                // is divided once, below.
                 let sum = pre[x + r + 1] - pre[x - r];
-                dev.push(
-                    (i64::from(phi[i]) * area - sum)
-                        .unsigned_abs()
-                        .div_ceil(area as u64) as u32,
-                );
+                dev.push((i64::from(phi[i]) * area - sum).unsigned_abs());
             }
             if y + NOISE_STEP >= h - r {
                 break;
@@ -156,8 +155,9 @@ pub fn local_noise_units(phi: &[i32], reliable: &[bool], w: usize, h: usize, box
             y += NOISE_STEP;
         }
     }
-    // 1.4826 × MAD, in integers (×1518 / 1024).
-    ((i64::from(median_u32(dev)) * 1518 / 1024) as i32).max(1)
+    // 1.4826 × MAD, in integers (×1518 / 1024), the deviation rounded up to a unit.
+    let mad = median(dev).div_ceil(area as u64);
+    ((mad as i64 * 1518 / 1024) as i32).max(1)
 }
 
 /// The trusted area of a `w × h` working image: pixels at least `m` from every edge. Near
@@ -185,12 +185,12 @@ impl Margin {
 }
 
 /// The coarse grid's samples: every [`GRID`]-th working pixel each way, row-major.
-pub(super) struct Coarse<P> {
+pub(super) struct Coarse<'a, P> {
     /// Wrapped phase difference.
     pub(super) phase: Vec<P>,
     /// Frame and reference fringe amplitudes.
     pub(super) amp: Vec<u32>,
-    pub(super) amp_r: Vec<u32>,
+    pub(super) amp_r: std::borrow::Cow<'a, [u32]>,
     /// Inside the margin, with both amplitudes above `lim`.
     pub(super) rel: Vec<bool>,
     /// Samples inside the margin, and those reliable.
@@ -199,15 +199,19 @@ pub(super) struct Coarse<P> {
 }
 
 /// Reads the coarse grid: the only place the background's phase is computed.
-pub(super) fn read_coarse<M: PhaseMap>(map: &M, lim: u32, margin: &Margin) -> Coarse<M::P> {
+pub(super) fn read_coarse<'a, M: PhaseMap>(
+    map: &'a M,
+    lim: u32,
+    margin: &Margin,
+) -> Coarse<'a, M::P> {
     let (w, h) = map.size();
     let (cw, ch) = (w.div_ceil(GRID), h.div_ceil(GRID));
     let n = cw * ch;
     // One plain pass per map (collected from exact-size iterators: no capacity test per
     // sample).
     let phase: Vec<M::P> = map.wrapped_all();
-    let amp: Vec<u32> = (0..n).map(|k| map.amp_frame(k)).collect();
-    let amp_r: Vec<u32> = (0..n).map(|k| map.amp_ref(k)).collect();
+    let amp = map.amp_frame_all();
+    let amp_r = map.amp_ref_all();
     let (mut inside_n, mut reliable_n) = (0, 0);
     let mut rel = Vec::with_capacity(n);
     for cy in 0..ch {
@@ -271,7 +275,7 @@ mod tests {
                 );
             }
         }
-        ((i64::from(median_u32(dev)) * 1518 / 1024) as i32).max(1)
+        ((i64::from(median(dev)) * 1518 / 1024) as i32).max(1)
     }
 
     /// Sliding column sums give the integral image's noise floor, box by box, on grids of

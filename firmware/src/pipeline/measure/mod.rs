@@ -22,7 +22,7 @@ pub use features::{force_of, summarize, Features};
 pub use phase::{PhaseMap, PhaseNum, WrappedPhase, UNITS_PER_RAD};
 pub use window::upsample2;
 
-use coarse::{dilate, median_u32, read_coarse, samples_in, Coarse, Margin, NOISE_STEP};
+use coarse::{dilate, median, read_coarse, samples_in, Coarse, Margin, NOISE_STEP};
 use features::slope_p98_exceeds;
 
 use super::carrier::Carrier;
@@ -141,7 +141,7 @@ pub fn measure<M: PhaseMap>(
     let mut flags = QualityFlags::NONE;
     // The frame's median fringe amplitude, over every fourth coarse sample (as many as the
     // noise floor's).
-    let med_frame = median_u32(
+    let med_frame = median(
         amp.iter()
             .step_by(NOISE_STEP * NOISE_STEP)
             .copied()

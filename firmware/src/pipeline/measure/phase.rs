@@ -145,6 +145,22 @@ pub trait PhaseMap {
     fn amp_frame(&self, k: usize) -> u32;
     /// Fringe amplitude of the reference at coarse sample `k`.
     fn amp_ref(&self, k: usize) -> u32;
+    /// Every coarse sample's [`PhaseMap::amp_frame`], in order; a path may compute them in
+    /// one pass.
+    fn amp_frame_all(&self) -> Vec<u32> {
+        let (w, h) = self.size();
+        (0..w.div_ceil(GRID) * h.div_ceil(GRID))
+            .map(|k| self.amp_frame(k))
+            .collect()
+    }
+    /// Every coarse sample's [`PhaseMap::amp_ref`], in order; a path that keeps them may
+    /// lend them.
+    fn amp_ref_all(&self) -> std::borrow::Cow<'_, [u32]> {
+        let (w, h) = self.size();
+        (0..w.div_ceil(GRID) * h.div_ceil(GRID))
+            .map(|k| self.amp_ref(k))
+            .collect()
+    }
     /// Median reference amplitude (computed once per reference).
     fn amp_ref_median(&self) -> u32;
     /// Fraction of the frame's input pixels with a saturated channel.
