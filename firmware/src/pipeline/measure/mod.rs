@@ -217,16 +217,31 @@ pub fn measure<M: PhaseMap>(
         // contact filling the view), there is nothing outside the contact to register on,
         // and the frame is taken as unshifted: on unit 55 the last few samples around a
         // 2.5 mm press read −0.18 rad, a twentieth of its depth.
+        //
+        // A background's direction sums whichever is smaller: its own samples, or those it
+        // drops (taken off the whole's resultant). A large contact leaves few.
         let tile_samples = (TILE_PX / GRID) * (TILE_PX / GRID);
-        let enough = |m: &[bool]| m.iter().filter(|f| **f).count() >= 4 * tile_samples;
-        let far = outside(&samples_in(&dilate(region, tw, th), (cw, ch), tw));
-        offset = if enough(&far) {
-            direction(&far)
-        } else if enough(&background) {
-            direction(&background)
-        } else {
-            <M::P as PhaseNum>::from_units(0)
+        let beyond = |keep: &[bool]| {
+            let kept = keep.iter().filter(|k| **k).count();
+            (kept >= 4 * tile_samples).then(|| {
+                if 2 * kept < reliable_n {
+                    <M::P as PhaseNum>::angle(<M::P as PhaseNum>::resultant(
+                        phase
+                            .iter()
+                            .zip(&amp)
+                            .zip(keep)
+                            .filter(|(_, k)| **k)
+                            .map(|((p, a), _)| (*p, *a)),
+                    ))
+                } else {
+                    direction(keep)
+                }
+            })
         };
+        let far = outside(&samples_in(&dilate(region, tw, th), (cw, ch), tw));
+        offset = beyond(&far)
+            .or_else(|| beyond(&background))
+            .unwrap_or(<M::P as PhaseNum>::from_units(0));
         phi = units_of(offset);
         // The background must be big enough to measure; otherwise keep the first estimate.
         if in_region.iter().filter(|r| !**r).count() * 4 > phi.len() {
