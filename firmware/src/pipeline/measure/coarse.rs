@@ -213,17 +213,17 @@ pub(super) fn read_coarse<'a, M: PhaseMap>(
     let amp = map.amp_frame_all();
     let amp_r = map.amp_ref_all();
     let (mut inside_n, mut reliable_n) = (0, 0);
-    let mut rel = Vec::with_capacity(n);
-    for cy in 0..ch {
-        let row_inside = margin.ys.contains(&(cy * GRID));
-        let k0 = cy * cw;
-        rel.extend((0..cw).map(|cx| {
-            let ins = row_inside && margin.xs.contains(&(cx * GRID));
-            let r = ins && amp[k0 + cx] > lim && amp_r[k0 + cx] > lim;
-            inside_n += usize::from(ins);
-            reliable_n += usize::from(r);
-            r
-        }));
+    let mut rel = vec![false; n];
+    // The samples inside the margin: columns `cx` with `cx·GRID` in `xs`, rows likewise.
+    let cols = margin.xs.start.div_ceil(GRID).min(cw)..margin.xs.end.div_ceil(GRID).min(cw);
+    for cy in (0..ch).filter(|cy| margin.ys.contains(&(cy * GRID))) {
+        let run = cy * cw + cols.start..cy * cw + cols.end;
+        let pairs = amp[run.clone()].iter().zip(&amp_r[run.clone()]);
+        for (r, (&a, &b)) in rel[run.clone()].iter_mut().zip(pairs) {
+            *r = a > lim && b > lim;
+        }
+        inside_n += run.len();
+        reliable_n += rel[run].iter().map(|&r| usize::from(r)).sum::<usize>();
     }
     Coarse {
         phase,
@@ -310,6 +310,72 @@ mod tests {
                 let mask = (0..cw * ch).map(|_| rng.next() % 100 < ppm).collect();
                 (mask, (w, h))
             })
+    }
+
+    /// A phase map of random amplitudes, for the reliability rule.
+    struct RandomAmps {
+        size: (usize, usize),
+        amp: Vec<u32>,
+        amp_ref: Vec<u32>,
+    }
+
+    impl PhaseMap for RandomAmps {
+        type P = i32;
+        fn size(&self) -> (usize, usize) {
+            self.size
+        }
+        fn wrapped(&self, k: usize) -> i32 {
+            k as i32
+        }
+        fn amp_frame(&self, k: usize) -> u32 {
+            self.amp[k]
+        }
+        fn amp_ref(&self, k: usize) -> u32 {
+            self.amp_ref[k]
+        }
+        fn amp_ref_median(&self) -> u32 {
+            500
+        }
+        fn saturated_fraction(&self) -> f32 {
+            0.0
+        }
+        fn depth_um(&self, x: i32) -> i32 {
+            x
+        }
+    }
+
+    /// Reliability per coarse sample against its plain reading: inside the margin (the
+    /// sample's working pixel, `GRID·cx`, `GRID·cy`) with both amplitudes above the limit;
+    /// odd and even sizes and margins, one wider than the image.
+    #[test]
+    fn reliable_samples_follow_the_margin_and_amplitudes() {
+        let mut rng = crate::test_rng::XorShift(0x2545_f491_4f6c_dd1d);
+        for ((w, h), m) in [
+            ((320usize, 240usize), 24),
+            ((37, 23), 5),
+            ((38, 17), 3),
+            ((9, 7), 20),
+        ] {
+            let n = w.div_ceil(GRID) * h.div_ceil(GRID);
+            let map = RandomAmps {
+                size: (w, h),
+                amp: (0..n).map(|_| (rng.next() % 1000) as u32).collect(),
+                amp_ref: (0..n).map(|_| (rng.next() % 1000) as u32).collect(),
+            };
+            let margin = Margin::new(m, w, h);
+            let c = read_coarse(&map, 300, &margin);
+            let cw = w.div_ceil(GRID);
+            let (mut inside_n, mut reliable_n) = (0, 0);
+            for k in 0..n {
+                let inside = margin.contains(GRID * (k % cw), GRID * (k / cw));
+                let want = inside && map.amp[k] > 300 && map.amp_ref[k] > 300;
+                assert_eq!(c.rel[k], want, "{w}×{h} margin {m}, sample {k}");
+                inside_n += usize::from(inside);
+                reliable_n += usize::from(want);
+            }
+            assert_eq!((c.inside_n, c.reliable_n), (inside_n, reliable_n));
+            assert_eq!((c.phase.len(), c.amp.len(), c.amp_r.len()), (n, n, n));
+        }
     }
 
     /// Tile counts and per-sample tile membership against a plain reading, sample by
