@@ -133,16 +133,18 @@ pub fn local_noise_units(phi: &[i32], reliable: &[bool], w: usize, h: usize, box
                 acc += c;
                 *p = acc;
             }
-            for x in (r..w - r).step_by(NOISE_STEP) {
-                let i = y * w + x;
-                if !reliable[i] {
-                    continue;
-                }
-                // The deviation times the box's area: dividing is monotone, so the median
-                // is divided once, below.
-                let sum = pre[x + r + 1] - pre[x - r];
-                dev.push((i64::from(phi[i]) * area - sum).unsigned_abs());
-            }
+            // Every NOISE_STEP-th x in r..w − r: the deviation times the box's area
+            // (dividing is monotone, so the median is divided once, below), the box sum
+            // being pre[x + r + 1] − pre[x − r].
+            let xs = y * w + r..(y + 1) * w - r;
+            let boxes = pre[2 * r + 1..].iter().zip(&pre[..w - 2 * r]);
+            let samples = phi[xs.clone()].iter().zip(&reliable[xs]).zip(boxes);
+            dev.extend(
+                samples
+                    .step_by(NOISE_STEP)
+                    .filter(|((_, ok), _)| **ok)
+                    .map(|((&p, _), (&hi, &lo))| (i64::from(p) * area - (hi - lo)).unsigned_abs()),
+            );
             if y + NOISE_STEP >= h - r {
                 break;
             }
