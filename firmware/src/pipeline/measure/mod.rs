@@ -159,22 +159,16 @@ pub fn measure<M: PhaseMap>(
     // Each later set is the reliable samples less some: its resultant is the whole's less
     // that of the samples it drops (`dropped`, which are few).
     let dropped = |keep: &[bool]| {
-        <M::P as PhaseNum>::resultant(
-            phase
-                .iter()
-                .zip(&amp)
-                .zip(rel.iter().zip(keep))
-                .filter(|(_, (r, k))| **r && !**k)
-                .map(|((p, a), _)| (*p, *a)),
-        )
+        let mask: Vec<bool> = rel.iter().zip(keep).map(|(r, k)| *r && !*k).collect();
+        <M::P as PhaseNum>::masked_resultant(&phase, &amp, &mask)
     };
+    // Every sample, an unreliable one weighing nothing (no branch per sample).
     let all = <M::P as PhaseNum>::resultant(
         phase
             .iter()
             .zip(&amp)
             .zip(&rel)
-            .filter(|(_, r)| **r)
-            .map(|((p, a), _)| (*p, *a)),
+            .map(|((p, a), r)| (*p, a * u32::from(*r))),
     );
     // The direction of the reliable samples where `keep` holds.
     let direction = |keep: &[bool]| <M::P as PhaseNum>::angle(all - dropped(keep));
@@ -225,13 +219,8 @@ pub fn measure<M: PhaseMap>(
             let kept = keep.iter().filter(|k| **k).count();
             (kept >= 4 * tile_samples).then(|| {
                 if 2 * kept < reliable_n {
-                    <M::P as PhaseNum>::angle(<M::P as PhaseNum>::resultant(
-                        phase
-                            .iter()
-                            .zip(&amp)
-                            .zip(keep)
-                            .filter(|(_, k)| **k)
-                            .map(|((p, a), _)| (*p, *a)),
+                    <M::P as PhaseNum>::angle(<M::P as PhaseNum>::masked_resultant(
+                        &phase, &amp, keep,
                     ))
                 } else {
                     direction(keep)

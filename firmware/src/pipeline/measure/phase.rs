@@ -26,7 +26,31 @@ pub trait PhaseNum: Phase {
     type Sum: Copy + Default + std::ops::Sub<Output = Self::Sum>;
     /// The amplitude-weighted resultant of `(phase, amplitude)` samples: the numerator of
     /// their mean direction.
-    fn resultant(samples: impl Iterator<Item = (Self, u32)>) -> Resultant<Self::Sum>;
+    fn resultant(samples: impl Iterator<Item = (Self, u32)>) -> Resultant<Self::Sum> {
+        let mut r = Resultant::default();
+        Self::accumulate(&mut r, samples);
+        r
+    }
+    /// Adds `samples` to the resultant `r`, in order: a set read in several runs sums as
+    /// one pass over it would, even in floating point.
+    fn accumulate(r: &mut Resultant<Self::Sum>, samples: impl Iterator<Item = (Self, u32)>);
+    /// The resultant of the samples where `mask` holds, in order, reading [`MASK_RUN`] at a
+    /// time and skipping the runs without any (registration's later sets are sparse or
+    /// clustered: a few outliers, a contact's tiles, the background around a large one).
+    fn masked_resultant(phase: &[Self], amp: &[u32], mask: &[bool]) -> Resultant<Self::Sum> {
+        let mut r = Resultant::default();
+        let runs = phase
+            .chunks(MASK_RUN)
+            .zip(amp.chunks(MASK_RUN))
+            .zip(mask.chunks(MASK_RUN));
+        for ((p, a), m) in runs {
+            if m.iter().fold(false, |any, &on| any | on) {
+                let picked = p.iter().zip(a).zip(m).filter(|(_, on)| **on);
+                Self::accumulate(&mut r, picked.map(|((p, a), _)| (*p, *a)));
+            }
+        }
+        r
+    }
     /// The direction of a resultant: the samples' amplitude-weighted mean direction.
     fn angle(r: Resultant<Self::Sum>) -> Self;
 }
@@ -51,6 +75,10 @@ impl<T: std::ops::Sub<Output = T>> std::ops::Sub for Resultant<T> {
         }
     }
 }
+
+/// Samples per run of [`PhaseNum::masked_resultant`]: a run's mask is tested in one vector
+/// reduction.
+pub const MASK_RUN: usize = 16;
 
 /// `(cos, sin)` of 4 096 phases around the circle, Q15: the device path's mean direction.
 fn trig_q15() -> &'static [[i16; 2]; 4096] {
@@ -80,13 +108,13 @@ impl PhaseNum for f32 {
         self * sign as f32
     }
     type Sum = f64;
-    fn resultant(samples: impl Iterator<Item = (f32, u32)>) -> Resultant<f64> {
-        let (mut s, mut c) = (0.0f64, 0.0f64);
+    fn accumulate(r: &mut Resultant<f64>, samples: impl Iterator<Item = (f32, u32)>) {
+        let (mut s, mut c) = (r.s, r.c);
         for (p, a) in samples {
             s += f64::from(a) * f64::from(p).sin();
             c += f64::from(a) * f64::from(p).cos();
         }
-        Resultant { s, c }
+        *r = Resultant { s, c };
     }
     fn angle(r: Resultant<f64>) -> f32 {
         r.s.atan2(r.c) as f32
@@ -107,15 +135,15 @@ impl PhaseNum for i32 {
         self * sign
     }
     type Sum = i64;
-    fn resultant(samples: impl Iterator<Item = (i32, u32)>) -> Resultant<i64> {
+    fn accumulate(r: &mut Resultant<i64>, samples: impl Iterator<Item = (i32, u32)>) {
         let trig = trig_q15();
-        let (mut s, mut c) = (0i64, 0i64);
+        let (mut s, mut c) = (r.s, r.c);
         for (p, a) in samples {
             let t = trig[((p.wrapping_add(8) as u32 >> 4) & 4095) as usize];
             c += i64::from(a) * i64::from(t[0]);
             s += i64::from(a) * i64::from(t[1]);
         }
-        Resultant { s, c }
+        *r = Resultant { s, c };
     }
     fn angle(r: Resultant<i64>) -> i32 {
         atan2_units(r.s, r.c, atan_table())
@@ -219,6 +247,46 @@ impl WrappedPhase {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The masked resultant skips only runs without a sample: it equals the plain
+    /// filtered sum, in integers and (the same order) in floating point, for sparse,
+    /// clustered and dense masks and a length that is not a whole number of runs.
+    #[test]
+    fn masked_resultants_equal_the_plain_filtered_sums() {
+        let mut rng = crate::test_rng::XorShift(0x0123_4567_89ab_cdef);
+        let n = 1000 + MASK_RUN / 2;
+        let phase: Vec<i32> = (0..n).map(|_| rng.next() as i16 as i32).collect();
+        let amp: Vec<u32> = (0..n).map(|_| (rng.next() % 100_000) as u32).collect();
+        let phase_f: Vec<f32> = phase.iter().map(|&p| p as f32 / UNITS_PER_RAD).collect();
+        let masks: [Vec<bool>; 4] = [
+            (0..n).map(|_| rng.next() % 100 == 0).collect(),
+            (0..n).map(|i| (300..420).contains(&i)).collect(),
+            (0..n).map(|_| rng.next() % 10 != 0).collect(),
+            (0..n).map(|i| i == n - 1).collect(),
+        ];
+        for mask in &masks {
+            let pick = |p: &[i32]| {
+                p.iter()
+                    .zip(&amp)
+                    .zip(mask)
+                    .filter(|(_, m)| **m)
+                    .map(|((p, a), _)| (*p, *a))
+                    .collect::<Vec<_>>()
+            };
+            let want = i32::resultant(pick(&phase).into_iter());
+            assert_eq!(i32::masked_resultant(&phase, &amp, mask), want);
+            assert_ne!(want, Resultant::default());
+            let want_f = f32::resultant(
+                phase_f
+                    .iter()
+                    .zip(&amp)
+                    .zip(mask)
+                    .filter(|(_, m)| **m)
+                    .map(|((p, a), _)| (*p, *a)),
+            );
+            assert_eq!(f32::masked_resultant(&phase_f, &amp, mask), want_f);
+        }
+    }
 
     /// The frame's phase row against its plain reading, pixel by pixel: the reference's
     /// phase plus the contact window's value inside it and the nearest coarse sample
