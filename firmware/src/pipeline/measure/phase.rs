@@ -259,9 +259,9 @@ mod tests {
         let amp: Vec<u32> = (0..n).map(|_| (rng.next() % 100_000) as u32).collect();
         let phase_f: Vec<f32> = phase.iter().map(|&p| p as f32 / UNITS_PER_RAD).collect();
         let masks: [Vec<bool>; 4] = [
-            (0..n).map(|_| rng.next() % 100 == 0).collect(),
+            (0..n).map(|_| rng.next().is_multiple_of(100)).collect(),
             (0..n).map(|i| (300..420).contains(&i)).collect(),
-            (0..n).map(|_| rng.next() % 10 != 0).collect(),
+            (0..n).map(|_| !rng.next().is_multiple_of(10)).collect(),
             (0..n).map(|i| i == n - 1).collect(),
         ];
         for mask in &masks {
