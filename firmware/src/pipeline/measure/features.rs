@@ -93,6 +93,9 @@ pub fn force_of(calib: &Calibration, f: &Features, integrated_phase: f32) -> f32
     fm.model.force_n(f64::from(u)) as f32
 }
 
+/// Largest gradient component the 32-bit slope count keeps: 2·G_MAX² fits an `i32`.
+const G_MAX: i32 = 32_767;
+
 /// Whether the 98th percentile of the phase slope (⌊|∇u|⌋, units per working pixel) over
 /// `mask` exceeds `limit`. Counted, not selected: a monotone map keeps order statistics, so
 /// the percentile reaches the integer m = ⌊limit⌋ + 1 exactly when at most k of the n
@@ -106,6 +109,29 @@ pub(super) fn slope_p98_exceeds(u: &[i32], mask: &[bool], w: usize, h: usize, li
     } else {
         limit.floor() as i64 + 1
     };
+    // 32-bit lanes where the vector unit multiplies them (A64); baseline x86-64 has no
+    // 32-bit vector multiply, and its 64-bit loop is cheaper there.
+    let narrow = cfg!(target_arch = "aarch64") && m <= i64::from(G_MAX);
+    let (n, below) = slope_counts(u, mask, (w, h), m, narrow);
+    if n == 0 {
+        return 0.0 > limit;
+    }
+    let k = (n * 98 / 100).min(n - 1);
+    below <= k
+}
+
+/// Over the interior of `u` (`w × h`): the samples where `mask` holds, and those among them
+/// whose slope |∇u|² (central differences halved, truncated) is below `m²`. `narrow`
+/// (only for `m ≤ G_MAX`) counts in 32 bits, four lanes to a vector: a gradient component
+/// clamped to ±G_MAX keeps its test (|g| > G_MAX ≥ m fails it either way; a saturated
+/// difference is beyond G_MAX too), and two squares of G_MAX fit.
+fn slope_counts(
+    u: &[i32],
+    mask: &[bool],
+    (w, h): (usize, usize),
+    m: i64,
+    narrow: bool,
+) -> (usize, usize) {
     let m2 = m.saturating_mul(m);
     let (mut n, mut below) = (0usize, 0usize);
     if w >= 3 {
@@ -122,19 +148,25 @@ pub(super) fn slope_p98_exceeds(u: &[i32], mask: &[bool], w: usize, h: usize, li
                 .iter()
                 .zip(left.iter().zip(right))
                 .zip(above.iter().zip(under));
-            for ((&on, (&l, &r)), (&a, &b)) in samples {
-                let gx = (i64::from(r) - i64::from(l)) / 2;
-                let gy = (i64::from(b) - i64::from(a)) / 2;
-                n += usize::from(on);
-                below += usize::from(on & (gx * gx + gy * gy < m2));
+            if narrow {
+                let m2 = m2 as i32;
+                let g = |a: i32, b: i32| (a.saturating_sub(b) / 2).clamp(-G_MAX, G_MAX);
+                for ((&on, (&l, &r)), (&a, &b)) in samples {
+                    let (gx, gy) = (g(r, l), g(b, a));
+                    n += usize::from(on);
+                    below += usize::from(on & (gx * gx + gy * gy < m2));
+                }
+            } else {
+                for ((&on, (&l, &r)), (&a, &b)) in samples {
+                    let gx = (i64::from(r) - i64::from(l)) / 2;
+                    let gy = (i64::from(b) - i64::from(a)) / 2;
+                    n += usize::from(on);
+                    below += usize::from(on & (gx * gx + gy * gy < m2));
+                }
             }
         }
     }
-    if n == 0 {
-        return 0.0 > limit;
-    }
-    let k = (n * 98 / 100).min(n - 1);
-    below <= k
+    (n, below)
 }
 
 #[cfg(test)]
@@ -159,6 +191,40 @@ mod tests {
         }
         let k = (s.len() * 98 / 100).min(s.len() - 1);
         *s.select_nth_unstable(k).1 as i32
+    }
+
+    /// The 32-bit count equals the 64-bit one at every limit it is used for, with gradients
+    /// far beyond ±G_MAX (clamped) and differences that overflow 32 bits (saturated).
+    #[test]
+    fn narrow_slope_counts_equal_the_wide_ones() {
+        let mut rng = crate::test_rng::XorShift(0x5851_f42d_4c95_7f2d);
+        for (w, h, spread) in [
+            (31usize, 19usize, 1_000u64),
+            (17, 23, 200_000),
+            (9, 9, 1 << 32),
+        ] {
+            let u: Vec<i32> = (0..w * h)
+                .map(|_| ((rng.next() % spread) as i64 - (spread / 2) as i64) as i32)
+                .collect();
+            let mask: Vec<bool> = (0..w * h).map(|_| !rng.next().is_multiple_of(5)).collect();
+            for m in [0, 1, 7, 300, 9_999, 32_766, i64::from(G_MAX)] {
+                let wide = slope_counts(&u, &mask, (w, h), m, false);
+                assert_eq!(
+                    slope_counts(&u, &mask, (w, h), m, true),
+                    wide,
+                    "{w}×{h} m {m}"
+                );
+                assert!(wide.0 > 0);
+            }
+        }
+        // Neighbours at opposite ends of the range: their difference overflows 32 bits, to
+        // a small value if it wrapped.
+        let ends = [i32::MIN + 5, 0, i32::MAX - 5, 0];
+        let u: Vec<i32> = (0..25).map(|i| ends[(i % 5) % 4]).collect();
+        let mask = vec![true; 25];
+        let wide = slope_counts(&u, &mask, (5, 5), 100, false);
+        assert_eq!(slope_counts(&u, &mask, (5, 5), 100, true), wide);
+        assert_eq!(wide, (9, 3));
     }
 
     /// The count decides as the selected percentile does, at limits on and around it.
