@@ -311,6 +311,12 @@ impl DepthLut {
             return 0;
         }
         let k = (x / Self::STEP) as usize;
+        // Inside the table: between two entries, so within `i32` without a clamp.
+        if let Some(&[d0, d1]) = self.um.get(k..k + 2).and_then(|p| p.first_chunk()) {
+            let dx = i64::from(x % Self::STEP);
+            return (i64::from(d0) + (i64::from(d1) - i64::from(d0)) * dx / i64::from(Self::STEP))
+                as i32;
+        }
         let last = self.um.len() - 1;
         let (k0, k1) = if k < last {
             (k, k + 1)
@@ -561,6 +567,48 @@ mod tests {
             assert_eq!(amps_ref[k], field.amp_ref(k), "sample {k}");
         }
         assert!(all.iter().any(|&p| p != all[0]));
+    }
+
+    /// The table against its plain reading (the neighbouring entries, or the last two
+    /// beyond the end, linear between, truncated toward zero, clamped to `i32`): rising,
+    /// falling and extreme entries, every phase of two steps and some beyond the end.
+    #[test]
+    fn depth_table_interpolates_its_entries() {
+        let lut = DepthLut {
+            um: vec![
+                0,
+                100,
+                3_000,
+                2_000,
+                -1_000_000_000,
+                1_000_000_000,
+                1_000_000_063,
+            ],
+        };
+        let plain = |x: i32| -> i32 {
+            if x <= 0 {
+                return 0;
+            }
+            let last = lut.um.len() - 1;
+            let k0 = ((x / DepthLut::STEP) as usize).min(last - 1);
+            let (d0, d1) = (i64::from(lut.um[k0]), i64::from(lut.um[k0 + 1]));
+            let dx = i64::from(x) - k0 as i64 * i64::from(DepthLut::STEP);
+            (d0 + (d1 - d0) * dx / i64::from(DepthLut::STEP))
+                .clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
+        };
+        let step = DepthLut::STEP;
+        let xs = (-3..2 * step).chain((0..7 * step).step_by(7)).chain([
+            6 * step - 1,
+            6 * step,
+            6 * step + 5,
+            100 * step,
+            i32::MAX,
+        ]);
+        for x in xs {
+            assert_eq!(lut.depth_um(x), plain(x), "x {x}");
+        }
+        assert_eq!(lut.depth_um(step / 2), 50);
+        assert_eq!(lut.depth_um(i32::MAX), i32::MAX);
     }
 
     #[test]
