@@ -80,13 +80,21 @@ pub(super) fn dilate(on: &[bool], tw: usize, th: usize) -> Vec<bool> {
 /// rows of a tile row are the same: the first is built, the others copied.
 pub(super) fn samples_in(tiles: &[bool], (cw, ch): (usize, usize), tw: usize) -> Vec<bool> {
     const PER: usize = TILE_PX / GRID;
-    let mut out = Vec::with_capacity(cw * ch);
+    let mut out = vec![false; cw * ch];
     for cy in 0..ch {
         if cy % PER == 0 {
             let trow = &tiles[(cy / PER) * tw..(cy / PER + 1) * tw];
-            out.extend(trow.iter().flat_map(|&t| [t; PER]).take(cw));
+            let row = &mut out[cy * cw..(cy + 1) * cw];
+            // Whole tiles as fixed-size runs, then the row's partial last tile.
+            let (runs, rest) = row.as_chunks_mut::<PER>();
+            for (run, &t) in runs.iter_mut().zip(trow) {
+                *run = [t; PER];
+            }
+            if let Some(&t) = trow.get(runs.len()) {
+                rest.fill(t);
+            }
         } else {
-            out.extend_from_within((cy - 1) * cw..cy * cw);
+            out.copy_within((cy - 1) * cw..cy * cw, cy * cw);
         }
     }
     out

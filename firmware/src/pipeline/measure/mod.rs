@@ -327,14 +327,17 @@ pub fn measure<M: PhaseMap>(
     let (cbw, cbh) = (wx1 - wx0, wy1 - wy0);
     let (wxs, wys) = ((wx0, wx1), wy0..wy1);
     let lphi: Vec<M::P> = window_of(&phase, cw, wxs, wys.clone())
+        .into_iter()
         .map(|p| p.minus(offset))
         .collect();
-    let lreg: Vec<bool> = window_of(&creg, cw, wxs, wys.clone()).collect();
+    let lreg: Vec<bool> = window_of(&creg, cw, wxs, wys.clone());
 
     let trigger = <M::P as PhaseNum>::from_rad(UNWRAP_TRIGGER_RAD).units();
-    let max_abs = (0..lphi.len())
-        .filter(|&j| lreg[j])
-        .map(|j| lphi[j].units().abs())
+    // Over the region (a sample outside it counts 0, which no |phase| is below).
+    let max_abs = lphi
+        .iter()
+        .zip(&lreg)
+        .map(|(p, &r)| if r { p.units().abs() } else { 0 })
         .max()
         .unwrap_or(0);
     let unwrap = match ctx.unwrap {
@@ -344,10 +347,11 @@ pub fn measure<M: PhaseMap>(
     };
     let (u, unreached, n_res) = if unwrap {
         unwrap_window(&lphi, &lreg, cbw, cbh, || {
-            window_of(&amp, cw, wxs, wys.clone())
-                .zip(window_of(&amp_r, cw, wxs, wys.clone()))
-                .map(|(a, r)| a.min(r))
-                .collect()
+            let (a, r) = (
+                window_of(&amp, cw, wxs, wys.clone()),
+                window_of(&amp_r, cw, wxs, wys),
+            );
+            a.iter().zip(&r).map(|(a, r)| *a.min(r)).collect()
         })
     } else {
         (lphi, 0, 0)
@@ -500,6 +504,10 @@ fn window_of<T: Copy>(
     cw: usize,
     xs: (usize, usize),
     ys: std::ops::Range<usize>,
-) -> impl Iterator<Item = T> + '_ {
-    ys.flat_map(move |cy| v[cy * cw + xs.0..cy * cw + xs.1].iter().copied())
+) -> Vec<T> {
+    let mut out = Vec::with_capacity((xs.1 - xs.0) * ys.len());
+    for cy in ys {
+        out.extend_from_slice(&v[cy * cw + xs.0..cy * cw + xs.1]);
+    }
+    out
 }
