@@ -71,31 +71,35 @@ impl Phase for i32 {
         }
         let d = |a: i32, b: i32| i32::wrapped_diff(a, b);
         // Each row from its first sample, the first samples down the first column; every
-        // vertical difference after the first column is then checked against the field:
-        // all hold exactly when no 2 × 2 loop has a residue. Sums stay within ±2³¹: a
-        // window holds far fewer than 65 536 samples along any path.
-        let mut u = Vec::with_capacity(w * h);
-        let mut prev = wrapped[0];
+        // vertical difference is then checked against the field: all hold exactly when no
+        // 2 × 2 loop has a residue. Sums stay within ±2³¹: a window holds far fewer than
+        // 65 536 samples along any path. The checks fold without an early exit, so they
+        // vectorise.
+        let mut u = vec![0i32; w * h];
+        let mut first = wrapped[0];
         for y in 0..h {
             let row = &wrapped[y * w..(y + 1) * w];
             if y > 0 {
-                prev = prev.wrapping_add(d(row[0], wrapped[(y - 1) * w]));
+                first = first.wrapping_add(d(row[0], wrapped[(y - 1) * w]));
             }
-            let start = u.len();
-            u.push(prev);
-            let mut v = prev;
-            for pair in row.windows(2) {
+            let (done, rest) = u.split_at_mut(y * w);
+            let here = &mut rest[..w];
+            let mut v = first;
+            here[0] = v;
+            for (f, pair) in here[1..].iter_mut().zip(row.windows(2)) {
                 v = v.wrapping_add(d(pair[1], pair[0]));
-                u.push(v);
+                *f = v;
             }
             if y > 0 {
-                let (above, here) = u[start - w..].split_at(w);
+                let above = &done[(y - 1) * w..];
                 let up = &wrapped[(y - 1) * w..y * w];
                 let consistent = above
                     .iter()
-                    .zip(here)
+                    .zip(here.iter())
                     .zip(up.iter().zip(row))
-                    .all(|((&a, &b), (&p, &q))| b.wrapping_sub(a) == d(q, p));
+                    .fold(true, |ok, ((&a, &b), (&p, &q))| {
+                        ok & (b.wrapping_sub(a) == d(q, p))
+                    });
                 if !consistent {
                     return None;
                 }
@@ -108,7 +112,9 @@ impl Phase for i32 {
             .iter()
             .zip(wrapped)
             .zip(region)
-            .all(|((&f, &p), &r)| r || f.wrapping_add(c) == p);
+            .fold(true, |ok, ((&f, &p), &r)| {
+                ok & (r | (f.wrapping_add(c) == p))
+            });
         if !agree {
             return None;
         }
