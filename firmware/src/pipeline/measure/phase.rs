@@ -34,7 +34,7 @@ pub trait PhaseNum: Phase {
     /// Adds `samples` to the resultant `r`, in order: a set read in several runs sums as
     /// one pass over it would, even in floating point.
     fn accumulate(r: &mut Resultant<Self::Sum>, samples: impl Iterator<Item = (Self, u32)>);
-    /// The resultant of the samples where `mask` holds, in order, reading [`MASK_RUN`] at a
+    /// The resultant of the samples where `mask` holds, in order, reading `MASK_RUN` (16) at a
     /// time and skipping the runs without any (registration's later sets are sparse or
     /// clustered: a few outliers, a contact's tiles, the background around a large one).
     fn masked_resultant(phase: &[Self], amp: &[u32], mask: &[bool]) -> Resultant<Self::Sum> {
