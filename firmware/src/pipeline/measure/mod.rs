@@ -157,7 +157,8 @@ pub fn measure<M: PhaseMap>(
     // Registration: amplitude-weighted mean direction of the background phase; first over
     // everything, then without outliers, then outside the contact region once it is known.
     // Each later set is the reliable samples less some: its resultant is the whole's less
-    // that of the samples it drops (`dropped`, which are few).
+    // that of the samples it drops (`dropped`), or, when it keeps fewer than it drops, its
+    // own.
     let dropped = |keep: &[bool]| {
         let mask: Vec<bool> = rel.iter().zip(keep).map(|(r, k)| *r && !*k).collect();
         <M::P as PhaseNum>::masked_resultant(&phase, &amp, &mask)
@@ -392,11 +393,11 @@ pub fn measure<M: PhaseMap>(
         .collect();
     wrapped.local = Some((x0, y0, bw, bh, raw));
     // One pass over the window's region: depth, the deformed pixels (the region's, deeper
-    // than the threshold) and their integrated phase, and the dipole test's sums. An indentation moves the phase one way. A
-    // temperature gradient across the stripes (or a grating shifted under an illumination
-    // edge) skews their brightness profile and moves it both ways around the spot (a
-    // dipole): when the opposite-signed phase carries a comparable share, there is no
-    // contact to report.
+    // than the threshold) and their integrated phase, and the dipole test's sums. An
+    // indentation moves the phase one way. A temperature gradient across the stripes (or a
+    // grating shifted under an illumination edge) skews their brightness profile and moves
+    // it both ways around the spot (a dipole): when the opposite-signed phase carries a
+    // comparable share, there is no contact to report.
     let mut depth_local = vec![0i32; m];
     let mut deformed = vec![false; m];
     let (mut pos, mut neg, mut integrated_units) = (0i64, 0i64, 0i64);
