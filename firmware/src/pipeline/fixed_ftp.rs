@@ -312,19 +312,15 @@ impl DepthLut {
         }
         let k = (x / Self::STEP) as usize;
         // Inside the table: between two entries, so within `i32` without a clamp.
-        if let Some(&[d0, d1]) = self.um.get(k..k + 2).and_then(|p| p.first_chunk()) {
+        if let Some(&[d0, d1]) = self.um.get(k..k + 2) {
             let dx = i64::from(x % Self::STEP);
             return (i64::from(d0) + (i64::from(d1) - i64::from(d0)) * dx / i64::from(Self::STEP))
                 as i32;
         }
+        // Beyond the last entry: the last two's slope continues, clamped to `i32`.
         let last = self.um.len() - 1;
-        let (k0, k1) = if k < last {
-            (k, k + 1)
-        } else {
-            (last - 1, last)
-        };
-        let (d0, d1) = (i64::from(self.um[k0]), i64::from(self.um[k1]));
-        let dx = i64::from(x) - i64::from(k0 as i32 * Self::STEP);
+        let (d0, d1) = (i64::from(self.um[last - 1]), i64::from(self.um[last]));
+        let dx = i64::from(x) - (last as i64 - 1) * i64::from(Self::STEP);
         (d0 + (d1 - d0) * dx / i64::from(Self::STEP))
             .clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
     }

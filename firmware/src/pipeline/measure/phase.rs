@@ -78,7 +78,7 @@ impl<T: std::ops::Sub<Output = T>> std::ops::Sub for Resultant<T> {
 
 /// Samples per run of [`PhaseNum::masked_resultant`]: a run's mask is tested in one vector
 /// reduction.
-pub const MASK_RUN: usize = 16;
+const MASK_RUN: usize = 16;
 
 /// `(cos, sin)` of 4 096 phases around the circle, Q15: the device path's mean direction.
 fn trig_q15() -> &'static [[i16; 2]; 4096] {
@@ -164,9 +164,7 @@ pub trait PhaseMap {
     /// Every coarse sample's wrapped phase difference, in order: [`PhaseMap::wrapped`] for
     /// `k` = 0, 1, …; a path may compute them in one pass.
     fn wrapped_all(&self) -> Vec<Self::P> {
-        let (w, h) = self.size();
-        let n = w.div_ceil(GRID) * h.div_ceil(GRID);
-        (0..n).map(|k| self.wrapped(k)).collect()
+        (0..self.coarse_len()).map(|k| self.wrapped(k)).collect()
     }
     /// Fringe amplitude of the frame at coarse sample `k` (any fixed scale shared with
     /// `amp_ref`).
@@ -176,18 +174,17 @@ pub trait PhaseMap {
     /// Every coarse sample's [`PhaseMap::amp_frame`], in order; a path may compute them in
     /// one pass.
     fn amp_frame_all(&self) -> Vec<u32> {
-        let (w, h) = self.size();
-        (0..w.div_ceil(GRID) * h.div_ceil(GRID))
-            .map(|k| self.amp_frame(k))
-            .collect()
+        (0..self.coarse_len()).map(|k| self.amp_frame(k)).collect()
     }
     /// Every coarse sample's [`PhaseMap::amp_ref`], in order; a path that keeps them may
     /// lend them.
     fn amp_ref_all(&self) -> std::borrow::Cow<'_, [u32]> {
+        (0..self.coarse_len()).map(|k| self.amp_ref(k)).collect()
+    }
+    /// Samples of the coarse grid: `w.div_ceil(GRID) · h.div_ceil(GRID)`.
+    fn coarse_len(&self) -> usize {
         let (w, h) = self.size();
-        (0..w.div_ceil(GRID) * h.div_ceil(GRID))
-            .map(|k| self.amp_ref(k))
-            .collect()
+        w.div_ceil(GRID) * h.div_ceil(GRID)
     }
     /// Median reference amplitude (computed once per reference).
     fn amp_ref_median(&self) -> u32;
