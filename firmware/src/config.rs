@@ -7,7 +7,7 @@
 //!
 //! ```toml
 //! source = "camera-serial:0123456789"   # camera:/dev/videoN, camera-name:NAME, set:DIR, sim:SCENE
-//! link = "serial:/dev/ttyGS0@921600"    # serial:PATH[@BAUD], file:PATH, stdout
+//! link = "serial:/dev/ttyGS0@921600"    # /dev/ttyX, serial:PATH[@BAUD], file:PATH, - (stdout)
 //! serial = "VSK-0042"                   # sent in Hello
 //! calibration = "/var/lib/vistaf/calibration.json"
 //! pipeline = "fixed"                    # or float
@@ -31,17 +31,18 @@
 use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
+use vistaf_protocol::link::LinkSpec;
 
 /// What went wrong with a configuration file.
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigError {
     /// Unreadable.
-    #[error("{path}: {source}")]
+    #[error("{path}: {cause}")]
     Io {
         /// The file.
         path: String,
         /// Why.
-        source: std::io::Error,
+        cause: std::io::Error,
     },
     /// Not valid TOML, a wrong type, or an unknown key (the parser names it).
     #[error("{path}: {detail}")]
@@ -172,9 +173,9 @@ impl Config {
     /// Reads and checks a file.
     pub fn load(path: &Path) -> Result<Config, ConfigError> {
         let p = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
+        let text = std::fs::read_to_string(path).map_err(|cause| ConfigError::Io {
             path: p.clone(),
-            source,
+            cause,
         })?;
         Config::parse(&text, &p)
     }
@@ -200,10 +201,11 @@ impl Config {
                 .map_err(|e| bad("source", e.to_string()))?;
         }
         if let Some(l) = &self.link {
-            check_link(l).map_err(|e| bad("link", e))?;
+            l.parse::<LinkSpec>()
+                .map_err(|e| bad("link", e.to_string()))?;
         }
         if let Some(p) = &self.pipeline {
-            p.parse::<crate::pipeline::Implementation>()
+            p.parse::<vistaf_pipeline::Implementation>()
                 .map_err(|e| bad("pipeline", e))?;
         }
         if let Some(f) = self.fps {
@@ -248,30 +250,6 @@ impl Config {
         }
         Ok(())
     }
-}
-
-/// Checks a link spec's form (`serial:PATH[@BAUD]`, `file:PATH`, `stdout`).
-pub fn check_link(spec: &str) -> Result<(), String> {
-    if spec == "stdout" || spec.strip_prefix("file:").is_some_and(|p| !p.is_empty()) {
-        return Ok(());
-    }
-    let Some(rest) = spec.strip_prefix("serial:") else {
-        return Err(format!(
-            "{spec:?}: expected serial:PATH[@BAUD], file:PATH or stdout"
-        ));
-    };
-    if let Some((path, baud)) = rest.rsplit_once('@') {
-        if path.is_empty() {
-            return Err(format!("{spec:?}: no device path"));
-        }
-        baud.parse::<u32>()
-            .ok()
-            .filter(|b| *b > 0)
-            .ok_or_else(|| format!("{spec:?}: baud rate {baud:?} is not a positive number"))?;
-    } else if rest.is_empty() {
-        return Err(format!("{spec:?}: no device path"));
-    }
-    Ok(())
 }
 
 #[cfg(test)]

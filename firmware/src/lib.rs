@@ -1,18 +1,12 @@
 //! # vistaf-firmware
 //!
-//! The device side of a vistaf skin: the pipeline that turns a reference frame and each new
-//! frame into force, shape and temperature, and the `vistaf-skin` service that streams
-//! them over serial.
+//! The device side of a vistaf skin around the pipeline (`vistaf-pipeline`): the
+//! service that films the skin, measures each frame and streams summaries over the link,
+//! and the edges it runs between (camera, LED ring, serial link, configuration file).
 #![deny(missing_docs)]
 
-pub mod calibrate;
-pub mod calibration;
 pub mod config;
-pub mod fit;
 pub mod maps;
-pub mod pipeline;
+pub mod report;
 pub mod service;
 pub mod source_spec;
-#[cfg(test)]
-mod test_rng;
-pub mod thermal;

@@ -40,23 +40,9 @@ fn main() {
         Cmd::Run(a) => cmd::run::run(a),
     };
     if let Err(e) = result {
-        eprintln!("vistaf-skin: {}", causes(&e));
+        // Every error says its cause once (in its message or as its source, never both),
+        // so the chain reads as one sentence.
+        eprintln!("vistaf-skin: {e:#}");
         std::process::exit(1);
     }
-}
-
-/// The error and its causes, each once: a cause whose text the message already carries (an
-/// error that prints its source) is not repeated.
-fn causes(e: &anyhow::Error) -> String {
-    let mut msg = String::new();
-    for c in e.chain() {
-        let t = c.to_string();
-        if !msg.contains(&t) {
-            if !msg.is_empty() {
-                msg.push_str(": ");
-            }
-            msg.push_str(&t);
-        }
-    }
-    msg
 }

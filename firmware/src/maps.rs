@@ -6,7 +6,7 @@ use std::path::Path;
 use anyhow::{Context, Result};
 use image::{Rgb, RgbImage};
 
-use crate::pipeline::Deformation;
+use vistaf_pipeline::Measurement;
 
 /// A perceptually ordered colour map (viridis, 5 anchors, linear between).
 pub fn viridis(t: f32) -> Rgb<u8> {
@@ -70,7 +70,7 @@ pub fn map_png(
 
 /// The temperature map as PNG: one cell per block, the bar spanning the frame's coldest to
 /// hottest block (at least 2 °C wide).
-pub fn temperature_png(t: &crate::thermal::Temperature, path: &Path) -> Result<()> {
+pub fn temperature_png(t: &vistaf_pipeline::thermal::Temperature, path: &Path) -> Result<()> {
     let (lo, hi) = if t.min_c.is_finite() {
         let mid = (t.min_c + t.max_c) / 2.0;
         let half = ((t.max_c - t.min_c) / 2.0).max(1.0);
@@ -84,7 +84,7 @@ pub fn temperature_png(t: &crate::thermal::Temperature, path: &Path) -> Result<(
 
 /// The depth map of a result as PNG: the bar spans 0 to the frame's peak depth (its
 /// `depth_mm` in the JSON output), at least 0.1 mm.
-pub fn depth_png(d: &Deformation, path: &Path) -> Result<()> {
+pub fn depth_png(d: &Measurement, path: &Path) -> Result<()> {
     let v: Vec<f32> = d.depth_um.iter().map(|&u| u as f32 / 1000.0).collect();
     map_png(&v, d.w, d.h, 0.0, d.peak_depth_mm.max(0.1), d.factor, path)
 }

@@ -4,8 +4,8 @@
 use std::path::PathBuf;
 
 use anyhow::{anyhow, bail, Result};
-use vistaf_hardware::sim::{SensorUnit, SimSource};
 use vistaf_hardware::source::{FrameSource, Pacing, SetReplay};
+use vistaf_sim::{SensorUnit, SimSource};
 
 /// A parsed `--source`.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -88,10 +88,7 @@ pub fn open(spec: &SourceSpec, o: &OpenOptions) -> Result<Box<dyn FrameSource>> 
             let unit = SensorUnit::from_seed(o.unit_seed);
             let src =
                 SimSource::scene(scene, unit, o.sim_frames, o.fps, o.seed).ok_or_else(|| {
-                    let names: Vec<&str> = vistaf_hardware::sim::scene::SCENES
-                        .iter()
-                        .map(|s| s.0)
-                        .collect();
+                    let names: Vec<&str> = vistaf_sim::scene::SCENES.iter().map(|s| s.0).collect();
                     anyhow!("unknown scene {scene:?}; scenes: {}", names.join(", "))
                 })?;
             Box::new(src.looping(o.looping))

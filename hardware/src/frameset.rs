@@ -78,12 +78,12 @@ pub struct Manifest {
 #[non_exhaustive]
 pub enum FrameSetError {
     /// The directory or its manifest is missing or unreadable.
-    #[error("{path}: {source}")]
+    #[error("{path}: {cause}")]
     Io {
         /// The file or directory.
         path: PathBuf,
         /// The cause.
-        source: std::io::Error,
+        cause: std::io::Error,
     },
     /// The manifest is not valid JSON or lacks a required key.
     #[error("{path}: invalid manifest at line {line}, column {column}: {detail}")]
@@ -170,9 +170,9 @@ pub struct FrameSet {
 }
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> FrameSetError + '_ {
-    move |source| FrameSetError::Io {
+    move |cause| FrameSetError::Io {
         path: path.to_path_buf(),
-        source,
+        cause,
     }
 }
 

@@ -5,11 +5,10 @@
 //!
 //! | seam | real | stand-in |
 //! |---|---|---|
-//! | [`source::FrameSource`] | [`camera`] (V4L2, feature `v4l`) | [`source::SetReplay`], [`sim::SimSource`] |
+//! | [`source::FrameSource`] | [`camera`] (V4L2, feature `v4l`) | [`source::SetReplay`]; the simulated skin (`vistaf-sim`) |
 //! | [`led::LedRing`] | [`led::SpiLedRing`] over rppal SPI (feature `rpi`) | [`led::MemoryLedRing`] |
 //!
-//! [`frameset`] reads and writes the `vistaf-frames/1` format; [`sim`] renders synthetic
-//! sensor frames with ground truth.
+//! [`frameset`] reads and writes the `vistaf-frames/1` format.
 #![deny(missing_docs)]
 
 #[cfg(feature = "v4l")]
@@ -17,7 +16,6 @@ pub mod camera;
 pub mod frame;
 pub mod frameset;
 pub mod led;
-pub mod sim;
 pub mod source;
 
 pub use frame::{Frame, PixelFormat};

@@ -1,7 +1,7 @@
 //! The camera seam: anything that yields timestamped frames.
 //!
 //! Implementations: the V4L2 camera ([`crate::camera`], feature `v4l`), frame-set replay
-//! ([`SetReplay`]), and the simulated skin (`crate::sim::SimSource`). "Newest frame wins" is
+//! ([`SetReplay`]), and the simulated skin (`vistaf_sim::SimSource`). "Newest frame wins" is
 //! the service's policy, not the source's: a source hands out every frame it has, in order,
 //! with a sequence number whose gaps reveal frames it dropped.
 
@@ -37,12 +37,12 @@ pub enum SourceError {
         detail: String,
     },
     /// An I/O error talking to the device.
-    #[error("{device}: {source}")]
+    #[error("{device}: {cause}")]
     Io {
         /// Device path or name.
         device: String,
         /// The cause.
-        source: std::io::Error,
+        cause: std::io::Error,
     },
     /// The device cannot deliver what was asked.
     #[error("{device}: {detail}")]

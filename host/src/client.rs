@@ -26,6 +26,15 @@ pub struct Received {
     pub at: SystemTime,
 }
 
+/// A skin's identity in one line: serial, firmware, image size.
+pub fn describe(hello: &Hello) -> String {
+    let fw = hello.firmware;
+    format!(
+        "skin {} firmware {}.{}.{}, {}×{} px",
+        hello.serial, fw.major, fw.minor, fw.patch, hello.frame_width_px, hello.frame_height_px
+    )
+}
+
 /// What [`Client::next`] produced.
 // Summaries are the common case and small; a rare Map makes the enum large. Boxing
 // would cost an allocation per summary to save stack on the rare case.
@@ -109,9 +118,9 @@ impl Client {
                 return Ok(());
             }
             Ok(n) => n,
-            Err(HostError::Io { source, .. })
+            Err(HostError::Io { cause, .. })
                 if matches!(
-                    source.kind(),
+                    cause.kind(),
                     io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
                 ) =>
             {
@@ -139,7 +148,7 @@ impl Client {
         let mut buf = [0u8; HOST_FRAME_MAX];
         let n = encode(msg, &mut buf).map_err(|e| HostError::Io {
             link: self.link.name().to_string(),
-            source: io::Error::other(e),
+            cause: io::Error::other(e),
         })?;
         self.link.send(&buf[..n])
     }

@@ -11,28 +11,23 @@ use vistaf_protocol::DeviceError;
 #[non_exhaustive]
 pub enum HostError {
     /// A link spec string could not be parsed.
-    #[error("bad link '{spec}': {why}")]
-    BadLinkSpec {
-        /// The spec as given.
-        spec: String,
-        /// What is wrong with it.
-        why: String,
-    },
+    #[error(transparent)]
+    BadLinkSpec(#[from] vistaf_protocol::link::LinkSpecError),
     /// The link could not be opened.
-    #[error("cannot open {link}: {source}")]
+    #[error("cannot open {link}: {cause}")]
     Open {
         /// The link.
         link: String,
         /// The cause.
-        source: io::Error,
+        cause: io::Error,
     },
     /// Reading or writing the link failed.
-    #[error("{link}: {source}")]
+    #[error("{link}: {cause}")]
     Io {
         /// The link.
         link: String,
         /// The cause.
-        source: io::Error,
+        cause: io::Error,
     },
     /// A command was sent on a link that cannot carry it (a file or stdin).
     #[error("{link} is read-only: commands need a serial link")]
@@ -74,6 +69,20 @@ pub enum HostError {
         host_version: u16,
         /// Ours.
         host_schema: u64,
+    },
+    /// A record file has an extension that names no format.
+    #[error("{path}: unknown extension (use .csv or .jsonl)")]
+    RecordFormat {
+        /// The file.
+        path: String,
+    },
+    /// A record file could not be created or written.
+    #[error("writing {path}: {cause}")]
+    Record {
+        /// The file.
+        path: String,
+        /// The cause.
+        cause: io::Error,
     },
     /// The device refused a command.
     #[error("{link}: device error {:?}: {}", .error.code, .error.detail)]

@@ -2,8 +2,10 @@
 //!
 //! The robot computer's side of a vistaf skin: open a link ([`link`]), shake hands and
 //! send commands ([`client`]), read one skin or many ([`multi`]) with sequence-gap
-//! accounting ([`seq`]), and record what arrives ([`record`]). The `vistaf-host` binary
-//! is a thin CLI over this library.
+//! accounting ([`seq`]) until told to stop ([`stream`]), show it live ([`monitor`]), and
+//! record what arrives ([`record`]). The `vistaf-host` binary is a thin CLI over this
+//! library. It depends on the wire (`vistaf-protocol`) alone: nothing of the pipeline or
+//! the camera is built on the robot computer.
 //!
 //! ```text
 //!  skin ─▶ serial ─▶ Link ─▶ Client (DeviceDecoder) ─▶ Received { msg, at }
@@ -29,8 +31,10 @@
 pub mod client;
 pub mod error;
 pub mod link;
+pub mod monitor;
 pub mod multi;
 pub mod record;
 pub mod seq;
+pub mod stream;
 
 pub use error::HostError;

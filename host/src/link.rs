@@ -1,8 +1,8 @@
 //! Where the bytes come from and go to: a serial port, a captured file, or stdin.
 //!
-//! A link is named by a short spec string, the same in the CLI and the library:
+//! A link is named by a [`LinkSpec`], the grammar the device's CLI shares:
 //!
-//! | spec | meaning |
+//! | spec | meaning on the host |
 //! |---|---|
 //! | `/dev/ttyACM0`, `serial:/dev/ttyGS0@921600` | serial port (default 921 600 baud) |
 //! | `file:capture.bin`, `capture.bin` (an existing regular file) | a captured byte stream, read-only |
@@ -10,86 +10,14 @@
 
 use std::fmt;
 use std::io::{self, Read, Write};
-use std::path::PathBuf;
 use std::time::Duration;
 
 use crate::error::HostError;
 
-/// Default baud rate of the skin's serial port.
-pub const DEFAULT_BAUD: u32 = 921_600;
+pub use vistaf_protocol::link::{LinkSpec, LinkSpecError, DEFAULT_BAUD};
 
 /// How long one read waits for bytes before the caller gets control back.
 pub const READ_POLL: Duration = Duration::from_millis(50);
-
-/// A parsed link spec.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum LinkSpec {
-    /// A serial port at a baud rate.
-    Serial {
-        /// Device path, e.g. `/dev/ttyACM0`.
-        path: String,
-        /// Baud rate.
-        baud: u32,
-    },
-    /// A captured byte stream.
-    File(PathBuf),
-    /// Standard input.
-    Stdin,
-}
-
-impl fmt::Display for LinkSpec {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            LinkSpec::Serial { path, baud } => write!(f, "serial:{path}@{baud}"),
-            LinkSpec::File(p) => write!(f, "file:{}", p.display()),
-            LinkSpec::Stdin => f.write_str("stdin"),
-        }
-    }
-}
-
-impl std::str::FromStr for LinkSpec {
-    type Err = HostError;
-
-    fn from_str(s: &str) -> Result<Self, HostError> {
-        let bad = |why: &str| HostError::BadLinkSpec {
-            spec: s.to_string(),
-            why: why.to_string(),
-        };
-        if s == "-" {
-            return Ok(LinkSpec::Stdin);
-        }
-        if let Some(path) = s.strip_prefix("file:") {
-            if path.is_empty() {
-                return Err(bad("missing file path after 'file:'"));
-            }
-            return Ok(LinkSpec::File(PathBuf::from(path)));
-        }
-        let serial = s.strip_prefix("serial:");
-        let body = serial.unwrap_or(s);
-        if body.is_empty() {
-            return Err(bad("empty port name"));
-        }
-        let (path, baud) = match body.rsplit_once('@') {
-            Some((p, b)) => {
-                let baud = b
-                    .parse::<u32>()
-                    .map_err(|_| bad("baud rate after '@' is not a number"))?;
-                if baud == 0 {
-                    return Err(bad("baud rate must be positive"));
-                }
-                (p, baud)
-            }
-            None => (body, DEFAULT_BAUD),
-        };
-        if serial.is_none() && std::path::Path::new(path).is_file() {
-            return Ok(LinkSpec::File(PathBuf::from(path)));
-        }
-        Ok(LinkSpec::Serial {
-            path: path.to_string(),
-            baud,
-        })
-    }
-}
 
 /// An open link: a byte reader, an optional writer, and a name for messages.
 pub struct Link {
@@ -109,7 +37,10 @@ impl fmt::Debug for Link {
 impl Link {
     /// Opens the link a spec names.
     pub fn open(spec: &LinkSpec) -> Result<Link, HostError> {
-        let name = spec.to_string();
+        let name = match spec {
+            LinkSpec::Stdio => "stdin".to_string(),
+            other => other.to_string(),
+        };
         match spec {
             LinkSpec::Serial { path, baud } => {
                 let port = serialport::new(path, *baud)
@@ -117,18 +48,18 @@ impl Link {
                     .open_native()
                     .map_err(|e| HostError::Open {
                         link: name.clone(),
-                        source: e.into(),
+                        cause: e.into(),
                     })?;
                 Link::from_serial(name, port)
             }
             LinkSpec::File(path) => {
                 let file = std::fs::File::open(path).map_err(|e| HostError::Open {
                     link: name.clone(),
-                    source: e,
+                    cause: e,
                 })?;
                 Ok(Link::read_only(name, file))
             }
-            LinkSpec::Stdin => Ok(Link::read_only(name, io::stdin())),
+            LinkSpec::Stdio => Ok(Link::read_only(name, io::stdin())),
         }
     }
 
@@ -136,7 +67,7 @@ impl Link {
     pub fn from_serial(name: String, port: serialport::TTYPort) -> Result<Link, HostError> {
         let writer = port.try_clone_native().map_err(|e| HostError::Open {
             link: name.clone(),
-            source: e.into(),
+            cause: e.into(),
         })?;
         Ok(Link {
             name,
@@ -188,7 +119,7 @@ impl Link {
                 Err(e) => {
                     return Err(HostError::Io {
                         link: self.name.clone(),
-                        source: e,
+                        cause: e,
                     })
                 }
                 Ok(n) => return Ok(n),
@@ -206,7 +137,7 @@ impl Link {
             .and_then(|()| writer.flush())
             .map_err(|e| HostError::Io {
                 link: self.name.clone(),
-                source: e,
+                cause: e,
             })
     }
 }
@@ -229,42 +160,6 @@ impl<R: Read> Read for TimeoutIsEmpty<R> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn specs_parse() {
-        assert_eq!("-".parse::<LinkSpec>().unwrap(), LinkSpec::Stdin);
-        assert_eq!(
-            "/dev/ttyACM0".parse::<LinkSpec>().unwrap(),
-            LinkSpec::Serial {
-                path: "/dev/ttyACM0".into(),
-                baud: DEFAULT_BAUD
-            }
-        );
-        assert_eq!(
-            "serial:/dev/ttyGS0@115200".parse::<LinkSpec>().unwrap(),
-            LinkSpec::Serial {
-                path: "/dev/ttyGS0".into(),
-                baud: 115_200
-            }
-        );
-        assert_eq!(
-            "file:cap.bin".parse::<LinkSpec>().unwrap(),
-            LinkSpec::File(PathBuf::from("cap.bin"))
-        );
-    }
-
-    #[test]
-    fn bad_specs_name_the_problem() {
-        for (spec, why) in [
-            ("serial:/dev/ttyS0@fast", "not a number"),
-            ("serial:/dev/ttyS0@0", "positive"),
-            ("file:", "missing file path"),
-            ("serial:", "empty"),
-        ] {
-            let err = spec.parse::<LinkSpec>().unwrap_err().to_string();
-            assert!(err.contains(spec) && err.contains(why), "{spec}: {err}");
-        }
-    }
 
     #[test]
     fn missing_port_is_a_clear_error() {

@@ -6,10 +6,12 @@ use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::time::{SystemTime, UNIX_EPOCH};
 
+use serde::Serialize;
 use serde_json::{json, Value};
 use vistaf_protocol::{DeviceMsg, Summary};
 
 use crate::client::Received;
+use crate::error::HostError;
 
 /// Output format, chosen from the file extension.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -38,67 +40,118 @@ pub fn unix_s(t: SystemTime) -> f64 {
         .unwrap_or(0.0)
 }
 
+/// A summary in SI units with flag names: the one form every output of the host (CSV,
+/// JSON lines, session files) is written from. Temperatures that were not measured are
+/// `None` (JSON `null`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SummaryRecord {
+    /// Sequence number.
+    pub seq: u32,
+    /// Device capture time, µs since the device's service started.
+    pub capture_us: u64,
+    /// Processing latency on the device, µs.
+    pub latency_us: u32,
+    /// Normal force, N.
+    pub force_n: f32,
+    /// Peak depth, mm.
+    pub peak_depth_mm: f32,
+    /// Contact area, mm².
+    pub contact_area_mm2: f32,
+    /// Deformation volume, mm³.
+    pub volume_mm3: f32,
+    /// Contact centre (x, y), mm.
+    pub centroid_mm: Option<[f32; 2]>,
+    /// Coldest measured block, °C.
+    pub temp_min_c: Option<f32>,
+    /// Mean over the measured blocks, °C.
+    pub temp_mean_c: Option<f32>,
+    /// Hottest measured block, °C.
+    pub temp_max_c: Option<f32>,
+    /// Temperature of the contact, °C.
+    pub contact_temp_c: Option<f32>,
+    /// Quality flags by name (empty when trusted).
+    pub flags: Vec<&'static str>,
+    /// Flag bits this host does not know (a newer device).
+    pub unknown_flag_bits: u16,
+}
+
+impl From<&Summary> for SummaryRecord {
+    fn from(s: &Summary) -> SummaryRecord {
+        let si = s.si();
+        let measured = |v: f32| (!v.is_nan()).then_some(v);
+        SummaryRecord {
+            seq: s.seq,
+            capture_us: s.capture_us,
+            latency_us: s.latency_us,
+            force_n: si.force_n,
+            peak_depth_mm: si.peak_depth_mm,
+            contact_area_mm2: si.contact_area_mm2,
+            volume_mm3: si.volume_mm3,
+            centroid_mm: si.centroid_mm.map(|(x, y)| [x, y]),
+            temp_min_c: measured(si.temp_min_c),
+            temp_mean_c: measured(si.temp_mean_c),
+            temp_max_c: measured(si.temp_max_c),
+            contact_temp_c: si.contact_temp_c,
+            flags: s.flags.iter().map(|f| f.name()).collect(),
+            unknown_flag_bits: s.flags.unknown_bits(),
+        }
+    }
+}
+
 /// CSV columns of a summary line.
 pub const CSV_HEADER: &str = "device,received_unix_s,seq,capture_us,latency_us,force_n,\
 peak_depth_mm,contact_area_mm2,volume_mm3,centroid_x_mm,centroid_y_mm,temp_min_c,\
 temp_mean_c,temp_max_c,contact_temp_c,flags";
 
-/// Flag names of a summary, `|`-separated (empty when trusted).
-pub fn flag_names(s: &Summary) -> Vec<&'static str> {
-    s.flags.iter().map(|f| f.name()).collect()
+impl SummaryRecord {
+    /// One CSV line (no newline), in [`CSV_HEADER`]'s columns; an unmeasured temperature
+    /// reads `NaN` in the block columns and is empty for the contact.
+    pub fn csv_line(&self, device: &str, at: SystemTime) -> String {
+        let opt = |v: Option<f32>| v.map(|x| format!("{x}")).unwrap_or_default();
+        let nan = |v: Option<f32>| v.unwrap_or(f32::NAN);
+        format!(
+            "{device},{:.6},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            unix_s(at),
+            self.seq,
+            self.capture_us,
+            self.latency_us,
+            self.force_n,
+            self.peak_depth_mm,
+            self.contact_area_mm2,
+            self.volume_mm3,
+            opt(self.centroid_mm.map(|c| c[0])),
+            opt(self.centroid_mm.map(|c| c[1])),
+            nan(self.temp_min_c),
+            nan(self.temp_mean_c),
+            nan(self.temp_max_c),
+            opt(self.contact_temp_c),
+            self.flags.join("|"),
+        )
+    }
 }
 
-/// One CSV line (no newline) for a summary.
-pub fn csv_line(device: &str, at: SystemTime, s: &Summary) -> String {
-    let si = s.si();
-    let opt = |v: Option<f32>| v.map(|x| format!("{x}")).unwrap_or_default();
-    format!(
-        "{device},{:.6},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
-        unix_s(at),
-        s.seq,
-        s.capture_us,
-        s.latency_us,
-        si.force_n,
-        si.peak_depth_mm,
-        si.contact_area_mm2,
-        si.volume_mm3,
-        opt(si.centroid_mm.map(|c| c.0)),
-        opt(si.centroid_mm.map(|c| c.1)),
-        si.temp_min_c,
-        si.temp_mean_c,
-        si.temp_max_c,
-        opt(si.contact_temp_c),
-        flag_names(s).join("|"),
-    )
+/// A summary line of the JSON-lines record: the device, the receive time, the summary.
+#[derive(Serialize)]
+struct SummaryLine<'a> {
+    r#type: &'static str,
+    device: &'a str,
+    received_unix_s: f64,
+    #[serde(flatten)]
+    summary: SummaryRecord,
 }
 
-/// A message as a JSON object: summaries in SI units with flag names, everything else in
-/// its wire form.
+/// A message as a JSON object: summaries as [`SummaryRecord`]s, everything else in its
+/// wire form.
 pub fn message_json(device: &str, received: &Received) -> Value {
     let at = unix_s(received.at);
     match &received.msg {
-        DeviceMsg::Summary(s) => {
-            let si = s.si();
-            json!({
-                "type": "summary",
-                "device": device,
-                "received_unix_s": at,
-                "seq": s.seq,
-                "capture_us": s.capture_us,
-                "latency_us": s.latency_us,
-                "force_n": si.force_n,
-                "peak_depth_mm": si.peak_depth_mm,
-                "contact_area_mm2": si.contact_area_mm2,
-                "volume_mm3": si.volume_mm3,
-                "centroid_mm": si.centroid_mm.map(|(x, y)| [x, y]),
-                "temp_min_c": si.temp_min_c,
-                "temp_mean_c": si.temp_mean_c,
-                "temp_max_c": si.temp_max_c,
-                "contact_temp_c": si.contact_temp_c,
-                "flags": flag_names(s),
-                "unknown_flag_bits": s.flags.unknown_bits(),
-            })
-        }
+        DeviceMsg::Summary(s) => serde_json::to_value(SummaryLine {
+            r#type: "summary",
+            device,
+            received_unix_s: at,
+            summary: SummaryRecord::from(s),
+        })
+        .unwrap_or(Value::Null),
         other => {
             let (kind, body) = match other {
                 DeviceMsg::Hello(h) => ("hello", json!(h)),
@@ -125,12 +178,14 @@ pub struct Recorder {
 
 impl Recorder {
     /// Creates (or truncates) `path`; the format follows its extension.
-    pub fn create(path: &Path) -> anyhow::Result<Recorder> {
-        let format = Format::from_path(path).ok_or_else(|| {
-            anyhow::anyhow!("{}: unknown extension (use .csv or .jsonl)", path.display())
+    pub fn create(path: &Path) -> Result<Recorder, HostError> {
+        let format = Format::from_path(path).ok_or_else(|| HostError::RecordFormat {
+            path: path.display().to_string(),
         })?;
-        let file = File::create(path)
-            .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", path.display()))?;
+        let file = File::create(path).map_err(|cause| HostError::Record {
+            path: path.display().to_string(),
+            cause,
+        })?;
         let mut rec = Recorder {
             path: path.to_path_buf(),
             format,
@@ -143,16 +198,21 @@ impl Recorder {
         Ok(rec)
     }
 
-    fn line(&mut self, text: &str) -> anyhow::Result<()> {
+    fn line(&mut self, text: &str) -> Result<(), HostError> {
         writeln!(self.out, "{text}")
             .and_then(|()| self.out.flush())
-            .map_err(|e| anyhow::anyhow!("writing {}: {e}", self.path.display()))
+            .map_err(|cause| HostError::Record {
+                path: self.path.display().to_string(),
+                cause,
+            })
     }
 
     /// Records one message. CSV keeps summaries only; JSON lines keep everything.
-    pub fn record(&mut self, device: &str, received: &Received) -> anyhow::Result<()> {
+    pub fn record(&mut self, device: &str, received: &Received) -> Result<(), HostError> {
         let text = match (self.format, &received.msg) {
-            (Format::Csv, DeviceMsg::Summary(s)) => csv_line(device, received.at, s),
+            (Format::Csv, DeviceMsg::Summary(s)) => {
+                SummaryRecord::from(s).csv_line(device, received.at)
+            }
             (Format::Csv, _) => return Ok(()),
             (Format::JsonLines, _) => message_json(device, received).to_string(),
         };

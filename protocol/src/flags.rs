@@ -90,6 +90,11 @@ impl QualityFlags {
         self.0 |= flag.bit();
     }
 
+    /// Sets every flag set in `other` (unknown bits too).
+    pub fn insert_all(&mut self, other: QualityFlags) {
+        self.0 |= other.0;
+    }
+
     /// Returns these flags with `flag` set.
     #[must_use]
     pub const fn with(self, flag: Flag) -> QualityFlags {

@@ -15,6 +15,8 @@
 //!   that resynchronises after garbage and counts every drop.
 //! * [`flags`]: the quality-flag bitfield of a summary.
 //! * [`schema`]: protocol version and schema hash, checked in the `Hello` handshake.
+//! * `link` (feature `std`): the link spec grammar both CLIs share (`/dev/ttyX`,
+//!   `serial:PATH@BAUD`, `file:PATH`, `-`).
 //!
 //! ## Sizes and rates
 //!
@@ -45,6 +47,8 @@ extern crate std;
 
 pub mod flags;
 pub mod frame;
+#[cfg(feature = "std")]
+pub mod link;
 pub mod msg;
 pub mod schema;
 pub mod units;

@@ -26,6 +26,19 @@ pub const SERIAL_MAX_LEN: usize = 24;
 /// Maximum length of the human-readable detail of a [`DeviceError`], bytes of UTF-8.
 pub const ERROR_DETAIL_MAX_LEN: usize = 64;
 
+/// The longest prefix of `s` that fits a wire string of `N` bytes, cut on a character
+/// boundary (a serial or an error detail longer than the wire carries is shortened, never
+/// refused).
+pub fn truncated<const N: usize>(s: &str) -> String<N> {
+    let mut out = String::new();
+    for c in s.chars() {
+        if out.push(c).is_err() {
+            break;
+        }
+    }
+    out
+}
+
 /// Number of LEDs the [`SetLed`] mask can address.
 pub const LED_MASK_BITS: u32 = 32;
 
@@ -96,7 +109,7 @@ pub struct Summary {
     pub peak_depth_um: u32,
     /// Contact area, 0.01 mm².
     pub contact_area_centi_mm2: u32,
-    /// Deformation volume, 0.001 mm³ (nanolitres).
+    /// Measurement volume, 0.001 mm³ (nanolitres).
     pub volume_milli_mm3: u32,
     /// Contact centre; `None` when there is no contact.
     pub centroid: Option<CentroidDeciMm>,

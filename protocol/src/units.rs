@@ -26,9 +26,32 @@ pub fn to_i16(x: f32, scale: f32) -> i16 {
     }
 }
 
-/// Temperature in °C → 0.01 °C.
+/// Temperature in °C → 0.01 °C, rounded to nearest and saturating within the field's
+/// range; a reading that is not a number (NaN, ±∞) is [`TEMP_NOT_MEASURED`], and no
+/// reading can become that value by saturating.
+///
+/// [`TEMP_NOT_MEASURED`]: crate::msg::TEMP_NOT_MEASURED
 pub fn centi_c(temp_c: f32) -> i16 {
-    to_i16(temp_c, 100.0)
+    if !temp_c.is_finite() {
+        return crate::msg::TEMP_NOT_MEASURED;
+    }
+    let v = (temp_c * 100.0).clamp(f32::from(i16::MIN + 1), f32::from(i16::MAX));
+    // Half away from zero, as `f32::round` (not in `core`): the fraction is exact here.
+    let whole = v as i32;
+    let frac = v - whole as f32;
+    let rounded = if frac >= 0.5 {
+        whole + 1
+    } else if frac <= -0.5 {
+        whole - 1
+    } else {
+        whole
+    };
+    rounded as i16
+}
+
+/// [`centi_c`] of a temperature that may not have been measured (`None`).
+pub fn centi_c_or_not_measured(temp_c: Option<f32>) -> i16 {
+    temp_c.map_or(crate::msg::TEMP_NOT_MEASURED, centi_c)
 }
 
 /// Position in mm → 0.1 mm.
@@ -55,7 +78,7 @@ pub struct SummarySi {
     pub peak_depth_mm: f32,
     /// Contact area, mm².
     pub contact_area_mm2: f32,
-    /// Deformation volume, mm³.
+    /// Measurement volume, mm³.
     pub volume_mm3: f32,
     /// Contact centre (x, y), mm.
     pub centroid_mm: Option<(f32, f32)>,
@@ -112,7 +135,21 @@ mod tests {
         assert_eq!(centi_c(25.004), 2500);
         assert_eq!(centi_c(-5.006), -501);
         assert_eq!(centi_c(1e9), i16::MAX);
-        assert_eq!(centi_c(-1e9), i16::MIN);
+        // Saturation never reaches the "not measured" code; not a number does.
+        assert_eq!(centi_c(-1e9), i16::MIN + 1);
+        assert_eq!(centi_c(f32::NAN), crate::msg::TEMP_NOT_MEASURED);
+        assert_eq!(centi_c(f32::INFINITY), crate::msg::TEMP_NOT_MEASURED);
+        assert_eq!(centi_c_or_not_measured(None), crate::msg::TEMP_NOT_MEASURED);
+        assert_eq!(centi_c_or_not_measured(Some(-0.004)), 0);
+        assert_eq!(centi_c(0.125), 13);
+        assert_eq!(centi_c(-0.125), -13);
+        // The same as rounding with std's `f32::round` then saturating, for every
+        // hundredth and half-hundredth across the range and beyond.
+        for k in -700_000..700_000 {
+            let t = k as f32 / 200.0;
+            let expect = (t * 100.0).round().clamp(-32_767.0, 32_767.0) as i16;
+            assert_eq!(centi_c(t), expect, "{t}");
+        }
         assert_eq!(deci_mm(12.34), 123);
     }
 

@@ -5,12 +5,12 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
-use vistaf_firmware::calibration::Calibration;
-use vistaf_firmware::pipeline::fixed_ftp::FixedFtp;
-use vistaf_firmware::pipeline::image_ops::{gray_down_f32, gray_down_q8};
-use vistaf_firmware::pipeline::measure::{measure, Context};
-use vistaf_firmware::pipeline::{Analyzer, AnalyzerOptions, Implementation};
-use vistaf_hardware::sim::{scene, Renderer, SensorUnit, SkinState};
+use vistaf_pipeline::calibration::Calibration;
+use vistaf_pipeline::ftp::fixed::FixedFtp;
+use vistaf_pipeline::image_ops::{gray_down_f32, gray_down_q8};
+use vistaf_pipeline::measure::{measure, Context};
+use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation};
+use vistaf_sim::{scene, Renderer, SensorUnit, SkinState};
 
 fn pipeline(c: &mut Criterion) {
     let unit = SensorUnit::reference();
@@ -29,8 +29,8 @@ fn pipeline(c: &mut Criterion) {
     });
     // Device path by stage: demodulation and phase, then the measurement.
     let calib = Calibration::default_sim();
-    let working = vistaf_firmware::pipeline::carrier::working(&reference, None).unwrap();
-    let fixed = FixedFtp::new(&reference, &working, &calib).unwrap();
+    let working = vistaf_pipeline::ftp::carrier::working(&reference, None).unwrap();
+    let fixed = FixedFtp::new(&reference, &working, &calib);
     g.bench_function("Fixed_stage_demodulate_and_phase", |b| {
         b.iter(|| fixed.phase(black_box(&frame)))
     });

@@ -5,9 +5,9 @@
 //! as the default calibration, smaller image, hence `force_calibration`.
 #![allow(clippy::unwrap_used)] // tests unwrap: a failure is the test failing
 
-use vistaf_firmware::calibration::Calibration;
-use vistaf_firmware::pipeline::{Analyzer, AnalyzerOptions, Deformation, Implementation};
 use vistaf_hardware::source::{FrameSource, Pacing, SetReplay};
+use vistaf_pipeline::calibration::Calibration;
+use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement};
 use vistaf_tests::{fixture, truth_depth_mm};
 
 const IMPLS: [Implementation; 2] = [Implementation::Fixed, Implementation::Float];
@@ -16,7 +16,7 @@ const IMPLS: [Implementation; 2] = [Implementation::Fixed, Implementation::Float
 const MM_PER_PX: f32 = 2.0 / 16.0;
 
 /// Every frame of a fixture through the pipeline, with its manifest entry index.
-fn replay(name: &str, imp: Implementation) -> Vec<Deformation> {
+fn replay(name: &str, imp: Implementation) -> Vec<Measurement> {
     let set = fixture(name);
     let reference = set.load_reference().unwrap();
     let opts = AnalyzerOptions {

@@ -9,17 +9,17 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use serialport::{SerialPort, TTYPort};
-use vistaf_firmware::calibration::Calibration;
-use vistaf_firmware::pipeline::Implementation;
 use vistaf_firmware::service::{run, Settings};
 use vistaf_hardware::led::{LedConfig, MemoryLedRing};
-use vistaf_hardware::sim::contact::{Contact, Indenter};
-use vistaf_hardware::sim::scene::{center_mm, ROOM_C, SPHERE_R_MM};
-use vistaf_hardware::sim::{SensorUnit, SimSource, SkinState};
 use vistaf_hardware::source::FrameSource;
 use vistaf_host::client::{Client, Next};
 use vistaf_host::link::{Link, LinkSpec};
+use vistaf_pipeline::calibration::Calibration;
+use vistaf_pipeline::Implementation;
 use vistaf_protocol::{DeviceMsg, MapKind};
+use vistaf_sim::contact::{Contact, Indenter};
+use vistaf_sim::scene::{center_mm, ROOM_C, SPHERE_R_MM};
+use vistaf_sim::{SensorUnit, SimSource, SkinState};
 
 /// A source that notes when each frame it delivers was captured.
 struct Timed {

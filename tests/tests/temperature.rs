@@ -4,15 +4,15 @@
 //! range, and the device path against the float reference.
 #![allow(clippy::unwrap_used)] // tests unwrap: a failure is the test failing
 
-use vistaf_firmware::calibration::Calibration;
-use vistaf_firmware::pipeline::{Analyzer, AnalyzerOptions, Deformation, Implementation};
-use vistaf_firmware::thermal::stripes::pool;
-use vistaf_firmware::thermal::BLACK_POOL;
-use vistaf_hardware::sim::contact::{Contact, Footprint, Indenter};
-use vistaf_hardware::sim::scene::{center_mm, ROOM_C, SPHERE_R_MM};
-use vistaf_hardware::sim::thermal::HeatSource;
-use vistaf_hardware::sim::{Renderer, SensorUnit, SkinState, Truth};
+use vistaf_pipeline::calibration::Calibration;
+use vistaf_pipeline::thermal::stripes::pool;
+use vistaf_pipeline::thermal::BLACK_POOL;
+use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement};
 use vistaf_protocol::Flag;
+use vistaf_sim::contact::{Contact, Footprint, Indenter};
+use vistaf_sim::scene::{center_mm, ROOM_C, SPHERE_R_MM};
+use vistaf_sim::thermal::HeatSource;
+use vistaf_sim::{Renderer, SensorUnit, SkinState, Truth};
 
 struct Bench {
     r: Renderer,
@@ -40,7 +40,7 @@ fn bench() -> Bench {
 }
 
 impl Bench {
-    fn run(&self, s: &SkinState, seed: u64) -> (Deformation, Deformation, Truth) {
+    fn run(&self, s: &SkinState, seed: u64) -> (Measurement, Measurement, Truth) {
         let (img, truth) = self.r.render(s, seed);
         (
             self.fixed.analyze(&img).unwrap(),

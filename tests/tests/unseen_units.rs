@@ -7,14 +7,14 @@
 //! the kit never used, a heated contact within 0.8 °C.
 #![allow(clippy::unwrap_used)] // tests unwrap: a failure is the test failing
 
-use vistaf_firmware::calibrate::{calibrate, Quiet};
-use vistaf_firmware::pipeline::{Analyzer, AnalyzerOptions, Implementation};
+use vistaf_calibrate::{calibrate, Quiet};
 use vistaf_hardware::frameset::FrameSet;
-use vistaf_hardware::sim::contact::{Contact, Footprint, Indenter};
-use vistaf_hardware::sim::scene::{center_mm, ROOM_C, SPHERE_R_MM};
-use vistaf_hardware::sim::sets::{kit_states, write_states, SetOptions};
-use vistaf_hardware::sim::thermal::HeatSource;
-use vistaf_hardware::sim::{Renderer, SensorUnit, SkinState};
+use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation};
+use vistaf_sim::contact::{Contact, Footprint, Indenter};
+use vistaf_sim::scene::{center_mm, ROOM_C, SPHERE_R_MM};
+use vistaf_sim::sets::{kit_states, write_states, SetOptions};
+use vistaf_sim::thermal::HeatSource;
+use vistaf_sim::{Renderer, SensorUnit, SkinState};
 
 fn check_unit(seed: u64) {
     let unit = SensorUnit::from_seed(seed);

@@ -10,8 +10,8 @@ use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use serde_json::json;
-use vistaf_firmware::pipeline::{Analyzer, AnalyzerOptions, Deformation};
 use vistaf_hardware::frameset::{load_png_rgb, FrameSet};
+use vistaf_pipeline::{Analyzer, AnalyzerOptions, Measurement};
 
 /// What to analyse.
 #[derive(clap::Args, Debug)]
@@ -39,7 +39,7 @@ pub struct Args {
 }
 
 /// One result as a JSON object.
-pub fn result_json(file: &str, d: &Deformation, latency_us: u128) -> serde_json::Value {
+pub fn result_json(file: &str, d: &Measurement, latency_us: u128) -> serde_json::Value {
     // NaN is not JSON: an unmeasured temperature is null.
     let t = d.temperature.as_ref();
     let finite = |v: f32| v.is_finite().then_some(v);
@@ -121,7 +121,7 @@ pub fn run(a: &Args) -> Result<()> {
 fn write_outputs(
     dir: &Path,
     analyzer: &Analyzer,
-    results: &[(String, Deformation, serde_json::Value)],
+    results: &[(String, Measurement, serde_json::Value)],
 ) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     for (name, d, _) in results {
@@ -137,24 +137,10 @@ fn write_outputs(
             )?;
         }
     }
-    let c = analyzer.calibration();
     let summary = json!({
         "scale_mm_per_px": analyzer.mm_per_px(),
         "grating_period_px": analyzer.period_px(),
-        "calibration": {
-            "id": format!("{:08x}", c.id()),
-            "phase_to_depth": { "equation": c.depth.equation, "model": c.depth.model, "cv_rmse_mm": c.depth.cv_rmse, "in_sample_rmse_mm": c.depth.in_sample_rmse, "n": c.depth.n },
-            "force": c.force.as_ref().map(|f| json!({ "equation": f.equation, "model": f.model, "cv_rmse_n": f.cv_rmse, "in_sample_rmse_n": f.in_sample_rmse, "n": f.n })),
-            "temperature": c.temperature.as_ref().map(|t| json!({
-                "coloured": { "equation": t.coloured.equation, "fit_range_c": t.coloured.fit_range_c, "cv_rmse_c": t.coloured.cv_rmse_c, "in_sample_rmse_c": t.coloured.in_sample_rmse_c },
-                "black": { "equation": t.black.equation, "fit_range_c": t.black.fit_range_c, "cv_rmse_c": t.black.cv_rmse_c, "in_sample_rmse_c": t.black.in_sample_rmse_c },
-                "fusion": "inverse-variance blend; each estimate's variance from its cross-validated scatter at that estimate",
-                "range_c": t.range_c,
-                "held_out_rmse_c": { "22_32": t.cv_rmse_transition_c, "all": t.cv_rmse_c },
-                "blocks": t.n,
-            })),
-            "sets": c.sets,
-        },
+        "calibration": vistaf_firmware::report::calibration_json(analyzer.calibration()),
         "frames": results.iter().map(|r| r.2.clone()).collect::<Vec<_>>(),
     });
     let p = dir.join("summary.json");

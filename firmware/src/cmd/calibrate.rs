@@ -4,10 +4,10 @@
 use std::path::PathBuf;
 
 use anyhow::{anyhow, Context, Result};
-use vistaf_firmware::calibrate::{calibrate, Observer};
-use vistaf_firmware::calibration::{CandidateScore, Fitted};
-use vistaf_firmware::pipeline::Implementation;
+use vistaf_calibrate::{calibrate, Observer};
 use vistaf_hardware::frameset::FrameSet;
+use vistaf_pipeline::calibration::{CandidateScore, Fitted};
+use vistaf_pipeline::Implementation;
 
 use super::progress;
 
@@ -91,7 +91,8 @@ fn print_candidates(
 /// Runs the command.
 pub fn run(a: &Args) -> Result<()> {
     if let Some(csv) = &a.table {
-        return super::paper::table(csv);
+        print!("{}", vistaf_calibrate::paper::table(csv)?);
+        return Ok(());
     }
     let out = a.out.as_ref().ok_or_else(|| anyhow!("--out is required"))?;
     let sets: Vec<FrameSet> = a

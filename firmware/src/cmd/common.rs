@@ -3,8 +3,8 @@
 use std::path::PathBuf;
 
 use anyhow::Result;
-use vistaf_firmware::calibration::Calibration;
-use vistaf_firmware::pipeline::Implementation;
+use vistaf_pipeline::calibration::Calibration;
+use vistaf_pipeline::Implementation;
 
 /// Which calibration and which pipeline.
 #[derive(clap::Args, Debug)]

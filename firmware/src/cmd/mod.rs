@@ -3,8 +3,6 @@
 pub mod analyze;
 pub mod calibrate;
 pub mod common;
-
-pub mod paper;
 pub mod record;
 pub mod run;
 pub mod simulate;

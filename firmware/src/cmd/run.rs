@@ -6,12 +6,13 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
 use anyhow::{bail, Context, Result};
-use vistaf_firmware::calibration::Calibration;
 use vistaf_firmware::config::Config;
-use vistaf_firmware::pipeline::Implementation;
 use vistaf_firmware::service::{run as serve, Settings};
 use vistaf_firmware::source_spec::{open, OpenOptions, SourceSpec};
 use vistaf_hardware::led::{LedRing, MemoryLedRing};
+use vistaf_pipeline::calibration::Calibration;
+use vistaf_pipeline::Implementation;
+use vistaf_protocol::link::LinkSpec;
 
 /// Service options. Each overrides the same key of `--config`; without either, the
 /// built-in default (the reference build) applies.
@@ -24,9 +25,10 @@ pub struct Args {
     /// [default: camera:/dev/video0].
     #[arg(long)]
     pub source: Option<SourceSpec>,
-    /// serial:PATH or serial:PATH@BAUD, file:PATH or stdout (default: serial:/dev/ttyGS0@921600).
+    /// /dev/ttyX, serial:PATH[@BAUD], file:PATH or - for stdout
+    /// [default: serial:/dev/ttyGS0@921600].
     #[arg(long)]
-    pub link: Option<String>,
+    pub link: Option<LinkSpec>,
     /// Stop after this many processed frames.
     #[arg(long)]
     pub frames: Option<u64>,
@@ -63,34 +65,26 @@ pub struct Args {
 /// The device's side of a link: where frames go, and where commands come from (if anywhere).
 type LinkEnds = (Box<dyn Write + Send>, Option<Box<dyn std::io::Read + Send>>);
 
-/// Opens a link spec.
-pub fn open_link(spec: &str) -> Result<LinkEnds> {
-    if spec == "stdout" {
-        return Ok((Box::new(std::io::stdout()), None));
+/// Opens a link for the device: a serial port both ways, a file or stdout write-only.
+pub fn open_link(spec: &LinkSpec) -> Result<LinkEnds> {
+    match spec {
+        LinkSpec::Stdio => Ok((Box::new(std::io::stdout()), None)),
+        LinkSpec::File(path) => {
+            let f = std::fs::File::create(path)
+                .with_context(|| format!("link file {}", path.display()))?;
+            Ok((Box::new(f), None))
+        }
+        LinkSpec::Serial { path, baud } => {
+            let port = serialport::new(path, *baud)
+                .timeout(std::time::Duration::from_millis(100))
+                .open_native()
+                .with_context(|| format!("opening serial link {path}"))?;
+            let reader = port
+                .try_clone_native()
+                .with_context(|| format!("serial link {path}"))?;
+            Ok((Box::new(port), Some(Box::new(reader))))
+        }
     }
-    if let Some(path) = spec.strip_prefix("file:") {
-        let f = std::fs::File::create(path).with_context(|| format!("link file {path}"))?;
-        return Ok((Box::new(f), None));
-    }
-    let Some(rest) = spec.strip_prefix("serial:") else {
-        bail!("link {spec:?}: expected serial:PATH[@BAUD], file:PATH or stdout");
-    };
-    let (path, baud) = match rest.rsplit_once('@') {
-        Some((p, b)) => (
-            p,
-            b.parse::<u32>()
-                .with_context(|| format!("link {spec:?}: baud rate"))?,
-        ),
-        None => (rest, 921_600),
-    };
-    let port = serialport::new(path, baud)
-        .timeout(std::time::Duration::from_millis(100))
-        .open_native()
-        .with_context(|| format!("opening serial link {path}"))?;
-    let reader = port
-        .try_clone_native()
-        .with_context(|| format!("serial link {path}"))?;
-    Ok((Box::new(port), Some(Box::new(reader))))
 }
 
 /// Runs the command until the source ends, `--frames`, or SIGTERM/SIGINT.
@@ -104,11 +98,11 @@ pub fn run(a: &Args) -> Result<()> {
         (None, Some(s)) => s.parse().context("config key `source`")?,
         (None, None) => "camera:/dev/video0".parse()?,
     };
-    let link = a
-        .link
-        .clone()
-        .or(cfg.link.clone())
-        .unwrap_or_else(|| "serial:/dev/ttyGS0@921600".into());
+    let link: LinkSpec = match (&a.link, &cfg.link) {
+        (Some(l), _) => l.clone(),
+        (None, Some(l)) => l.parse().context("config key `link`")?,
+        (None, None) => "serial:/dev/ttyGS0@921600".parse()?,
+    };
     let pipeline = match (a.pipeline, &cfg.pipeline) {
         (Some(p), _) => p,
         (None, Some(p)) => p.parse().map_err(|e: String| anyhow::anyhow!(e))?,

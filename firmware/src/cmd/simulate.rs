@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, Context, Result};
 use image::RgbImage;
-use vistaf_hardware::sim::{scene, sets, Renderer, SensorUnit, SkinState};
+use vistaf_sim::{scene, sets, Renderer, SensorUnit, SkinState};
 
 use super::progress;
 

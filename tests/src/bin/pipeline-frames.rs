@@ -14,9 +14,9 @@
 //! window (`matched` or `hann`), when to unwrap (`when-needed`, `always`, `never`) and the
 //! device path's filter (`2d` or `rows`).
 
-use vistaf_firmware::calibration::Calibration;
-use vistaf_firmware::pipeline::{Analyzer, AnalyzerOptions, Implementation};
-use vistaf_hardware::sim::{scene, Renderer, SensorUnit, SkinState};
+use vistaf_pipeline::calibration::Calibration;
+use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation};
+use vistaf_sim::{scene, Renderer, SensorUnit, SkinState};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
@@ -31,9 +31,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some(f) => Some(f.parse()?),
     };
     let band = if args.get(8).is_some_and(|s| s == "hann") {
-        vistaf_firmware::pipeline::float_ftp::BandWindow::Hann
+        vistaf_pipeline::ftp::band::BandWindow::Hann
     } else {
-        vistaf_firmware::pipeline::float_ftp::BandWindow::Matched
+        vistaf_pipeline::ftp::band::BandWindow::Matched
     };
     let unit = SensorUnit {
         width_px: w,
@@ -49,9 +49,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let (frame, _) = r.render(&state, 2);
     let unwrap = match args.get(9).map(String::as_str) {
-        Some("always") => vistaf_firmware::pipeline::measure::Unwrap::Always,
-        Some("never") => vistaf_firmware::pipeline::measure::Unwrap::Never,
-        _ => vistaf_firmware::pipeline::measure::Unwrap::WhenNeeded,
+        Some("always") => vistaf_pipeline::measure::Unwrap::Always,
+        Some("never") => vistaf_pipeline::measure::Unwrap::Never,
+        _ => vistaf_pipeline::measure::Unwrap::WhenNeeded,
     };
     let opts = AnalyzerOptions {
         force_calibration: true,

@@ -173,7 +173,7 @@ fn count_instructions(rows: &mut [tradeoff::Row]) -> Result<()> {
                 .args(["--tool=callgrind", "--callgrind-out-file=/dev/null"])
                 .arg(&exe)
                 .args([
-                    if c.imp == vistaf_firmware::pipeline::Implementation::Float {
+                    if c.imp == vistaf_pipeline::Implementation::Float {
                         "float"
                     } else {
                         "fixed"
@@ -188,15 +188,15 @@ fn count_instructions(rows: &mut [tradeoff::Row]) -> Result<()> {
                         "no-temperature"
                     },
                     &c.factor.map_or("auto".into(), |f| f.to_string()),
-                    if c.band == vistaf_firmware::pipeline::float_ftp::BandWindow::Hann {
+                    if c.band == vistaf_pipeline::ftp::band::BandWindow::Hann {
                         "hann"
                     } else {
                         "matched"
                     },
                     match c.unwrap {
-                        vistaf_firmware::pipeline::measure::Unwrap::Always => "always",
-                        vistaf_firmware::pipeline::measure::Unwrap::Never => "never",
-                        vistaf_firmware::pipeline::measure::Unwrap::WhenNeeded => "when-needed",
+                        vistaf_pipeline::measure::Unwrap::Always => "always",
+                        vistaf_pipeline::measure::Unwrap::Never => "never",
+                        vistaf_pipeline::measure::Unwrap::WhenNeeded => "when-needed",
                     },
                     if c.rows_only { "rows" } else { "2d" },
                 ])

@@ -21,11 +21,11 @@ fn main() {
 mod vivid {
     use std::time::{Duration, Instant};
 
-    use vistaf_firmware::calibration::Calibration;
-    use vistaf_firmware::pipeline::{Analyzer, AnalyzerOptions, Implementation};
     use vistaf_hardware::camera::{list_nodes, Camera, CaptureRequest, Selector};
     use vistaf_hardware::frame::PixelFormat;
     use vistaf_hardware::source::{FrameSource, Reconnect};
+    use vistaf_pipeline::calibration::Calibration;
+    use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation};
     use vistaf_protocol::Flag;
 
     struct Report {

@@ -13,9 +13,9 @@ pub mod plot;
 pub mod stability;
 pub mod tradeoff;
 
-use vistaf_hardware::sim::contact::{Contact, Indenter};
-use vistaf_hardware::sim::scene::{center_mm, ROOM_C};
-use vistaf_hardware::sim::{SensorUnit, SkinState};
+use vistaf_sim::contact::{Contact, Indenter};
+use vistaf_sim::scene::{center_mm, ROOM_C};
+use vistaf_sim::{SensorUnit, SkinState};
 
 /// Depth tolerance of the force-and-shape pipeline: 3 % of depth + 0.02 mm.
 pub fn depth_tolerance_mm(depth_mm: f32) -> f32 {

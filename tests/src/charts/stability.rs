@@ -1,10 +1,10 @@
 //! Stability sweeps: along each axis where a method can fail, error against flag rate.
 
-use vistaf_firmware::calibration::Calibration;
-use vistaf_firmware::pipeline::{Analyzer, AnalyzerOptions, Deformation, Implementation};
-use vistaf_hardware::sim::scene::{ROOM_C, SPHERE_R_MM};
-use vistaf_hardware::sim::{Renderer, SensorUnit, SkinState};
+use vistaf_pipeline::calibration::Calibration;
+use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement};
 use vistaf_protocol::Flag;
+use vistaf_sim::scene::{ROOM_C, SPHERE_R_MM};
+use vistaf_sim::{Renderer, SensorUnit, SkinState};
 
 use super::{depth_tolerance_mm, press, temperature_tolerance_c};
 
@@ -120,7 +120,7 @@ impl Bench {
         Some(Bench { unit, r, a })
     }
 
-    fn run(&self, s: &SkinState, seed: u64) -> (Option<Deformation>, vistaf_hardware::sim::Truth) {
+    fn run(&self, s: &SkinState, seed: u64) -> (Option<Measurement>, vistaf_sim::Truth) {
         let (img, truth) = self.r.render(s, seed);
         (self.a.analyze(&img).ok(), truth)
     }
@@ -135,7 +135,7 @@ fn small_unit() -> SensorUnit {
 }
 
 /// Force-and-shape flags (everything but the temperature range).
-fn shape_flagged(d: &Deformation) -> bool {
+fn shape_flagged(d: &Measurement) -> bool {
     d.flags.iter().any(|f| f != Flag::TemperatureOutOfRange)
 }
 

@@ -2,14 +2,14 @@
 
 use std::time::Instant;
 
-use vistaf_firmware::calibration::Calibration;
-use vistaf_firmware::pipeline::float_ftp::BandWindow;
-use vistaf_firmware::pipeline::measure::Unwrap;
-use vistaf_firmware::pipeline::{Analyzer, AnalyzerOptions, Implementation};
-use vistaf_hardware::sim::contact::Footprint;
-use vistaf_hardware::sim::scene::{center_mm, ROOM_C, SPHERE_R_MM};
-use vistaf_hardware::sim::thermal::HeatSource;
-use vistaf_hardware::sim::{Renderer, SensorUnit, SkinState};
+use vistaf_pipeline::calibration::Calibration;
+use vistaf_pipeline::ftp::band::BandWindow;
+use vistaf_pipeline::measure::Unwrap;
+use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation};
+use vistaf_sim::contact::Footprint;
+use vistaf_sim::scene::{center_mm, ROOM_C, SPHERE_R_MM};
+use vistaf_sim::thermal::HeatSource;
+use vistaf_sim::{Renderer, SensorUnit, SkinState};
 
 use super::{depth_tolerance_mm, press};
 
@@ -100,7 +100,7 @@ enum Case {
 }
 
 fn bench_set(unit: &SensorUnit) -> Vec<(SkinState, Case)> {
-    let sphere = vistaf_hardware::sim::contact::Indenter::Sphere { r_mm: SPHERE_R_MM };
+    let sphere = vistaf_sim::contact::Indenter::Sphere { r_mm: SPHERE_R_MM };
     let mut v = Vec::new();
     for d in [0.3f32, 1.0, 2.0, 2.5] {
         v.push((
@@ -192,11 +192,7 @@ fn matches_case(c: &Case) -> Scored {
     }
 }
 
-fn score(
-    c: &Config,
-    a: &Analyzer,
-    frames: &[(image::RgbImage, vistaf_hardware::sim::Truth, Scored)],
-) -> Row {
+fn score(c: &Config, a: &Analyzer, frames: &[(image::RgbImage, vistaf_sim::Truth, Scored)]) -> Row {
     let mut times = Vec::new();
     let (mut depth, mut nd, mut force_sq, mut nf) = (0.0f64, 0usize, 0.0f64, 0usize);
     let (mut temp, mut nt) = (0.0f64, 0usize);

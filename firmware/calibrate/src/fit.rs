@@ -1,0 +1,440 @@
+//! Model fitting with honest numbers: least squares for each candidate form, grouped
+//! cross-validation (leave one setpoint or force level out), and the parsimony rule: the
+//! model with the fewest parameters whose CV error is within one standard error of the
+//! best.
+//!
+//! Every two-parameter form here is `y = a·g(b·u)` (or `a·u^b`): for each `b` on a
+//! logarithmic grid `a` has a closed form, and the best `b` is then refined by golden-section
+//! search. No general nonlinear optimiser is needed, and the fit cannot diverge.
+
+use vistaf_pipeline::calibration::{
+    CandidateScore, DepthModel, ForceFeature, ForceForm, ForceModel,
+};
+
+/// A sample: input, target, and its group (setpoint) for cross-validation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sample {
+    /// Input (phase, feature).
+    pub u: f64,
+    /// Target (depth, force).
+    pub y: f64,
+    /// Group label (the setpoint it was recorded at).
+    pub group: f64,
+}
+
+fn rmse(pairs: impl Iterator<Item = (f64, f64)>) -> f64 {
+    let (mut s, mut n) = (0.0, 0usize);
+    for (p, y) in pairs {
+        s += (p - y).powi(2);
+        n += 1;
+    }
+    if n == 0 {
+        f64::NAN
+    } else {
+        (s / n as f64).sqrt()
+    }
+}
+
+/// Best `a` for `y ≈ a·g` (least squares), and its SSE.
+fn scale_fit(samples: &[Sample], g: impl Fn(f64) -> f64) -> (f64, f64) {
+    let (mut sgy, mut sgg) = (0.0, 0.0);
+    for s in samples {
+        let v = g(s.u);
+        sgy += v * s.y;
+        sgg += v * v;
+    }
+    let a = if sgg > 0.0 { sgy / sgg } else { 0.0 };
+    let sse = samples.iter().map(|s| (a * g(s.u) - s.y).powi(2)).sum();
+    (a, sse)
+}
+
+/// Fits `y ≈ a·g(b, u)` over `b` in [lo, hi] (log grid, then golden section); returns (a, b).
+pub fn fit_ab(samples: &[Sample], lo: f64, hi: f64, g: impl Fn(f64, f64) -> f64) -> (f64, f64) {
+    let sse_of = |b: f64| scale_fit(samples, |u| g(b, u)).1;
+    let steps = 60;
+    let (mut best_b, mut best) = (lo, f64::INFINITY);
+    for k in 0..=steps {
+        let b = lo * (hi / lo).powf(k as f64 / steps as f64);
+        let e = sse_of(b);
+        if e < best {
+            (best_b, best) = (b, e);
+        }
+    }
+    let ratio = (hi / lo).powf(1.0 / steps as f64);
+    let (mut a, mut c) = ((best_b / ratio).ln(), (best_b * ratio).ln());
+    let phi = 0.618_033_988_75;
+    for _ in 0..60 {
+        let (x1, x2) = (c - phi * (c - a), a + phi * (c - a));
+        if sse_of(x1.exp()) < sse_of(x2.exp()) {
+            c = x2;
+        } else {
+            a = x1;
+        }
+    }
+    let b = ((a + c) / 2.0).exp();
+    (scale_fit(samples, |u| g(b, u)).0, b)
+}
+
+/// Pool-adjacent-violators on the setpoint means: the non-decreasing fit of `y` over `u`,
+/// anchored at (0, 0), one knot per setpoint (averaging the frames of a setpoint first
+/// keeps the knots stable). Beyond the last setpoint the model continues with the
+/// least-squares slope of the last knots spanning a fifth of the range (stored as one extra
+/// knot at twice the range): the slope between the last two knots alone can come from two
+/// setpoints microns apart, and is no basis for extrapolation. Returns knots.
+fn isotonic(samples: &[Sample]) -> (Vec<f64>, Vec<f64>) {
+    let mut groups: Vec<(f64, f64, f64, f64)> = Vec::new(); // group, Σu, Σy, n
+    for s in samples {
+        match groups.iter_mut().find(|g| g.0 == s.group) {
+            Some(g) => {
+                g.1 += s.u;
+                g.2 += s.y;
+                g.3 += 1.0;
+            }
+            None => groups.push((s.group, s.u, s.y, 1.0)),
+        }
+    }
+    let mut pts: Vec<(f64, f64)> = groups
+        .iter()
+        .map(|g| ((g.1 / g.3).max(0.0), (g.2 / g.3).max(0.0)))
+        .collect();
+    pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    // Blocks: (sum u, sum y, count).
+    let mut blocks: Vec<(f64, f64, f64)> = Vec::new();
+    for (u, y) in pts {
+        blocks.push((u, y, 1.0));
+        while blocks.len() >= 2 {
+            let n = blocks.len();
+            let (a, b) = (blocks[n - 2], blocks[n - 1]);
+            if a.1 / a.2 > b.1 / b.2 {
+                blocks.truncate(n - 2);
+                blocks.push((a.0 + b.0, a.1 + b.1, a.2 + b.2));
+            } else {
+                break;
+            }
+        }
+    }
+    let mut xs: Vec<f64> = Vec::new();
+    let mut ds: Vec<f64> = Vec::new();
+    for (su, sy, n) in blocks {
+        let (x, d) = (su / n, (sy / n).max(ds.last().copied().unwrap_or(0.0)));
+        if x > xs.last().copied().unwrap_or(0.0) {
+            xs.push(x);
+            ds.push(d);
+        }
+    }
+    if let Some(&x_last) = xs.last() {
+        // The last knots spanning at least a fifth of the range (with the origin as a
+        // knot when needed).
+        let mut all: Vec<(f64, f64)> = vec![(0.0, 0.0)];
+        all.extend(xs.iter().copied().zip(ds.iter().copied()));
+        let start = all
+            .iter()
+            .rposition(|p| x_last - p.0 >= 0.2 * x_last)
+            .unwrap_or(0);
+        let top = &all[start..];
+        let slope = if top.len() >= 2 {
+            let (mx, md) = (
+                top.iter().map(|p| p.0).sum::<f64>() / top.len() as f64,
+                top.iter().map(|p| p.1).sum::<f64>() / top.len() as f64,
+            );
+            let sxx: f64 = top.iter().map(|p| (p.0 - mx).powi(2)).sum();
+            let sxd: f64 = top.iter().map(|p| (p.0 - mx) * (p.1 - md)).sum();
+            if sxx > 0.0 {
+                (sxd / sxx).max(0.0)
+            } else {
+                0.0
+            }
+        } else {
+            0.0
+        };
+        let d_last = ds[ds.len() - 1];
+        xs.push(2.0 * x_last);
+        ds.push(d_last + slope * x_last);
+    }
+    (xs, ds)
+}
+
+/// Setpoint-mean knots of a non-decreasing relation (no extrapolation knot): for tables
+/// such as the calibrated indenter's area by depth.
+pub fn monotone_knots(samples: &[Sample]) -> (Vec<f64>, Vec<f64>) {
+    let (mut x, mut y) = isotonic(samples);
+    x.pop();
+    y.pop();
+    (x, y)
+}
+
+/// Fits a model to samples.
+type Fitter<M> = Box<dyn Fn(&[Sample]) -> M>;
+
+/// A candidate form: its name, parameter count, and how to fit it.
+struct Candidate<M> {
+    name: String,
+    params: usize,
+    fit: Fitter<M>,
+}
+
+/// Cross-validated scores of every candidate (groups left out one at a time), each with
+/// its model fitted on all samples. `None` with fewer than three groups.
+fn score_all<M>(
+    samples: &[Sample],
+    candidates: Vec<Candidate<M>>,
+    predict: &impl Fn(&M, f64) -> f64,
+) -> Option<Vec<(M, CandidateScore)>> {
+    let mut groups: Vec<f64> = samples.iter().map(|s| s.group).collect();
+    groups.sort_by(f64::total_cmp);
+    groups.dedup();
+    if groups.len() < 3 {
+        return None;
+    }
+    let mut out = Vec::new();
+    for c in candidates {
+        let mut fold_rmse = Vec::new();
+        let mut all = Vec::new();
+        for g in &groups {
+            let train: Vec<Sample> = samples.iter().copied().filter(|s| s.group != *g).collect();
+            let m = (c.fit)(&train);
+            let test: Vec<(f64, f64)> = samples
+                .iter()
+                .filter(|s| s.group == *g)
+                .map(|s| (predict(&m, s.u), s.y))
+                .collect();
+            fold_rmse.push(rmse(test.iter().copied()));
+            all.extend(test);
+        }
+        let cv = rmse(all.into_iter());
+        let mean = fold_rmse.iter().sum::<f64>() / fold_rmse.len() as f64;
+        let var = fold_rmse.iter().map(|r| (r - mean).powi(2)).sum::<f64>()
+            / (fold_rmse.len() - 1) as f64;
+        let se = (var / fold_rmse.len() as f64).sqrt();
+        let m = (c.fit)(samples);
+        let ins = rmse(samples.iter().map(|s| (predict(&m, s.u), s.y)));
+        out.push((
+            m,
+            CandidateScore {
+                name: c.name,
+                params: c.params,
+                cv_rmse: cv,
+                cv_se: se,
+                in_sample_rmse: ins,
+            },
+        ));
+    }
+    Some(out)
+}
+
+/// The parsimony rule: among candidates within one standard error of the best CV RMSE,
+/// the one with the fewest parameters (then the lower CV RMSE).
+fn choose<M: Clone>(
+    scored: Vec<(M, CandidateScore)>,
+) -> Option<(M, CandidateScore, Vec<CandidateScore>)> {
+    let best = scored
+        .iter()
+        .map(|s| &s.1)
+        .filter(|s| s.cv_rmse.is_finite())
+        .min_by(|a, b| a.cv_rmse.total_cmp(&b.cv_rmse))?;
+    let limit = best.cv_rmse + best.cv_se;
+    let (m, s) = scored
+        .iter()
+        .filter(|(_, s)| s.cv_rmse <= limit)
+        .min_by(|a, b| {
+            a.1.params
+                .cmp(&b.1.params)
+                .then(a.1.cv_rmse.total_cmp(&b.1.cv_rmse))
+        })?
+        .clone();
+    Some((m, s, scored.into_iter().map(|x| x.1).collect()))
+}
+
+/// Phase → depth candidates: linear through the origin, the paper's saturating hinge, the
+/// steepening growth form, and a monotone (isotonic) piecewise-linear fit.
+pub fn fit_depth(
+    samples: &[Sample],
+    progress: impl FnMut(usize, usize),
+) -> Option<(DepthModel, CandidateScore, Vec<CandidateScore>)> {
+    let cands: Vec<Candidate<DepthModel>> = vec![
+        Candidate {
+            name: "linear".into(),
+            params: 1,
+            fit: Box::new(|s| DepthModel::Linear {
+                k_mm_per_rad: scale_fit(s, |u| u).0,
+            }),
+        },
+        Candidate {
+            name: "hinge".into(),
+            params: 2,
+            fit: Box::new(|s| {
+                let (a, b) = fit_ab(s, 1e-3, 50.0, |b, u| 1.0 - (-b * u).exp());
+                DepthModel::Hinge {
+                    h_mm: a,
+                    k_per_rad: b,
+                }
+            }),
+        },
+        Candidate {
+            name: "growth".into(),
+            params: 2,
+            fit: Box::new(|s| {
+                let (a, b) = fit_ab(s, 1e-3, 5.0, |b, u| (b * u).exp() - 1.0);
+                DepthModel::Growth {
+                    a_mm: a,
+                    b_per_rad: b,
+                }
+            }),
+        },
+        Candidate {
+            name: "monotone".into(),
+            params: 0, // set from the fitted knots below
+            fit: Box::new(|s| {
+                let (x_rad, d_mm) = isotonic(s);
+                DepthModel::Monotone { x_rad, d_mm }
+            }),
+        },
+    ];
+    let mut progress = progress;
+    let mut scored = score_all(samples, cands, &|m: &DepthModel, u| m.depth_mm(u))?;
+    // A monotone fit has as many free values as it has knots.
+    for (m, score) in &mut scored {
+        if let DepthModel::Monotone { x_rad, .. } = m {
+            score.params = x_rad.len();
+        }
+    }
+    progress(1, 1);
+    choose(scored)
+}
+
+/// Measurement → force candidates: every feature with every form, chosen together.
+pub fn fit_force(
+    features: &[(ForceFeature, Vec<Sample>)],
+    mut progress: impl FnMut(usize, usize),
+) -> Option<(ForceModel, CandidateScore, Vec<CandidateScore>)> {
+    let mut pool = Vec::new();
+    for (k, (feature, samples)) in features.iter().enumerate() {
+        let f = *feature;
+        let sym = f.symbol();
+        let cands: Vec<Candidate<ForceModel>> = vec![
+            Candidate {
+                name: format!("linear({sym})"),
+                params: 1,
+                fit: Box::new(move |s| ForceModel {
+                    feature: f,
+                    form: ForceForm::Linear {
+                        a: scale_fit(s, |u| u).0,
+                    },
+                }),
+            },
+            Candidate {
+                name: format!("hertz({sym})"),
+                params: 1,
+                fit: Box::new(move |s| ForceModel {
+                    feature: f,
+                    form: ForceForm::Hertz {
+                        c: scale_fit(s, |u| u.max(0.0).powf(1.5)).0,
+                    },
+                }),
+            },
+            Candidate {
+                name: format!("power({sym})"),
+                params: 2,
+                fit: Box::new(move |s| {
+                    let (a, b) = fit_ab(s, 0.2, 4.0, |b, u| u.max(0.0).powf(b));
+                    ForceModel {
+                        feature: f,
+                        form: ForceForm::PowerLaw { a, b },
+                    }
+                }),
+            },
+            Candidate {
+                name: format!("exp_growth({sym})"),
+                params: 2,
+                fit: Box::new(move |s| {
+                    let umax = s.iter().map(|x| x.u).fold(1e-9, f64::max);
+                    let (a, b) = fit_ab(s, 1e-3 / umax, 8.0 / umax, |b, u| (b * u).exp() - 1.0);
+                    ForceModel {
+                        feature: f,
+                        form: ForceForm::Exponential { a, b },
+                    }
+                }),
+            },
+        ];
+        pool.extend(score_all(samples, cands, &|m: &ForceModel, u| {
+            m.force_n(u)
+        })?);
+        progress(k + 1, features.len());
+    }
+    choose(pool)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn samples(f: impl Fn(f64) -> f64, noise: f64) -> Vec<Sample> {
+        (1..=12)
+            .flat_map(|g| {
+                let u = g as f64 * 0.25;
+                [-1.0, 1.0].map(|s| Sample {
+                    u: u * (1.0 + 0.01 * s),
+                    y: f(u) + s * noise,
+                    group: g as f64,
+                })
+            })
+            .collect()
+    }
+
+    #[test]
+    fn recovers_a_hinge_and_prefers_fewer_parameters_when_linear_suffices() {
+        let s = samples(|u| 2.0 * (1.0 - (-0.8 * u).exp()), 0.005);
+        let (m, score, all) = fit_depth(&s, |_, _| {}).unwrap();
+        assert_eq!(all.len(), 4);
+        assert!(
+            matches!(m, DepthModel::Hinge { .. } | DepthModel::Monotone { .. }),
+            "{m:?}"
+        );
+        assert!(score.cv_rmse < 0.03, "{score:?}");
+        let lin = samples(|u| 0.7 * u, 0.01);
+        let (m, _, _) = fit_depth(&lin, |_, _| {}).unwrap();
+        assert!(
+            matches!(m, DepthModel::Linear { .. }),
+            "parsimony picks linear: {m:?}"
+        );
+    }
+
+    #[test]
+    fn force_selection_finds_the_generating_feature_and_form() {
+        let good = samples(|u| 6.7 * u.powf(1.5), 0.05);
+        let bad = samples(|u| (u * 7.0).sin().abs() * 10.0, 0.05);
+        let (m, score, _) = fit_force(
+            &[
+                (ForceFeature::ContactArea, bad),
+                (ForceFeature::PeakDepth, good),
+            ],
+            |_, _| {},
+        )
+        .unwrap();
+        assert_eq!(m.feature, ForceFeature::PeakDepth);
+        assert!(
+            matches!(m.form, ForceForm::Hertz { .. } | ForceForm::PowerLaw { .. }),
+            "{m:?}"
+        );
+        assert!(score.cv_rmse < 0.5, "{score:?}");
+    }
+
+    #[test]
+    fn isotonic_is_monotone_through_the_origin_and_extrapolates_smoothly() {
+        let sample = |u, y, group| Sample { u, y, group };
+        let s = vec![
+            sample(1.0, 1.0, 1.0),
+            sample(2.0, 0.7, 2.0),
+            sample(2.0, 0.9, 2.0),
+            sample(3.0, 2.0, 3.0),
+            sample(3.001, 2.2, 4.0),
+        ];
+        let (x, d) = isotonic(&s);
+        assert!(d.windows(2).all(|p| p[1] >= p[0]));
+        assert_eq!(x.len(), d.len());
+        assert!((d[0] - 0.9).abs() < 1e-12, "1.0 and group 2 pool to 0.9");
+        // Two near-duplicate last setpoints do not make the extrapolation explode.
+        let m = DepthModel::Monotone { x_rad: x, d_mm: d };
+        assert!(m.depth_mm(4.0) < 4.0, "{}", m.depth_mm(4.0));
+    }
+}

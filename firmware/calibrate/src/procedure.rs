@@ -1,0 +1,415 @@
+//! Calibration from labelled frame sets: the procedure behind `vistaf-skin calibrate`.
+//!
+//! 1. The unit geometry (carrier period, orientation, image size) comes from the first
+//!    set's reference; every set must have the same image size.
+//! 2. The phase sign is the one under which the deepest `depth_mm`-labelled frame shows an
+//!    indentation.
+//! 3. Phase → depth: every frame with `depth_mm > 0` is analysed with an identity depth
+//!    model; its peak phase and its label form a sample, grouped by depth setpoint.
+//! 4. Measurement → force: frames with `force_n > 0` are analysed with the fitted depth
+//!    model; volume, integrated phase, contact area and peak depth are candidate inputs,
+//!    grouped by force level.
+//!
+//! Frames whose analysis carries a quality flag are left out of the fits (and reported):
+//! a flagged number is not trusted, so it must not teach the model either.
+
+use sha2::{Digest, Sha256};
+use vistaf_hardware::frameset::FrameSet;
+use vistaf_pipeline::calibration::{
+    Calibration, DepthModel, Fitted, ForceFeature, SetRecord, ShapeSignature, UnitGeometry, FORMAT,
+};
+use vistaf_pipeline::ftp::carrier;
+use vistaf_pipeline::image_ops::gray_down_f32;
+use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement};
+
+use crate::fit::{fit_depth, fit_force, Sample};
+
+/// What went wrong.
+#[derive(Debug, thiserror::Error)]
+pub enum CalibrateError {
+    /// No sets given.
+    #[error("give at least one frame set")]
+    NoSets,
+    /// Sets of different image sizes.
+    #[error("{0}: image size differs from the first set's; calibrate one unit at a time")]
+    MixedSizes(String),
+    /// Not enough labelled frames.
+    #[error("{0}")]
+    NotEnough(String),
+    /// A set could not be read.
+    #[error(transparent)]
+    FrameSet(#[from] vistaf_hardware::frameset::FrameSetError),
+    /// The pipeline refused a reference.
+    #[error("{set}: {cause}")]
+    Pipeline {
+        /// The set.
+        set: String,
+        /// Why.
+        cause: vistaf_pipeline::PipelineError,
+    },
+    /// A file could not be hashed.
+    #[error("{0}: {1}")]
+    Io(String, std::io::Error),
+}
+
+/// Progress and remarks while calibrating.
+pub trait Observer {
+    /// `done` of `total` frames analysed in `stage`.
+    fn progress(&mut self, stage: &str, done: usize, total: usize);
+    /// A remark (a frame left out, say).
+    fn note(&mut self, text: String);
+}
+
+/// An observer that ignores everything.
+#[derive(Debug, Default)]
+pub struct Quiet;
+
+impl Observer for Quiet {
+    fn progress(&mut self, _: &str, _: usize, _: usize) {}
+    fn note(&mut self, _: String) {}
+}
+
+fn sha_of(set: &FrameSet) -> Result<String, CalibrateError> {
+    let mut h = Sha256::new();
+    let files = std::iter::once("set.json".to_string())
+        .chain(std::iter::once(set.manifest.reference.clone()))
+        .chain(set.manifest.frames.iter().map(|f| f.file.clone()));
+    for f in files {
+        let p = set.path_of(&f);
+        h.update(std::fs::read(&p).map_err(|e| CalibrateError::Io(p.display().to_string(), e))?);
+    }
+    Ok(h.finalize().iter().map(|b| format!("{b:02x}")).collect())
+}
+
+/// Which label a stage fits.
+#[derive(Clone, Copy)]
+enum Label {
+    Depth,
+    Force,
+}
+
+struct Run<'a, O: Observer> {
+    sets: &'a [FrameSet],
+    imp: Implementation,
+    obs: &'a mut O,
+}
+
+impl<O: Observer> Run<'_, O> {
+    /// Analyses every frame carrying `label > 0` (and `only` accepts) with `calib`; returns
+    /// (label, result) for the unflagged ones.
+    fn analyze(
+        &mut self,
+        calib: &Calibration,
+        label: Label,
+        stage: &str,
+        only: &dyn Fn(f64) -> bool,
+    ) -> Result<Vec<(f64, Measurement)>, CalibrateError> {
+        let opts = AnalyzerOptions {
+            force_calibration: true,
+            ..Default::default()
+        };
+        let total: usize = self.sets.iter().map(|s| s.len()).sum();
+        let mut done = 0;
+        let mut out = Vec::new();
+        for s in self.sets {
+            let set = s.dir().display().to_string();
+            let an = Analyzer::new(&s.load_reference()?, calib.clone(), self.imp, opts).map_err(
+                |cause| CalibrateError::Pipeline {
+                    set: set.clone(),
+                    cause,
+                },
+            )?;
+            for (i, f) in s.manifest.frames.iter().enumerate() {
+                done += 1;
+                self.obs.progress(stage, done, total);
+                let y = match label {
+                    Label::Depth => f.depth_mm,
+                    Label::Force => f.force_n,
+                };
+                let Some(y) = y.filter(|v| *v > 0.0 && only(*v)) else {
+                    continue;
+                };
+                let d =
+                    an.analyze(&s.load_frame(i)?)
+                        .map_err(|cause| CalibrateError::Pipeline {
+                            set: set.clone(),
+                            cause,
+                        })?;
+                if d.flags.is_empty() {
+                    out.push((y, d));
+                } else {
+                    let names: Vec<&str> = d.flags.iter().map(|f| f.name()).collect();
+                    self.obs.note(format!(
+                        "{set}: {} left out of the fit ({})",
+                        f.file,
+                        names.join(", ")
+                    ));
+                }
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// Blocks taken from one calibration frame, at most (evenly spread): enough to see the
+/// whole field, few enough to keep the fit quick.
+const BLOCKS_PER_FRAME: usize = 256;
+
+/// Colour → temperature from the frames labelled `temperature_c` without contact
+/// (`depth_mm` and `force_n` absent or 0); `None` (with a note) when there are too few.
+fn temperature_model<O: Observer>(
+    run: &mut Run<'_, O>,
+    calib: &Calibration,
+) -> Result<Option<vistaf_pipeline::thermal::model::TemperatureModel>, CalibrateError> {
+    use crate::temperature::{fit_temperature, BlockSample};
+    use vistaf_pipeline::thermal::lab::Invariants;
+    use vistaf_pipeline::thermal::stripes::{pool, Sums};
+    use vistaf_pipeline::thermal::BLACK_POOL;
+    let no_contact = |f: &vistaf_hardware::frameset::FrameEntry| {
+        f.temperature_c.is_some()
+            && f.depth_mm.unwrap_or(0.0) <= 0.0
+            && f.force_n.unwrap_or(0.0) <= 0.0
+    };
+    let total: usize = run
+        .sets
+        .iter()
+        .map(|s| s.manifest.frames.iter().filter(|f| no_contact(f)).count())
+        .sum();
+    let opts = AnalyzerOptions {
+        force_calibration: true,
+        ..Default::default()
+    };
+    let mut samples = Vec::new();
+    let mut done = 0;
+    for s in run.sets {
+        if !s.manifest.frames.iter().any(no_contact) {
+            continue;
+        }
+        let set = s.dir().display().to_string();
+        let pipe = |cause| CalibrateError::Pipeline {
+            set: set.clone(),
+            cause,
+        };
+        let an = Analyzer::new(&s.load_reference()?, calib.clone(), run.imp, opts).map_err(pipe)?;
+        for (i, f) in s.manifest.frames.iter().enumerate() {
+            let Some(t) = f.temperature_c.filter(|_| no_contact(f)) else {
+                continue;
+            };
+            done += 1;
+            run.obs.progress("colour → temperature", done, total);
+            let (d, sums) = an.colour_sums(&s.load_frame(i)?).map_err(pipe)?;
+            if !d.flags.is_empty() || d.contact {
+                let names: Vec<&str> = d.flags.iter().map(|f| f.name()).collect();
+                run.obs.note(format!(
+                    "{set}: {} left out of the temperature fit ({})",
+                    f.file,
+                    if d.contact {
+                        "shows contact".to_string()
+                    } else {
+                        names.join(", ")
+                    }
+                ));
+                continue;
+            }
+            let g = an.thermometer().geometry();
+            let pooled = pool(&sums, g.bw, g.bh, BLACK_POOL);
+            let inv = |b: &Sums| {
+                let (c, k) = b.means();
+                b.enough().then(|| Invariants::from_linear(c, k)).flatten()
+            };
+            let good: Vec<BlockSample> = sums
+                .iter()
+                .zip(&pooled)
+                .filter_map(|(b, p)| {
+                    Some(BlockSample {
+                        v: inv(b)?,
+                        pooled: inv(p)?,
+                        t_c: t,
+                    })
+                })
+                .collect();
+            let step = good.len().div_ceil(BLOCKS_PER_FRAME).max(1);
+            samples.extend(good.into_iter().step_by(step));
+        }
+    }
+    if samples.is_empty() {
+        run.obs.note(
+            "no trusted no-contact frames labelled temperature_c: no temperature model".into(),
+        );
+        return Ok(None);
+    }
+    match fit_temperature(&samples) {
+        Ok(m) => Ok(Some(m)),
+        Err(e) => {
+            run.obs.note(format!("{e}: no temperature model"));
+            Ok(None)
+        }
+    }
+}
+
+/// The setpoint a label belongs to: labels equal to 1/1000 of their unit (1 µm, 1 mN) are
+/// one setpoint.
+fn setpoint(label: f64) -> f64 {
+    (label * 1000.0).round()
+}
+
+/// A calibration whose depth model is the identity: its "depth" in mm reads as phase in rad.
+fn identity(unit: &UnitGeometry, sign: f64) -> Calibration {
+    Calibration {
+        format: FORMAT.into(),
+        unit: unit.clone(),
+        phase_sign: sign,
+        depth: Fitted {
+            model: DepthModel::Linear { k_mm_per_rad: 1.0 },
+            equation: String::new(),
+            cv_rmse: 0.0,
+            in_sample_rmse: 0.0,
+            n: 0,
+            candidates: vec![],
+        },
+        force: None,
+        shape: None,
+        temperature: None,
+        sets: vec![],
+    }
+}
+
+/// Fits a calibration from `sets` with the pipeline `imp`.
+pub fn calibrate<O: Observer>(
+    sets: &[FrameSet],
+    imp: Implementation,
+    obs: &mut O,
+) -> Result<Calibration, CalibrateError> {
+    let first = sets.first().ok_or(CalibrateError::NoSets)?;
+    for s in sets {
+        if s.size() != first.size() {
+            return Err(CalibrateError::MixedSizes(s.dir().display().to_string()));
+        }
+    }
+    let reference = first.load_reference()?;
+    let (g, gw, gh) = gray_down_f32(&reference, 1);
+    let c = carrier::estimate(&g, gw, gh).map_err(|e| CalibrateError::Pipeline {
+        set: first.dir().display().to_string(),
+        cause: e.into(),
+    })?;
+    let unit = UnitGeometry {
+        width_px: reference.width(),
+        height_px: reference.height(),
+        period_px: f64::from(c.period_px()),
+        angle_deg: f64::from(c.angle_deg()),
+        grating_period_mm: first.manifest.grating_period_mm,
+    };
+    let mut run = Run { sets, imp, obs };
+
+    let deepest = sets
+        .iter()
+        .flat_map(|s| s.manifest.frames.iter().filter_map(|f| f.depth_mm))
+        .fold(0.0, f64::max);
+    if deepest <= 0.0 {
+        return Err(CalibrateError::NotEnough(
+            "no frame is labelled with depth_mm > 0: phase → depth needs a depth set".into(),
+        ));
+    }
+    let peak_under = |run: &mut Run<'_, O>, sign: f64| -> Result<f32, CalibrateError> {
+        let r = run.analyze(&identity(&unit, sign), Label::Depth, "phase sign", &|v| {
+            v == deepest
+        })?;
+        Ok(r.iter().map(|(_, d)| d.peak_depth_mm).fold(0.0, f32::max))
+    };
+    let sign = if peak_under(&mut run, -1.0)? > peak_under(&mut run, 1.0)? {
+        -1.0
+    } else {
+        1.0
+    };
+
+    let depth_frames = run.analyze(
+        &identity(&unit, sign),
+        Label::Depth,
+        "phase → depth",
+        &|_| true,
+    )?;
+    let samples: Vec<Sample> = depth_frames
+        .iter()
+        .filter(|(_, d)| d.contact)
+        .map(|(y, d)| Sample {
+            u: f64::from(d.peak_depth_mm),
+            y: *y,
+            group: setpoint(*y),
+        })
+        .collect();
+    let (model, chosen, candidates) = fit_depth(&samples, |_, _| {}).ok_or_else(|| {
+        CalibrateError::NotEnough(
+            "phase → depth needs trusted frames at three or more depths".into(),
+        )
+    })?;
+    let mut calib = identity(&unit, sign);
+    calib.depth = Fitted {
+        equation: model.equation(),
+        model,
+        cv_rmse: chosen.cv_rmse,
+        in_sample_rmse: chosen.in_sample_rmse,
+        n: samples.len(),
+        candidates,
+    };
+
+    // The calibrated indenter's contact area against its measured depth, averaged per
+    // setpoint and made monotone.
+    let shaped = run.analyze(&calib, Label::Depth, "indenter shape", &|_| true)?;
+    let shape_samples: Vec<Sample> = shaped
+        .iter()
+        .filter(|(_, d)| d.contact)
+        .map(|(y, d)| Sample {
+            u: f64::from(d.peak_depth_mm),
+            y: f64::from(d.contact_area_mm2),
+            group: setpoint(*y),
+        })
+        .collect();
+    let (depth_mm, area_mm2) = crate::fit::monotone_knots(&shape_samples);
+    calib.shape = (depth_mm.len() >= 3).then_some(ShapeSignature { depth_mm, area_mm2 });
+
+    let force_frames = run.analyze(&calib, Label::Force, "deformation → force", &|_| true)?;
+    let feats: Vec<(ForceFeature, Vec<Sample>)> = ForceFeature::ALL
+        .iter()
+        .map(|&f| {
+            let s = force_frames
+                .iter()
+                .map(|(y, d)| Sample {
+                    u: f64::from(match f {
+                        ForceFeature::Volume => d.volume_mm3,
+                        ForceFeature::IntegratedPhase => d.integrated_phase_rad_mm2,
+                        ForceFeature::ContactArea => d.contact_area_mm2,
+                        ForceFeature::PeakDepth => d.peak_depth_mm,
+                    }),
+                    y: *y,
+                    group: setpoint(*y),
+                })
+                .collect();
+            (f, s)
+        })
+        .collect();
+    calib.force = fit_force(&feats, |_, _| {}).map(|(m, chosen, candidates)| Fitted {
+        equation: m.equation(),
+        model: m,
+        cv_rmse: chosen.cv_rmse,
+        in_sample_rmse: chosen.in_sample_rmse,
+        n: force_frames.len(),
+        candidates,
+    });
+    if calib.force.is_none() {
+        run.obs.note(
+            "too few trusted force levels (need three): no force model, force reads 0".into(),
+        );
+    }
+    calib.temperature = temperature_model(&mut run, &calib)?;
+    calib.sets = sets
+        .iter()
+        .map(|s| {
+            Ok(SetRecord {
+                path: s.dir().display().to_string(),
+                sha256: sha_of(s)?,
+                frames: s.len(),
+            })
+        })
+        .collect::<Result<_, CalibrateError>>()?;
+    Ok(calib)
+}

@@ -1,0 +1,539 @@
+//! The calibration file: which models map phase to depth and deformation to force (and,
+//! later, colour to temperature), with their coefficients, metrics and provenance.
+//!
+//! Versioned JSON (`format: "vistaf-calibration/2"`). A file of another version, or a
+//! malformed one, is refused with a message naming the problem. A calibration records the
+//! unit geometry it was made on (carrier period, orientation, image size); [`Calibration::check_fits`]
+//! refuses a reference that does not match unless the caller overrides it.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+pub use crate::evidence::{CandidateScore, Fitted};
+
+/// The format tag of calibration files.
+pub const FORMAT: &str = "vistaf-calibration/2";
+
+/// The calibration shipped for the simulated reference unit (`vistaf-skin simulate
+/// --calibration-kit` then `vistaf-skin calibrate`; see `docs/calibration.md`).
+pub const DEFAULT_JSON: &str = include_str!("../calibration/default.json");
+
+/// Phase → depth, applied per pixel to `x = phase_sign · Δφ` (rad, ≥ 0 under indentation).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum DepthModel {
+    /// `d = k·x`.
+    Linear {
+        /// Slope, mm/rad.
+        k_mm_per_rad: f64,
+    },
+    /// The paper's saturating hinge: `d = H·(1 − e^(−k·x))`.
+    Hinge {
+        /// Saturation depth, mm.
+        h_mm: f64,
+        /// Rate, 1/rad.
+        k_per_rad: f64,
+    },
+    /// `d = a·(e^(b·x) − 1)`: a response that steepens (phase saturating with depth).
+    Growth {
+        /// Scale, mm.
+        a_mm: f64,
+        /// Rate, 1/rad.
+        b_per_rad: f64,
+    },
+    /// Monotone piecewise-linear through `(x, d)` knots starting at (0, 0); beyond the last
+    /// knot it continues with the last segment's slope.
+    Monotone {
+        /// Knot phases, rad, increasing.
+        x_rad: Vec<f64>,
+        /// Depth at each knot, mm, non-decreasing.
+        d_mm: Vec<f64>,
+    },
+}
+
+impl DepthModel {
+    /// Depth at phase `x` (rad), mm. Negative `x` (bulging) maps to 0.
+    pub fn depth_mm(&self, x: f64) -> f64 {
+        let x = x.max(0.0);
+        match self {
+            DepthModel::Linear { k_mm_per_rad } => k_mm_per_rad * x,
+            DepthModel::Hinge { h_mm, k_per_rad } => h_mm * (1.0 - (-k_per_rad * x).exp()),
+            DepthModel::Growth { a_mm, b_per_rad } => {
+                a_mm * ((b_per_rad * x).min(50.0).exp() - 1.0)
+            }
+            DepthModel::Monotone { x_rad, d_mm } => {
+                let (mut x0, mut d0) = (0.0, 0.0);
+                for (&x1, &d1) in x_rad.iter().zip(d_mm) {
+                    if x <= x1 {
+                        return if x1 > x0 {
+                            d0 + (d1 - d0) * (x - x0) / (x1 - x0)
+                        } else {
+                            d1
+                        };
+                    }
+                    (x0, d0) = (x1, d1);
+                }
+                // Beyond the last knot: extend the last segment.
+                let n = x_rad.len();
+                if n >= 2 && x_rad[n - 1] > x_rad[n - 2] {
+                    let s = (d_mm[n - 1] - d_mm[n - 2]) / (x_rad[n - 1] - x_rad[n - 2]);
+                    d0 + s * (x - x0)
+                } else {
+                    d0
+                }
+            }
+        }
+    }
+
+    /// The model as an equation.
+    pub fn equation(&self) -> String {
+        match self {
+            DepthModel::Linear { k_mm_per_rad } => format!("d_mm = {k_mm_per_rad:.6}·x"),
+            DepthModel::Hinge { h_mm, k_per_rad } => {
+                format!("d_mm = {h_mm:.6}·(1 − exp(−{k_per_rad:.6}·x))")
+            }
+            DepthModel::Growth { a_mm, b_per_rad } => {
+                format!("d_mm = {a_mm:.6}·(exp({b_per_rad:.6}·x) − 1)")
+            }
+            DepthModel::Monotone { x_rad, d_mm } => {
+                let pts: Vec<String> = x_rad
+                    .iter()
+                    .zip(d_mm)
+                    .map(|(x, d)| format!("({x:.4}, {d:.4})"))
+                    .collect();
+                format!("d_mm = piecewise-linear through (0, 0), {}", pts.join(", "))
+            }
+        }
+    }
+}
+
+/// Which deformation feature predicts force.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ForceFeature {
+    /// Measurement volume, mm³.
+    Volume,
+    /// Phase integrated over the deformed area, rad·mm².
+    IntegratedPhase,
+    /// Contact area, mm².
+    ContactArea,
+    /// Peak depth, mm.
+    PeakDepth,
+}
+
+impl ForceFeature {
+    /// Every feature.
+    pub const ALL: [ForceFeature; 4] = [
+        ForceFeature::Volume,
+        ForceFeature::IntegratedPhase,
+        ForceFeature::ContactArea,
+        ForceFeature::PeakDepth,
+    ];
+
+    /// Symbol used in equations.
+    pub fn symbol(self) -> &'static str {
+        match self {
+            ForceFeature::Volume => "V_mm3",
+            ForceFeature::IntegratedPhase => "Φ_rad_mm2",
+            ForceFeature::ContactArea => "A_mm2",
+            ForceFeature::PeakDepth => "d_mm",
+        }
+    }
+}
+
+/// The functional form of the force model.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum ForceForm {
+    /// `F = a·u`.
+    Linear {
+        /// Slope.
+        a: f64,
+    },
+    /// `F = a·u^b`.
+    PowerLaw {
+        /// Scale.
+        a: f64,
+        /// Exponent.
+        b: f64,
+    },
+    /// The paper's exponential growth `F = a·(e^(b·u) − 1)`.
+    Exponential {
+        /// Scale.
+        a: f64,
+        /// Rate.
+        b: f64,
+    },
+    /// Hertz-like `F = c·u^1.5`.
+    Hertz {
+        /// Scale.
+        c: f64,
+    },
+}
+
+/// Measurement → force.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ForceModel {
+    /// Input feature.
+    pub feature: ForceFeature,
+    /// Form and coefficients.
+    pub form: ForceForm,
+}
+
+impl ForceModel {
+    /// Force for a feature value `u`, N (never negative).
+    pub fn force_n(&self, u: f64) -> f64 {
+        let u = u.max(0.0);
+        let f = match self.form {
+            ForceForm::Linear { a } => a * u,
+            ForceForm::PowerLaw { a, b } => a * u.powf(b),
+            ForceForm::Exponential { a, b } => a * ((b * u).min(50.0).exp() - 1.0),
+            ForceForm::Hertz { c } => c * u.powf(1.5),
+        };
+        f.max(0.0)
+    }
+
+    /// The model as an equation.
+    pub fn equation(&self) -> String {
+        let u = self.feature.symbol();
+        match self.form {
+            ForceForm::Linear { a } => format!("F_N = {a:.6}·{u}"),
+            ForceForm::PowerLaw { a, b } => format!("F_N = {a:.6}·{u}^{b:.4}"),
+            ForceForm::Exponential { a, b } => format!("F_N = {a:.6}·(exp({b:.6}·{u}) − 1)"),
+            ForceForm::Hertz { c } => format!("F_N = {c:.6}·{u}^1.5"),
+        }
+    }
+}
+
+/// The unit geometry a calibration was made on.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct UnitGeometry {
+    /// Image width, pixels.
+    pub width_px: u32,
+    /// Image height, pixels.
+    pub height_px: u32,
+    /// Grating period in the image, pixels.
+    pub period_px: f64,
+    /// Carrier direction, degrees.
+    pub angle_deg: f64,
+    /// Physical grating period, mm.
+    pub grating_period_mm: f64,
+}
+
+/// How the calibrated indenter looks: its contact area (depth ≥ half the peak) at each
+/// measured depth. The calibration is exact for contacts of this shape; a contact much
+/// sharper than it is flagged.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ShapeSignature {
+    /// Measured peak depths, mm, increasing.
+    pub depth_mm: Vec<f64>,
+    /// Contact area at each, mm².
+    pub area_mm2: Vec<f64>,
+}
+
+impl ShapeSignature {
+    /// Area at `depth_mm` (linear between knots, constant beyond), mm².
+    pub fn area_mm2_at(&self, depth_mm: f64) -> f64 {
+        let (d, a) = (&self.depth_mm, &self.area_mm2);
+        match d.iter().position(|&x| x >= depth_mm) {
+            None => a.last().copied().unwrap_or(0.0),
+            Some(0) => a.first().copied().unwrap_or(0.0),
+            Some(k) => {
+                a[k - 1] + (a[k] - a[k - 1]) * (depth_mm - d[k - 1]) / (d[k] - d[k - 1]).max(1e-12)
+            }
+        }
+    }
+}
+
+/// A frame set used for the calibration.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SetRecord {
+    /// Directory as given.
+    pub path: String,
+    /// SHA-256 of the manifest and every image, in manifest order.
+    pub sha256: String,
+    /// Frames used.
+    pub frames: usize,
+}
+
+/// A calibration file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Calibration {
+    /// Must be [`FORMAT`].
+    pub format: String,
+    /// Unit geometry at calibration.
+    pub unit: UnitGeometry,
+    /// Sign that makes indentation phase positive.
+    pub phase_sign: f64,
+    /// Phase → depth.
+    pub depth: Fitted<DepthModel>,
+    /// Measurement → force, if the kit had force labels.
+    pub force: Option<Fitted<ForceModel>>,
+    /// The calibrated indenter's contact area by depth (for the sharpness check).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shape: Option<ShapeSignature>,
+    /// Colour → temperature, if the kit had no-contact frames labelled with temperatures.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub temperature: Option<crate::thermal::model::TemperatureModel>,
+    /// Frame sets the fit used.
+    pub sets: Vec<SetRecord>,
+}
+
+/// A calibration that cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum CalibrationError {
+    /// Unreadable file.
+    #[error("{path}: {cause}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The cause.
+        cause: std::io::Error,
+    },
+    /// Not valid calibration JSON.
+    #[error("{path}: not a valid calibration file: {detail}")]
+    Malformed {
+        /// The file.
+        path: String,
+        /// The parser's message.
+        detail: String,
+    },
+    /// Another format version.
+    #[error("{path}: calibration format {found:?}, this build reads {FORMAT:?}; recalibrate with this version")]
+    Version {
+        /// The file.
+        path: String,
+        /// What it says.
+        found: String,
+    },
+    /// Made for another unit geometry.
+    #[error("calibration was made for {want}, but this sensor shows {got}; recalibrate, or pass --force-calibration to use it anyway")]
+    Mismatch {
+        /// What the calibration expects.
+        want: String,
+        /// What the reference shows.
+        got: String,
+    },
+}
+
+impl Calibration {
+    /// Parses calibration JSON; `path` names it in errors.
+    pub fn from_json(text: &str, path: &str) -> Result<Calibration, CalibrationError> {
+        let v: serde_json::Value =
+            serde_json::from_str(text).map_err(|e| CalibrationError::Malformed {
+                path: path.into(),
+                detail: e.to_string(),
+            })?;
+        match v.get("format").and_then(|f| f.as_str()) {
+            Some(FORMAT) => {}
+            Some(other) => {
+                return Err(CalibrationError::Version {
+                    path: path.into(),
+                    found: other.into(),
+                })
+            }
+            None => {
+                return Err(CalibrationError::Malformed {
+                    path: path.into(),
+                    detail: "missing \"format\"".into(),
+                })
+            }
+        }
+        let c: Calibration =
+            serde_json::from_value(v).map_err(|e| CalibrationError::Malformed {
+                path: path.into(),
+                detail: e.to_string(),
+            })?;
+        c.validate().map_err(|detail| CalibrationError::Malformed {
+            path: path.into(),
+            detail,
+        })?;
+        Ok(c)
+    }
+
+    fn validate(&self) -> Result<(), String> {
+        if !(self.phase_sign == 1.0 || self.phase_sign == -1.0) {
+            return Err(format!(
+                "phase_sign must be 1 or -1, not {}",
+                self.phase_sign
+            ));
+        }
+        if !(self.unit.period_px > 0.0 && self.unit.grating_period_mm > 0.0) {
+            return Err("unit.period_px and unit.grating_period_mm must be positive".into());
+        }
+        if let DepthModel::Monotone { x_rad, d_mm } = &self.depth.model {
+            let ok = x_rad.len() == d_mm.len()
+                && x_rad.windows(2).all(|p| p[1] > p[0])
+                && d_mm.windows(2).all(|p| p[1] >= p[0])
+                && x_rad.iter().chain(d_mm).all(|v| v.is_finite());
+            if !ok {
+                return Err(
+                    "depth.model: monotone knots must be finite, equally many, increasing".into(),
+                );
+            }
+        }
+        if let Some(t) = &self.temperature {
+            if !t.is_consistent() {
+                return Err("temperature: models must have 2 (coloured) and 3 (black) \
+                            finite standardised features, matching coefficient counts, \
+                            positive variances and a non-empty range and domain"
+                    .into());
+            }
+        }
+        Ok(())
+    }
+
+    /// The deepest indentation the calibration saw, mm (from the indenter's shape
+    /// signature, else the monotone depth model's last knot).
+    pub fn calibrated_depth_mm(&self) -> Option<f64> {
+        if let Some(d) = self.shape.as_ref().and_then(|s| s.depth_mm.last()) {
+            return Some(*d);
+        }
+        match &self.depth.model {
+            DepthModel::Monotone { d_mm, .. } => d_mm.last().copied(),
+            _ => None,
+        }
+    }
+
+    /// Reads a calibration file.
+    pub fn load(path: &Path) -> Result<Calibration, CalibrationError> {
+        let p = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|cause| CalibrationError::Io {
+            path: p.clone(),
+            cause,
+        })?;
+        Calibration::from_json(&text, &p)
+    }
+
+    /// The shipped default for the simulated reference unit.
+    pub fn default_sim() -> Calibration {
+        // The embedded file is checked by a test, so this cannot fail in a release.
+        Calibration::from_json(DEFAULT_JSON, "default calibration")
+            .unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// A short identifier: the first 4 bytes of the SHA-256 of the JSON.
+    pub fn id(&self) -> u32 {
+        use sha2::{Digest, Sha256};
+        let text = serde_json::to_string(self).unwrap_or_default();
+        let d = Sha256::digest(text.as_bytes());
+        u32::from_be_bytes([d[0], d[1], d[2], d[3]])
+    }
+
+    /// Refuses a sensor whose geometry differs from the calibration's: another image size,
+    /// or a carrier period more than 3 % off.
+    pub fn check_fits(
+        &self,
+        width_px: u32,
+        height_px: u32,
+        period_px: f64,
+    ) -> Result<(), CalibrationError> {
+        let u = &self.unit;
+        let rel = (period_px - u.period_px).abs() / u.period_px;
+        if width_px != u.width_px || height_px != u.height_px || rel > 0.03 {
+            return Err(CalibrationError::Mismatch {
+                want: format!(
+                    "{}×{} px with a {:.2} px grating period",
+                    u.width_px, u.height_px, u.period_px
+                ),
+                got: format!("{width_px}×{height_px} px with a {period_px:.2} px period"),
+            });
+        }
+        Ok(())
+    }
+
+    /// Writes the calibration as pretty JSON.
+    pub fn save(&self, path: &Path) -> Result<(), CalibrationError> {
+        let p = path.display().to_string();
+        let text = serde_json::to_string_pretty(self).map_err(|e| CalibrationError::Malformed {
+            path: p.clone(),
+            detail: e.to_string(),
+        })?;
+        std::fs::write(path, text + "\n").map_err(|cause| CalibrationError::Io { path: p, cause })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn depth_models_are_monotone() {
+        let models = [
+            DepthModel::Linear { k_mm_per_rad: 0.6 },
+            DepthModel::Hinge {
+                h_mm: 2.08,
+                k_per_rad: 4.2,
+            },
+            DepthModel::Growth {
+                a_mm: 3.0,
+                b_per_rad: 0.2,
+            },
+            DepthModel::Monotone {
+                x_rad: vec![0.5, 1.0, 2.0],
+                d_mm: vec![0.3, 0.7, 1.6],
+            },
+        ];
+        for m in &models {
+            let mut last = -1.0;
+            for i in 0..200 {
+                let d = m.depth_mm(i as f64 * 0.02);
+                assert!(d >= last, "{m:?} at {i}");
+                last = d;
+            }
+            assert_eq!(m.depth_mm(-1.0), 0.0);
+        }
+        // The paper's curve: x = 0.1 → 0.715 mm (reference-pipeline §11.6).
+        let paper = DepthModel::Hinge {
+            h_mm: 2.0826494996246554,
+            k_per_rad: 4.20441143052732,
+        };
+        assert!((paper.depth_mm(0.1) - 0.715).abs() < 1e-3);
+        // Monotone: interpolates and extends the last slope.
+        let m = &models[3];
+        assert!((m.depth_mm(0.75) - 0.5).abs() < 1e-12);
+        assert!((m.depth_mm(3.0) - 2.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn bad_files_are_refused_with_the_reason() {
+        let e = Calibration::from_json("{", "c.json")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("c.json") && e.contains("not a valid"), "{e}");
+        let e = Calibration::from_json(r#"{"format": "vistaf-calibration/0"}"#, "c.json")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("vistaf-calibration/0") && e.contains("recalibrate"),
+            "{e}"
+        );
+        let mut v: serde_json::Value = serde_json::from_str(DEFAULT_JSON).unwrap();
+        v["phase_sign"] = 0.5.into();
+        let e = Calibration::from_json(&v.to_string(), "c.json")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("phase_sign"), "{e}");
+        v["phase_sign"] = 1.0.into();
+        v.as_object_mut().unwrap().remove("depth");
+        let e = Calibration::from_json(&v.to_string(), "c.json")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("depth"), "{e}");
+    }
+
+    #[test]
+    fn the_default_loads_and_checks_geometry() {
+        let c = Calibration::default_sim();
+        let u = c.unit.clone();
+        assert!(c
+            .check_fits(u.width_px, u.height_px, u.period_px * 1.01)
+            .is_ok());
+        let e = c.check_fits(320, 240, u.period_px).unwrap_err().to_string();
+        assert!(e.contains("--force-calibration"), "{e}");
+        assert!(c
+            .check_fits(u.width_px, u.height_px, u.period_px * 1.2)
+            .is_err());
+    }
+}

@@ -1,0 +1,249 @@
+//! The float reference: full 2-D Fourier-transform profilometry with rustfft. The oracle the
+//! device path is tested against.
+//!
+//! Per frame: luminance at the working resolution → mean removed → 2-D FFT → separable
+//! band-pass window centred on the first order → inverse FFT → analytic signal `z`. The
+//! wrapped phase difference is `arg(z_frame · conj(z_ref))`, the reference's `z` being
+//! computed once.
+//!
+//! Two windows ([`BandWindow`]):
+//! * **Matched** (default): per axis `|D_L(Δν)|²`, the exact frequency response of the
+//!   device path's two box passes of length `L` (`D_L` the Dirichlet kernel). It is a
+//!   smooth, non-negative taper with nulls exactly on DC and the second order when `L` is
+//!   the period, and it makes this path compute the *same operator* as
+//!   [`super::fixed`] in floating point, so comparing the two isolates the fixed-point
+//!   error, which is what an oracle is for.
+//! * **Hann**: a separable Hann window of half-width [`BAND_HALF_WIDTH`] × the carrier
+//!   frequency (the classic FTP choice), kept for the speed/accuracy trade-off study. It is
+//!   a different filter, so its depth maps differ from the device path's by a few percent
+//!   where the surface is curved, and it needs its own calibration.
+
+use image::RgbImage;
+use rustfft::num_complex::Complex32;
+use rustfft::FftPlanner;
+
+use super::band::{box2_response, box_lengths, BandWindow, BAND_HALF_WIDTH};
+use super::carrier::{self, Carrier};
+use crate::calibration::DepthModel;
+use crate::image_ops::{gray_down_f32, saturated_fraction};
+use crate::phase::{PhaseMap, GRID};
+
+/// The wrapped phase difference of a frame against the reference.
+#[derive(Debug, Clone)]
+pub struct PhaseField {
+    /// Working width, pixels.
+    pub w: usize,
+    /// Working height, pixels.
+    pub h: usize,
+    /// Wrapped phase difference, rad, in (−π, π].
+    pub wrapped: Vec<f32>,
+    /// Fringe amplitude of the frame, luminance units.
+    pub amp_frame: Vec<f32>,
+    /// Fringe amplitude of the reference, luminance units.
+    pub amp_ref: Vec<f32>,
+}
+
+/// Reference-side state of the float pipeline.
+pub struct FloatFtp {
+    w: usize,
+    h: usize,
+    factor: usize,
+    carrier: Carrier,
+    window: Vec<f32>,
+    z_ref: Vec<Complex32>,
+    ref_median: u32,
+    fwd: carrier::Plan2,
+    inv: carrier::Plan2,
+}
+
+impl std::fmt::Debug for FloatFtp {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FloatFtp")
+            .field("w", &self.w)
+            .field("h", &self.h)
+            .field("factor", &self.factor)
+            .field("carrier", &self.carrier)
+            .finish_non_exhaustive()
+    }
+}
+
+impl FloatFtp {
+    /// Prepares the reference, whose carrier `working` describes.
+    pub fn new(reference: &RgbImage, working: &carrier::Working, band: BandWindow) -> FloatFtp {
+        let (factor, carrier) = (working.factor, working.carrier);
+        let (gray, w, h) = gray_down_f32(reference, factor);
+        let mut planner = FftPlanner::new();
+        let fwd = carrier::plan2(&mut planner, w, h, false);
+        let inv = carrier::plan2(&mut planner, w, h, true);
+        let rho = BAND_HALF_WIDTH * carrier.freq();
+        let hann = |d: f32| {
+            if d.abs() >= rho {
+                0.0
+            } else {
+                0.5 + 0.5 * (std::f32::consts::PI * d / rho).cos()
+            }
+        };
+        let (lx, ly) = box_lengths(&carrier);
+        let taper = |d: f32, l: usize| match band {
+            BandWindow::Matched => box2_response(d, l),
+            BandWindow::Hann => hann(d),
+        };
+        let signed = |k: usize, n: usize| {
+            if k <= n / 2 {
+                k as f32 / n as f32
+            } else {
+                k as f32 / n as f32 - 1.0
+            }
+        };
+        let mut window = vec![0.0f32; w * h];
+        for v in 0..h {
+            let wy = taper(signed(v, h) - carrier.fy, ly);
+            for u in 0..w {
+                // Hann is compact inside the carrier's half-plane; the matched response is
+                // periodic and acts on the whole plane, exactly as the box filters do.
+                window[v * w + u] = wy * taper(signed(u, w) - carrier.fx, lx);
+            }
+        }
+        let mut ftp = FloatFtp {
+            w,
+            h,
+            factor,
+            carrier,
+            window,
+            z_ref: Vec::new(),
+            ref_median: 0,
+            fwd,
+            inv,
+        };
+        ftp.z_ref = ftp.analytic(&gray);
+        let mut a: Vec<u32> = ftp
+            .z_ref
+            .iter()
+            .map(|c| (c.norm() * PhaseField::AMP_SCALE) as u32)
+            .collect();
+        let k = a.len() / 2;
+        ftp.ref_median = *a.select_nth_unstable(k).1;
+        ftp
+    }
+
+    /// Working size (w, h) and the downsampling factor from input pixels.
+    pub fn geometry(&self) -> (usize, usize, usize) {
+        (self.w, self.h, self.factor)
+    }
+
+    /// The carrier at the working resolution.
+    pub fn carrier(&self) -> Carrier {
+        self.carrier
+    }
+
+    /// The analytic signal of a working-resolution luminance image.
+    fn analytic(&self, gray: &[f32]) -> Vec<Complex32> {
+        let mean = gray.iter().sum::<f32>() / gray.len().max(1) as f32;
+        let mut z: Vec<Complex32> = gray.iter().map(|v| Complex32::new(v - mean, 0.0)).collect();
+        carrier::fft2(&mut z, &self.fwd);
+        for (c, wv) in z.iter_mut().zip(&self.window) {
+            *c *= *wv;
+        }
+        carrier::fft2(&mut z, &self.inv);
+        // Unnormalised inverse: scale by 1/N, ×2 for the one-sided band (amplitude = fringe
+        // half peak-to-peak).
+        let s = 2.0 / (self.w * self.h) as f32;
+        z.iter_mut().for_each(|c| *c *= s);
+        z
+    }
+
+    /// The wrapped phase difference of `frame` against the reference.
+    ///
+    /// # Panics
+    /// If `frame` is not the reference's size (checked by the caller, [`crate::Analyzer`]).
+    pub fn phase(&self, frame: &RgbImage) -> PhaseField {
+        let (gray, w, h) = gray_down_f32(frame, self.factor);
+        assert_eq!(
+            (w, h),
+            (self.w, self.h),
+            "frame size differs from the reference"
+        );
+        let z = self.analytic(&gray);
+        let wrapped = z
+            .iter()
+            .zip(&self.z_ref)
+            .map(|(a, b)| (a * b.conj()).arg())
+            .collect();
+        PhaseField {
+            w,
+            h,
+            wrapped,
+            amp_frame: z.iter().map(|c| c.norm()).collect(),
+            amp_ref: self.z_ref.iter().map(|c| c.norm()).collect(),
+        }
+    }
+}
+
+impl PhaseField {
+    /// Amplitude scale into the shared `u32` amplitude units (1/256 luminance step).
+    const AMP_SCALE: f32 = 256.0;
+}
+
+/// The float field as the measurement sees it: phases in f32 radians; depth through the
+/// calibration's model evaluated in floating point.
+#[derive(Debug)]
+pub struct FloatMap<'a> {
+    field: PhaseField,
+    saturated: f32,
+    ref_median: u32,
+    depth: &'a DepthModel,
+}
+
+impl FloatFtp {
+    /// A frame's phase field as the measurement sees it.
+    pub fn field<'a>(&self, frame: &RgbImage, depth: &'a DepthModel) -> FloatMap<'a> {
+        FloatMap {
+            field: self.phase(frame),
+            saturated: saturated_fraction(frame),
+            ref_median: self.ref_median,
+            depth,
+        }
+    }
+
+    /// The reference's grating phase per working pixel, units of 2π/65 536: the analytic
+    /// signal here keeps the carrier, so it is the argument itself.
+    pub fn grating_phase(&self) -> Vec<u16> {
+        self.z_ref
+            .iter()
+            .map(|z| (f64::from(z.arg()) / std::f64::consts::TAU * 65_536.0).round() as i64 as u16)
+            .collect()
+    }
+}
+
+impl FloatMap<'_> {
+    /// The working pixel of coarse sample `k`.
+    fn pixel(&self, k: usize) -> usize {
+        let cw = self.field.w.div_ceil(GRID);
+        (k / cw) * GRID * self.field.w + (k % cw) * GRID
+    }
+}
+
+impl PhaseMap for FloatMap<'_> {
+    type P = f32;
+    fn size(&self) -> (usize, usize) {
+        (self.field.w, self.field.h)
+    }
+    fn wrapped(&self, k: usize) -> f32 {
+        self.field.wrapped[self.pixel(k)]
+    }
+    fn amp_frame(&self, k: usize) -> u32 {
+        (self.field.amp_frame[self.pixel(k)] * PhaseField::AMP_SCALE) as u32
+    }
+    fn amp_ref(&self, k: usize) -> u32 {
+        (self.field.amp_ref[self.pixel(k)] * PhaseField::AMP_SCALE) as u32
+    }
+    fn amp_ref_median(&self) -> u32 {
+        self.ref_median
+    }
+    fn saturated_fraction(&self) -> f32 {
+        self.saturated
+    }
+    fn depth_um(&self, x: f32) -> i32 {
+        (self.depth.depth_mm(f64::from(x)) * 1000.0).round() as i32
+    }
+}

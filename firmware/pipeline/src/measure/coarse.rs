@@ -1,0 +1,451 @@
+//! The coarse grid: the background's samples, its noise floor and the contact tiles.
+
+use super::{TILE_MIN_SAMPLES, TILE_PX};
+use crate::phase::{PhaseMap, GRID};
+
+/// Contact tiles ([`TILE_PX`] working pixels square) from the coarse grid (`cw × ch`
+/// samples, [`GRID`] pixels apart): a sample is above when it is `rel`iable and its phase
+/// `phi` exceeds `thr` in magnitude (units), and a tile is active when at least
+/// [`TILE_MIN_SAMPLES`] of its samples are above; the active tiles dilated by one tile are
+/// the region (`tw × th` tiles). `None` when there is none, or when fewer than `min_total`
+/// samples are above in all: the band-pass spreads any indentation over about a period
+/// each way, so a blob smaller than a disc one period across is a speck of the image (an
+/// illumination edge under a shifted grating, a hot pixel), not a contact.
+pub fn contact_tiles(
+    phi: &[i32],
+    rel: &[bool],
+    thr: i32,
+    (cw, ch): (usize, usize),
+    (tw, th): (usize, usize),
+    min_total: usize,
+) -> Option<(Vec<bool>, usize)> {
+    const PER: usize = TILE_PX / GRID;
+    let mut count = vec![0usize; tw * th];
+    let above = |p: &[i32], r: &[bool]| -> usize {
+        p.iter()
+            .zip(r)
+            .map(|(p, r)| usize::from(*r && p.abs() > thr))
+            .sum()
+    };
+    let rows = phi.chunks_exact(cw).zip(rel.chunks_exact(cw)).take(ch);
+    for (cy, (prow, rrow)) in rows.enumerate() {
+        let trow = &mut count[(cy / PER) * tw..(cy / PER + 1) * tw];
+        // A tile's samples along the row at a time (fixed-size runs: no division per
+        // sample, and the run's test unrolls), then the row's partial last tile.
+        let ((pr, p_rest), (rr, r_rest)) = (prow.as_chunks::<PER>(), rrow.as_chunks::<PER>());
+        for ((t, p), r) in trow.iter_mut().zip(pr).zip(rr) {
+            *t += above(p, r);
+        }
+        if let Some(t) = trow.get_mut(pr.len()) {
+            *t += above(p_rest, r_rest);
+        }
+    }
+    if count.iter().all(|&c| c < TILE_MIN_SAMPLES) || count.iter().sum::<usize>() < min_total {
+        return None;
+    }
+    let active: Vec<bool> = count.iter().map(|&c| c >= TILE_MIN_SAMPLES).collect();
+    let dil = dilate(&active, tw, th);
+    let tiles = dil.iter().filter(|t| **t).count();
+    Some((dil, tiles))
+}
+
+/// `on` (`tw × th` tiles) grown by one tile in each of the eight directions: across, then
+/// down (a 3 × 3 square is a 3-wide row swept 3 high), branch-free, whatever the number of
+/// tiles set.
+pub(super) fn dilate(on: &[bool], tw: usize, th: usize) -> Vec<bool> {
+    let n = tw * th;
+    if n == 0 {
+        return Vec::new();
+    }
+    let mut across = vec![false; n];
+    for (a, o) in across.chunks_exact_mut(tw).zip(on.chunks_exact(tw)) {
+        for x in 0..tw {
+            let left = x > 0 && o[x - 1];
+            let right = x + 1 < tw && o[x + 1];
+            a[x] = o[x] | left | right;
+        }
+    }
+    let mut dil = across.clone();
+    for (d, up) in dil[tw..].iter_mut().zip(&across[..n - tw]) {
+        *d |= *up;
+    }
+    for (d, down) in dil[..n - tw].iter_mut().zip(&across[tw..]) {
+        *d |= *down;
+    }
+    dil
+}
+
+/// Per coarse sample (`cw × ch`), whether its tile is set in `tiles` (`tw` across). The
+/// rows of a tile row are the same: the first is built, the others copied.
+pub(super) fn samples_in(tiles: &[bool], (cw, ch): (usize, usize), tw: usize) -> Vec<bool> {
+    const PER: usize = TILE_PX / GRID;
+    let mut out = vec![false; cw * ch];
+    for cy in 0..ch {
+        if cy % PER == 0 {
+            let trow = &tiles[(cy / PER) * tw..(cy / PER + 1) * tw];
+            let row = &mut out[cy * cw..(cy + 1) * cw];
+            // Whole tiles as fixed-size runs, then the row's partial last tile.
+            let (runs, rest) = row.as_chunks_mut::<PER>();
+            for (run, &t) in runs.iter_mut().zip(trow) {
+                *run = [t; PER];
+            }
+            if let Some(&t) = trow.get(runs.len()) {
+                rest.fill(t);
+            }
+        } else {
+            out.copy_within((cy - 1) * cw..cy * cw, cy * cw);
+        }
+    }
+    out
+}
+
+/// The upper median (the `len / 2`-th smallest), 0 for none.
+pub(super) fn median<T: Ord + Copy + Default>(mut v: Vec<T>) -> T {
+    if v.is_empty() {
+        return T::default();
+    }
+    let k = v.len() / 2;
+    *v.select_nth_unstable(k).1
+}
+
+/// Step between the samples whose deviation enters the noise floor's median, each way:
+/// every second coarse sample (4 800 at 320×240 working) estimates a MAD within about 2 %,
+/// at a quarter of the cost of all of them.
+pub const NOISE_STEP: usize = 2;
+
+/// Phase noise (1σ, phase units): the robust spread of the phase minus its local mean over
+/// a box of `box_px` samples (about two periods), so smooth deformation does not count as
+/// noise. `phi` is `w × h` samples (the coarse grid); the spread is taken over every
+/// `NOISE_STEP`-th of them each way.
+pub fn local_noise_units(phi: &[i32], reliable: &[bool], w: usize, h: usize, box_px: usize) -> i32 {
+    let r = (box_px / 2).max(1);
+    let area = ((2 * r + 1) * (2 * r + 1)) as i64;
+    let mut dev = Vec::new();
+    let row = |y: usize| &phi[y * w..(y + 1) * w];
+    if h > 2 * r && w > 2 * r {
+        // Column sums over the box's rows, slid down NOISE_STEP rows at a time, and their
+        // prefix sums along the row: a box sum is one difference, and only the sampled rows
+        // are ever summed across (no integral image of the whole grid).
+        let mut col = vec![0i64; w];
+        for y in 0..=2 * r {
+            for (c, &v) in col.iter_mut().zip(row(y)) {
+                *c += i64::from(v);
+            }
+        }
+        let mut pre = vec![0i64; w + 1];
+        let mut y = r;
+        loop {
+            let mut acc = 0i64;
+            for (p, &c) in pre[1..].iter_mut().zip(&col) {
+                acc += c;
+                *p = acc;
+            }
+            // Every NOISE_STEP-th x in r..w − r: the deviation times the box's area
+            // (dividing is monotone, so the median is divided once, below), the box sum
+            // being pre[x + r + 1] − pre[x − r].
+            let xs = y * w + r..(y + 1) * w - r;
+            let boxes = pre[2 * r + 1..].iter().zip(&pre[..w - 2 * r]);
+            let samples = phi[xs.clone()].iter().zip(&reliable[xs]).zip(boxes);
+            dev.extend(
+                samples
+                    .step_by(NOISE_STEP)
+                    .filter(|((_, ok), _)| **ok)
+                    .map(|((&p, _), (&hi, &lo))| (i64::from(p) * area - (hi - lo)).unsigned_abs()),
+            );
+            if y + NOISE_STEP >= h - r {
+                break;
+            }
+            for k in 0..NOISE_STEP {
+                for ((c, &out), &new) in col.iter_mut().zip(row(y - r + k)).zip(row(y + r + 1 + k))
+                {
+                    *c += i64::from(new) - i64::from(out);
+                }
+            }
+            y += NOISE_STEP;
+        }
+    }
+    // 1.4826 × MAD, in integers (×1518 / 1024), the deviation rounded up to a unit.
+    let mad = median(dev).div_ceil(area as u64);
+    ((mad as i64 * 1518 / 1024) as i32).max(1)
+}
+
+/// The trusted area of a `w × h` working image: pixels at least `m` from every edge. Near
+/// the edge neither the FFT (periodic wrap) nor the box filters (padded edges) see a whole
+/// neighbourhood.
+#[derive(Debug, Clone)]
+pub(super) struct Margin {
+    /// Trusted columns and rows.
+    pub(super) xs: std::ops::Range<usize>,
+    pub(super) ys: std::ops::Range<usize>,
+}
+
+impl Margin {
+    pub(super) fn new(m: usize, w: usize, h: usize) -> Margin {
+        let span = |n: usize| m.min(n)..n.saturating_sub(m).max(m.min(n));
+        Margin {
+            xs: span(w),
+            ys: span(h),
+        }
+    }
+
+    pub(super) fn contains(&self, x: usize, y: usize) -> bool {
+        self.xs.contains(&x) && self.ys.contains(&y)
+    }
+}
+
+/// The coarse grid's samples: every [`GRID`]-th working pixel each way, row-major.
+pub(super) struct Coarse<'a, P> {
+    /// Samples across.
+    pub(super) cw: usize,
+    /// Wrapped phase difference.
+    pub(super) phase: Vec<P>,
+    /// Frame and reference fringe amplitudes.
+    pub(super) amp: Vec<u32>,
+    pub(super) amp_r: std::borrow::Cow<'a, [u32]>,
+    /// Inside the margin, with both amplitudes above `lim`.
+    pub(super) rel: Vec<bool>,
+    /// Samples inside the margin, and those reliable.
+    pub(super) inside_n: usize,
+    pub(super) reliable_n: usize,
+}
+
+/// Reads the coarse grid: the only place the background's phase is computed.
+pub(super) fn read_coarse<'a, M: PhaseMap>(
+    map: &'a M,
+    lim: u32,
+    margin: &Margin,
+) -> Coarse<'a, M::P> {
+    let (w, h) = map.size();
+    let (cw, ch) = (w.div_ceil(GRID), h.div_ceil(GRID));
+    let n = cw * ch;
+    // One plain pass per map (collected from exact-size iterators: no capacity test per
+    // sample).
+    let phase: Vec<M::P> = map.wrapped_all();
+    let amp = map.amp_frame_all();
+    let amp_r = map.amp_ref_all();
+    let (mut inside_n, mut reliable_n) = (0, 0);
+    let mut rel = vec![false; n];
+    // The samples inside the margin: columns `cx` with `cx·GRID` in `xs`, rows likewise.
+    let cols = margin.xs.start.div_ceil(GRID).min(cw)..margin.xs.end.div_ceil(GRID).min(cw);
+    for cy in (0..ch).filter(|cy| margin.ys.contains(&(cy * GRID))) {
+        let run = cy * cw + cols.start..cy * cw + cols.end;
+        let pairs = amp[run.clone()].iter().zip(&amp_r[run.clone()]);
+        for (r, (&a, &b)) in rel[run.clone()].iter_mut().zip(pairs) {
+            *r = a > lim && b > lim;
+        }
+        inside_n += run.len();
+        reliable_n += rel[run].iter().map(|&r| usize::from(r)).sum::<usize>();
+    }
+    Coarse {
+        cw,
+        phase,
+        amp,
+        amp_r,
+        rel,
+        inside_n,
+        reliable_n,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The noise floor by an integral image of the whole grid, as it was computed before
+    /// the sliding column sums.
+    fn noise_by_integral_image(
+        phi: &[i32],
+        reliable: &[bool],
+        w: usize,
+        h: usize,
+        box_px: usize,
+    ) -> i32 {
+        let r = (box_px / 2).max(1);
+        let mut ii = vec![0i64; (w + 1) * (h + 1)];
+        for y in 0..h {
+            let mut row = 0i64;
+            for x in 0..w {
+                row += i64::from(phi[y * w + x]);
+                ii[(y + 1) * (w + 1) + x + 1] = ii[y * (w + 1) + x + 1] + row;
+            }
+        }
+        let area = ((2 * r + 1) * (2 * r + 1)) as i64;
+        let mut dev = Vec::new();
+        for y in (r..h.saturating_sub(r)).step_by(NOISE_STEP) {
+            for x in (r..w.saturating_sub(r)).step_by(NOISE_STEP) {
+                let i = y * w + x;
+                if !reliable[i] {
+                    continue;
+                }
+                let (x0, x1, y0, y1) = (x - r, x + r + 1, y - r, y + r + 1);
+                let sum = ii[y1 * (w + 1) + x1] - ii[y0 * (w + 1) + x1] - ii[y1 * (w + 1) + x0]
+                    + ii[y0 * (w + 1) + x0];
+                dev.push(
+                    (i64::from(phi[i]) * area - sum)
+                        .unsigned_abs()
+                        .div_ceil(area as u64) as u32,
+                );
+            }
+        }
+        ((i64::from(median(dev)) * 1518 / 1024) as i32).max(1)
+    }
+
+    /// Sliding column sums give the integral image's noise floor, box by box, on grids of
+    /// odd and even sides and boxes of several sizes.
+    #[test]
+    fn noise_floor_follows_the_integral_image() {
+        let mut rng = crate::test_rng::XorShift(0x0123_4567_89ab_cdef);
+        let mut next = move || rng.next();
+        for (w, h) in [(160usize, 120usize), (37, 23), (9, 8), (5, 4)] {
+            for box_px in [2usize, 5, 8, 12] {
+                let phi: Vec<i32> = (0..w * h)
+                    .map(|i| (i % w) as i32 * 40 + (next() % 900) as i32 - 450)
+                    .collect();
+                let rel: Vec<bool> = (0..w * h).map(|_| next() % 7 != 0).collect();
+                assert_eq!(
+                    local_noise_units(&phi, &rel, w, h, box_px),
+                    noise_by_integral_image(&phi, &rel, w, h, box_px),
+                    "{w}x{h} box {box_px}"
+                );
+            }
+        }
+    }
+
+    /// Random masks of working sizes whose sides are not multiples of a tile.
+    fn masks() -> impl Iterator<Item = (Vec<bool>, (usize, usize))> {
+        let mut rng = crate::test_rng::XorShift(0x9e37_79b9_7f4a_7c15);
+        [(320usize, 240usize), (322, 243), (38, 17)]
+            .into_iter()
+            .flat_map(|(w, h)| [1u64, 5, 40].map(|ppm| (w, h, ppm)))
+            .map(move |(w, h, ppm)| {
+                let (cw, ch) = (w.div_ceil(GRID), h.div_ceil(GRID));
+                let mask = (0..cw * ch).map(|_| rng.next() % 100 < ppm).collect();
+                (mask, (w, h))
+            })
+    }
+
+    /// A phase map of random amplitudes, for the reliability rule.
+    struct RandomAmps {
+        size: (usize, usize),
+        amp: Vec<u32>,
+        amp_ref: Vec<u32>,
+    }
+
+    impl PhaseMap for RandomAmps {
+        type P = i32;
+        fn size(&self) -> (usize, usize) {
+            self.size
+        }
+        fn wrapped(&self, k: usize) -> i32 {
+            k as i32
+        }
+        fn amp_frame(&self, k: usize) -> u32 {
+            self.amp[k]
+        }
+        fn amp_ref(&self, k: usize) -> u32 {
+            self.amp_ref[k]
+        }
+        fn amp_ref_median(&self) -> u32 {
+            500
+        }
+        fn saturated_fraction(&self) -> f32 {
+            0.0
+        }
+        fn depth_um(&self, x: i32) -> i32 {
+            x
+        }
+    }
+
+    /// Reliability per coarse sample against its plain reading: inside the margin (the
+    /// sample's working pixel, `GRID·cx`, `GRID·cy`) with both amplitudes above the limit;
+    /// odd and even sizes and margins, one wider than the image.
+    #[test]
+    fn reliable_samples_follow_the_margin_and_amplitudes() {
+        let mut rng = crate::test_rng::XorShift(0x2545_f491_4f6c_dd1d);
+        for ((w, h), m) in [
+            ((320usize, 240usize), 24),
+            ((37, 23), 5),
+            ((38, 17), 3),
+            ((9, 7), 20),
+        ] {
+            let n = w.div_ceil(GRID) * h.div_ceil(GRID);
+            let map = RandomAmps {
+                size: (w, h),
+                amp: (0..n).map(|_| (rng.next() % 1000) as u32).collect(),
+                amp_ref: (0..n).map(|_| (rng.next() % 1000) as u32).collect(),
+            };
+            let margin = Margin::new(m, w, h);
+            let c = read_coarse(&map, 300, &margin);
+            let cw = w.div_ceil(GRID);
+            let (mut inside_n, mut reliable_n) = (0, 0);
+            for k in 0..n {
+                let inside = margin.contains(GRID * (k % cw), GRID * (k / cw));
+                let want = inside && map.amp[k] > 300 && map.amp_ref[k] > 300;
+                assert_eq!(c.rel[k], want, "{w}×{h} margin {m}, sample {k}");
+                inside_n += usize::from(inside);
+                reliable_n += usize::from(want);
+            }
+            assert_eq!((c.inside_n, c.reliable_n), (inside_n, reliable_n));
+            assert_eq!((c.phase.len(), c.amp.len(), c.amp_r.len()), (n, n, n));
+        }
+    }
+
+    /// Tile counts and per-sample tile membership against a plain reading, sample by
+    /// sample (`cx / per`).
+    #[test]
+    fn tiles_and_samples_follow_the_grid() {
+        let per = TILE_PX / GRID;
+        for (above, (w, h)) in masks() {
+            let (cw, ch) = (w.div_ceil(GRID), h.div_ceil(GRID));
+            let (tw, th) = (w.div_ceil(TILE_PX), h.div_ceil(TILE_PX));
+            let mut count = vec![0usize; tw * th];
+            for (k, a) in above.iter().enumerate() {
+                count[(k / cw / per) * tw + (k % cw) / per] += usize::from(*a);
+            }
+            let active: Vec<bool> = count.iter().map(|&c| c >= TILE_MIN_SAMPLES).collect();
+            // A tile is set when any tile of its 3 × 3 neighbourhood is active.
+            let want: Vec<bool> = (0..tw * th)
+                .map(|t| {
+                    let (tx, ty) = (t % tw, t / tw);
+                    (ty.saturating_sub(1)..(ty + 2).min(th)).any(|y| {
+                        (tx.saturating_sub(1)..(tx + 2).min(tw)).any(|x| active[y * tw + x])
+                    })
+                })
+                .collect();
+            assert_eq!(dilate(&active, tw, th), want, "{w}x{h}");
+            // The mask as phases: above the threshold where set, on reliable samples
+            // or not, and a reliable sample below it elsewhere.
+            let phi: Vec<i32> = above
+                .iter()
+                .enumerate()
+                .map(|(k, a)| {
+                    if *a {
+                        [50, -50][k % 2]
+                    } else {
+                        7 * (k % 2) as i32
+                    }
+                })
+                .collect();
+            let got = contact_tiles(&phi, &vec![true; phi.len()], 10, (cw, ch), (tw, th), 0);
+            let unreliable =
+                contact_tiles(&phi, &vec![false; phi.len()], 10, (cw, ch), (tw, th), 0);
+            assert!(unreliable.is_none());
+            match got {
+                Some((tiles, n)) => {
+                    assert_eq!(tiles, want, "{w}x{h}");
+                    assert_eq!(n, want.iter().filter(|t| **t).count());
+                }
+                None => assert!(active.iter().all(|a| !a), "{w}x{h}"),
+            }
+            let samples = samples_in(&want, (cw, ch), tw);
+            assert_eq!(samples.len(), cw * ch);
+            for (k, s) in samples.iter().enumerate() {
+                assert_eq!(
+                    *s,
+                    want[(k / cw / per) * tw + (k % cw) / per],
+                    "{w}x{h} {k}"
+                );
+            }
+        }
+    }
+}

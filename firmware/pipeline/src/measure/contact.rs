@@ -1,0 +1,315 @@
+//! The contact region, read at every working pixel: its window on the coarse grid, the
+//! indentation phase unwrapped where it can have wrapped and upsampled, the depth through
+//! the calibration, and what the region's samples say about the measurement's limits.
+
+use vistaf_protocol::{Flag, QualityFlags};
+
+use super::coarse::{samples_in, Coarse, Margin};
+use super::features::slope_p98_exceeds;
+use super::window::upsample2;
+use super::{
+    Context, Features, Grid, Unwrap, BAND_LOSS_FRACTION, BAND_LOSS_MIN, DEPTH_RANGE_SLACK,
+    DIPOLE_RATIO, MAX_RESIDUES, SHARPNESS_RATIO, SLOPE_LIMIT, TILE_PX, UNWRAP_TRIGGER_RAD,
+};
+use crate::ftp::band::BAND_HALF_WIDTH;
+use crate::ftp::carrier::Carrier;
+use crate::phase::{PhaseMap, PhaseNum, GRID};
+use crate::unwrap::unwrap_window;
+
+/// Coarse samples of border around the region's tiles: they seed the unwrapping and feed
+/// the interpolation.
+const BORDER: usize = 2;
+
+/// The contact region's window: coarse columns and rows, and the working pixels they span.
+#[derive(Debug, Clone)]
+pub(super) struct Window {
+    /// Coarse columns `[x0, x1)`.
+    pub(super) cols: (usize, usize),
+    /// Coarse rows.
+    pub(super) rows: std::ops::Range<usize>,
+}
+
+impl Window {
+    /// The bounding box of the region's tiles (each `TILE_PX / GRID` samples square,
+    /// clipped to the grid), with [`BORDER`] samples around.
+    pub(super) fn around(tiles_on: &[bool], grid: &Grid) -> Window {
+        const PER: usize = TILE_PX / GRID;
+        let ((cw, ch), (tw, th)) = (grid.coarse, grid.tiles);
+        let (mut tx0, mut ty0, mut tx1, mut ty1) = (tw, th, 0, 0);
+        for (ty, row) in tiles_on.chunks_exact(tw).enumerate() {
+            if let (Some(a), Some(b)) = (row.iter().position(|t| *t), row.iter().rposition(|t| *t))
+            {
+                (tx0, ty0, tx1, ty1) = (tx0.min(a), ty0.min(ty), tx1.max(b), ty1.max(ty));
+            }
+        }
+        let (cx0, cy0) = (tx0 * PER, ty0 * PER);
+        let (cx1, cy1) = (((tx1 + 1) * PER).min(cw) - 1, ((ty1 + 1) * PER).min(ch) - 1);
+        Window {
+            cols: (cx0.saturating_sub(BORDER), (cx1 + BORDER + 1).min(cw)),
+            rows: cy0.saturating_sub(BORDER)..(cy1 + BORDER + 1).min(ch),
+        }
+    }
+
+    /// Coarse samples across and down.
+    pub(super) fn coarse_size(&self) -> (usize, usize) {
+        (self.cols.1 - self.cols.0, self.rows.len())
+    }
+
+    /// The working pixels the upsampled window covers: origin and size.
+    pub(super) fn pixels(&self) -> ((usize, usize), (usize, usize)) {
+        let (cbw, cbh) = self.coarse_size();
+        (
+            (GRID * self.cols.0, GRID * self.rows.start),
+            (GRID * cbw - 1, GRID * cbh - 1),
+        )
+    }
+
+    /// The samples of a coarse map (`cw` across) in the window, row by row.
+    pub(super) fn of<T: Copy>(&self, v: &[T], cw: usize) -> Vec<T> {
+        let mut out = Vec::with_capacity(self.coarse_size().0 * self.rows.len());
+        for cy in self.rows.clone() {
+            out.extend_from_slice(&v[cy * cw + self.cols.0..cy * cw + self.cols.1]);
+        }
+        out
+    }
+}
+
+/// The window's indentation phase (signed so that indentation is positive, units),
+/// unwrapped when it can have wrapped; and, of the unwrapping, the samples it could not
+/// reach and the residues it met.
+pub(super) fn indentation_phase<P: PhaseNum>(
+    coarse: &Coarse<'_, P>,
+    region: &[bool],
+    win: &Window,
+    (offset, sign): (P, i32),
+    when: Unwrap,
+) -> (Vec<i32>, usize, usize) {
+    let cw = coarse.cw;
+    let (cbw, cbh) = win.coarse_size();
+    let local: Vec<P> = win
+        .of(&coarse.phase, cw)
+        .into_iter()
+        .map(|p| p.minus(offset))
+        .collect();
+    let in_region = win.of(region, cw);
+    // Over the region (a sample outside it counts 0, which no |phase| is below).
+    let max_abs = local
+        .iter()
+        .zip(&in_region)
+        .map(|(p, &r)| if r { p.units().abs() } else { 0 })
+        .max()
+        .unwrap_or(0);
+    let unwrap = match when {
+        Unwrap::WhenNeeded => max_abs > P::from_rad(UNWRAP_TRIGGER_RAD).units(),
+        Unwrap::Always => true,
+        Unwrap::Never => false,
+    };
+    let (u, unreached, residues) = if unwrap {
+        unwrap_window(&local, &in_region, cbw, cbh, || {
+            let (a, r) = (win.of(&coarse.amp, cw), win.of(&coarse.amp_r, cw));
+            a.iter().zip(&r).map(|(a, r)| *a.min(r)).collect()
+        })
+    } else {
+        (local, 0, 0)
+    };
+    let signed = u.iter().map(|p| p.signed(sign).units()).collect();
+    (signed, unreached, residues)
+}
+
+/// Per working pixel of the window (`bw × bh` from `origin`), whether its tile is in the
+/// region (every such pixel lies in the image: the grid's last sample is at most its
+/// last pixel). The rows of one tile row are the same: the first is built, the others
+/// copied.
+pub(super) fn region_pixels(
+    tiles_on: &[bool],
+    tw: usize,
+    (x0, y0): (usize, usize),
+    (bw, bh): (usize, usize),
+) -> Vec<bool> {
+    let mut on = vec![false; bw * bh];
+    for ly in 0..bh {
+        if ly > 0 && (y0 + ly) % TILE_PX != 0 {
+            on.copy_within((ly - 1) * bw..ly * bw, ly * bw);
+            continue;
+        }
+        let trow = &tiles_on[((y0 + ly) / TILE_PX) * tw..((y0 + ly) / TILE_PX + 1) * tw];
+        for (lx, o) in on[ly * bw..(ly + 1) * bw].iter_mut().enumerate() {
+            *o = trow[(x0 + lx) / TILE_PX];
+        }
+    }
+    on
+}
+
+/// One pass over the window's region: depth, the deformed pixels, their integrated phase
+/// and the dipole test's sums.
+#[derive(Debug)]
+pub(super) struct DepthPass {
+    /// Depth per window pixel, µm (0 outside the deformed pixels).
+    pub(super) depth_um: Vec<i32>,
+    /// The region's pixels deeper than the contact threshold.
+    pub(super) deformed: Vec<bool>,
+    /// Indentation phase summed over the deformed pixels, units.
+    pub(super) integrated_units: i64,
+    /// Phase beyond the threshold on each side over the reliable region, units.
+    positive: i64,
+    negative: i64,
+}
+
+impl DepthPass {
+    /// Depth is reported (and counted in the volume) only above the depth of the contact
+    /// threshold (`threshold`, units; `threshold_um`): the map carries deformation, not
+    /// noise.
+    pub(super) fn run<M: PhaseMap>(
+        map: &M,
+        up: &[i32],
+        region: &[bool],
+        reliable: &[bool],
+        (w, x0, y0, bw): (usize, usize, usize, usize),
+        (threshold, threshold_um): (i32, i32),
+    ) -> DepthPass {
+        let from_units = <M::P as PhaseNum>::from_units;
+        let m = up.len();
+        let mut pass = DepthPass {
+            depth_um: vec![0i32; m],
+            deformed: vec![false; m],
+            integrated_units: 0,
+            positive: 0,
+            negative: 0,
+        };
+        let (mut pos, mut neg, mut integrated) = (0i64, 0i64, 0i64);
+        let rows = up.chunks_exact(bw).zip(region.chunks_exact(bw)).zip(
+            pass.depth_um
+                .chunks_exact_mut(bw)
+                .zip(pass.deformed.chunks_exact_mut(bw)),
+        );
+        for (ly, ((urow, orow), (drow, frow))) in rows.enumerate() {
+            let rrow = &reliable[(y0 + ly) * w + x0..(y0 + ly) * w + x0 + bw];
+            for ((((&v, &on), &ok), d), f) in urow.iter().zip(orow).zip(rrow).zip(drow).zip(frow) {
+                if !on {
+                    continue;
+                }
+                let z = map.depth_um(from_units(v));
+                if z > threshold_um {
+                    (*d, *f) = (z, true);
+                    integrated += i64::from(v);
+                }
+                if ok {
+                    if v > threshold {
+                        pos += i64::from(v);
+                    } else if v < -threshold {
+                        neg -= i64::from(v);
+                    }
+                }
+            }
+        }
+        (pass.positive, pass.negative, pass.integrated_units) = (pos, neg, integrated);
+        pass
+    }
+
+    /// An indentation moves the phase one way. A temperature gradient across the stripes
+    /// (or a grating shifted under an illumination edge) skews their brightness profile and
+    /// moves it both ways around the spot (a dipole): when the opposite-signed phase
+    /// carries a comparable share, there is no contact to report.
+    pub(super) fn is_dipole(&self) -> bool {
+        (self.negative as f32) > DIPOLE_RATIO * self.positive as f32
+    }
+}
+
+/// What the region's samples say about the limits of the measurement: the phase slope
+/// beyond the band, residues the unwrapping met, a depth beyond the calibration.
+pub(super) struct Limits<'a, P> {
+    pub(super) coarse: &'a Coarse<'a, P>,
+    pub(super) margin: &'a Margin,
+    pub(super) win: &'a Window,
+    pub(super) pass: &'a DepthPass,
+    pub(super) up: &'a [i32],
+    /// Median fringe amplitudes of the frame and the reference.
+    pub(super) amp_medians: (u32, u32),
+    /// Unreached samples and residues of the unwrapping.
+    pub(super) unwrap: (usize, usize),
+}
+
+impl<P> Limits<'_, P> {
+    /// The flags the contact earns.
+    pub(super) fn flags(
+        &self,
+        feats: &Features,
+        carrier: Carrier,
+        ctx: &Context<'_>,
+    ) -> QualityFlags {
+        let mut flags = QualityFlags::NONE;
+        // A contact much sharper than the calibrated indenter (less area at the same depth)
+        // is smoothed by the band more than the calibration knows: its depth reads low.
+        let sharper = ctx.calib.shape.as_ref().is_some_and(|s| {
+            f64::from(feats.area_mm2) < SHARPNESS_RATIO * s.area_mm2_at(f64::from(feats.peak_mm))
+        });
+        let slope_limit = SLOPE_LIMIT * 65_536.0 * BAND_HALF_WIDTH * carrier.freq();
+        let ((_, (bw, bh)), deformed) = (self.win.pixels(), &self.pass.deformed);
+        if sharper || self.band_lost() || slope_p98_exceeds(self.up, deformed, bw, bh, slope_limit)
+        {
+            flags.insert(Flag::PhaseSlope);
+        }
+        let (unreached, residues) = self.unwrap;
+        if unreached > 0 || residues > MAX_RESIDUES {
+            flags.insert(Flag::UnwrapFailure);
+        }
+        // Deeper than the calibration saw: the depth model extrapolates.
+        if ctx
+            .calib
+            .calibrated_depth_mm()
+            .is_some_and(|d| f64::from(feats.peak_mm) > DEPTH_RANGE_SLACK * d)
+        {
+            flags.insert(Flag::DepthOutOfRange);
+        }
+        flags
+    }
+
+    /// Beyond the band the demodulator cannot even report the slope; what it shows is the
+    /// fringe amplitude falling (by the filter's response at the local frequency offset).
+    /// Deformed samples whose amplitude fell below half the reference's (after the frame's
+    /// overall contrast change, so a dimmer or washed-out frame does not count), or that
+    /// became unreliable, mean the spectrum has left the band there.
+    fn band_lost(&self) -> bool {
+        let c = self.coarse;
+        let ((x0, y0), (bw, _)) = self.win.pixels();
+        let m = self.pass.deformed.len();
+        let (fm, rm) = (
+            u64::from(self.amp_medians.0.max(1)),
+            u64::from(self.amp_medians.1),
+        );
+        let (mut lost, mut seen) = (0usize, 0usize);
+        let (cx0, cx1) = self.win.cols;
+        for (cx, cy) in self
+            .win
+            .rows
+            .clone()
+            .flat_map(|cy| (cx0..cx1).map(move |cx| (cx, cy)))
+        {
+            let (x, y) = (cx * GRID, cy * GRID);
+            let lj = (y - y0) * bw + (x - x0);
+            if lj >= m || !self.pass.deformed[lj] || !self.margin.contains(x, y) {
+                continue;
+            }
+            let k = cy * c.cw + cx;
+            seen += 1;
+            if !c.rel[k] || u64::from(c.amp[k]) * 2 * rm < u64::from(c.amp_r[k]) * fm {
+                lost += 1;
+            }
+        }
+        lost as f32 > BAND_LOSS_FRACTION * seen as f32 && lost >= BAND_LOSS_MIN
+    }
+}
+
+/// The region's samples on the coarse grid (`cw × ch`), from its tiles (`tw` across).
+pub(super) fn region_samples(tiles_on: &[bool], grid: &Grid) -> Vec<bool> {
+    samples_in(tiles_on, grid.coarse, grid.tiles.0)
+}
+
+/// The ×2 upsampled indentation phase of the window: every working pixel of it, by cubic
+/// convolution (midpoint weights −1, 9, 9, −1 over 16: exact for quadratics, so a round
+/// contact's peak is not shaved). The analytic signal is smooth over a carrier period, so
+/// the coarse samples hold it.
+pub(super) fn upsampled(signed: &[i32], win: &Window) -> Vec<i32> {
+    let (cbw, cbh) = win.coarse_size();
+    upsample2(signed, cbw, cbh)
+}

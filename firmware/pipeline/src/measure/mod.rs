@@ -1,0 +1,438 @@
+//! From a wrapped phase-difference map to a [`Measurement`]: registration, noise floor,
+//! early exit, contact tiles, unwrapping where needed, depth, features and quality flags.
+//!
+//! Work follows the scene: the background is read on a coarse grid (every [`GRID`]-th
+//! working pixel each way), and only the contact region's window at every pixel, from the
+//! coarse phase unwrapped and upsampled by cubic convolution ([`upsample2`]).
+//!
+//! Thresholds are set from what each frame measures, never magic depths: the noise floor is
+//! the robust spread (1.4826 × MAD) of the background phase, contact needs
+//! [`CONTACT_SIGMAS`] times that, and the volume counts pixels deeper than the depth of
+//! that phase.
+
+use vistaf_protocol::{Flag, QualityFlags};
+
+mod coarse;
+mod contact;
+mod features;
+mod register;
+mod window;
+
+pub use coarse::{contact_tiles, local_noise_units};
+pub use features::{force_of, summarize, Features};
+pub use window::upsample2;
+
+use coarse::{median, read_coarse, Coarse, Margin, NOISE_STEP};
+use contact::{
+    indentation_phase, region_pixels, region_samples, upsampled, DepthPass, Limits, Window,
+};
+use register::Background;
+
+use crate::calibration::Calibration;
+use crate::fixed_point::UNITS_PER_RAD;
+use crate::ftp::carrier::Carrier;
+pub use crate::phase::GRID;
+use crate::phase::{PhaseMap, PhaseNum, WrappedPhase};
+use crate::Measurement;
+
+/// Contact needs the phase to exceed this many noise σ.
+pub const CONTACT_SIGMAS: f32 = 6.0;
+/// …and at least this much, rad (a floor for very clean frames).
+pub const MIN_CONTACT_RAD: f32 = 0.02;
+/// Side of a contact tile at the working resolution, pixels.
+pub const TILE_PX: usize = 8;
+/// Coarse samples above threshold a tile needs to count as contact (of the 16 a tile has).
+pub const TILE_MIN_SAMPLES: usize = 2;
+/// Unwrap only when some phase in the contact region exceeds this, rad (below it nothing
+/// can have wrapped: the background is at 0 and the phase is continuous).
+pub const UNWRAP_TRIGGER_RAD: f32 = 0.6 * std::f32::consts::PI;
+/// A pixel is unreliable when its fringe amplitude is below this fraction of the
+/// reference's median.
+pub const RELIABLE_AMPLITUDE: f32 = 0.3;
+/// Low contrast: the frame's median fringe amplitude below this fraction of the reference's
+/// (between where the contrast sweep of `docs/performance.md` still holds depth within
+/// tolerance and where it loses it).
+pub const LOW_CONTRAST_RATIO: f32 = 0.32;
+/// Phase noise (1σ per working pixel) above which the fringes count as too weak for the
+/// sensor's noise, rad: between where the noise sweep of `docs/performance.md` still holds
+/// depth within tolerance and where it leaves it, and above what a deep press's own
+/// residual raises the estimate to.
+pub const NOISY_RAD: f32 = 0.024;
+/// Depth beyond the deepest calibrated indentation by this factor is flagged.
+pub const DEPTH_RANGE_SLACK: f64 = 1.1;
+/// Phase-slope flag: local phase slope (98th percentile over the deformed pixels) above
+/// this fraction of the band half-width (the steepness sweep of `docs/performance.md`, and
+/// unseen units with coarse gratings, read within tolerance below it).
+pub const SLOPE_LIMIT: f32 = 0.6;
+/// A region whose opposite-signed phase exceeds this fraction of its indentation-signed
+/// phase is a thermal or shading dipole, not a contact.
+pub const DIPOLE_RATIO: f32 = 0.35;
+/// Phase-slope flag: more than this fraction of the deformed pixels lost half their fringe
+/// amplitude.
+pub const BAND_LOSS_FRACTION: f32 = 0.01;
+/// …and at least this many coarse samples ([`GRID`]² working pixels each).
+pub const BAND_LOSS_MIN: usize = 2;
+/// Phase-slope flag: a contact area below this fraction of the calibrated indenter's area at
+/// the same depth.
+pub const SHARPNESS_RATIO: f64 = 0.7;
+/// Misregistration flag: a global offset beyond this, rad (0.4 of a period: up to there the
+/// offset is removed exactly; towards half a period it becomes ambiguous).
+pub const MISREGISTRATION_RAD: f32 = 0.8 * std::f32::consts::PI;
+/// Over-exposure flag: more than this fraction of newly saturated pixels.
+pub const OVER_EXPOSED_FRACTION: f32 = 0.002;
+/// Residues in the contact region tolerated before the unwrap is distrusted.
+pub const MAX_RESIDUES: usize = 2;
+
+/// What the measurement needs besides the phase.
+#[derive(Debug, Clone, Copy)]
+pub struct Context<'a> {
+    /// The calibration.
+    pub calib: &'a Calibration,
+    /// Input scale, mm per pixel.
+    pub mm_per_px: f32,
+    /// Fraction of the reference's pixels with a saturated channel.
+    pub ref_saturated_fraction: f32,
+    /// When to unwrap the contact region's phase.
+    pub unwrap: Unwrap,
+}
+
+/// When the contact region's phase is unwrapped (a trade-off axis: cost against depth
+/// beyond half a turn of phase).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Unwrap {
+    /// Only when the wrapped difference can have wrapped (the default).
+    #[default]
+    WhenNeeded,
+    /// On every frame with contact.
+    Always,
+    /// Never: deep presses read wrong (and the slope flags say so).
+    Never,
+}
+
+/// The frame's working and coarse grids.
+#[derive(Debug, Clone, Copy)]
+struct Grid {
+    /// Working width and height, pixels.
+    w: usize,
+    h: usize,
+    /// Coarse samples across and down.
+    coarse: (usize, usize),
+    /// Contact tiles across and down.
+    tiles: (usize, usize),
+}
+
+impl Grid {
+    fn of((w, h): (usize, usize)) -> Grid {
+        Grid {
+            w,
+            h,
+            coarse: (w.div_ceil(GRID), h.div_ceil(GRID)),
+            tiles: (w.div_ceil(TILE_PX), h.div_ceil(TILE_PX)),
+        }
+    }
+}
+
+/// The measurement, shared by both paths: registration, noise floor, early exit, contact
+/// tiles, unwrapping where needed, depth, features and flags.
+///
+/// Work follows the scene: the background is read on the coarse grid ([`GRID`]), and only
+/// the contact region's window at every pixel. Returns the result and the phase as read
+/// (for the temperature's stripe placement).
+pub fn measure<M: PhaseMap>(
+    map: &M,
+    factor: usize,
+    carrier: Carrier,
+    ctx: &Context<'_>,
+) -> (Measurement, WrappedPhase) {
+    let grid = Grid::of(map.size());
+    let amp_ref_median = map.amp_ref_median().max(1);
+    let reliable_amp =
+        (u64::from(amp_ref_median) * (RELIABLE_AMPLITUDE * 1024.0) as u64 / 1024) as u32;
+    // The two box passes reach one period each way: pixels within a period and a half of
+    // the edge are not trusted.
+    let margin = Margin::new((1.5 * carrier.period_px()).ceil() as usize, grid.w, grid.h);
+    let coarse = read_coarse(map, reliable_amp, &margin);
+    // The frame's median fringe amplitude, over every fourth coarse sample (as many as the
+    // noise floor's).
+    let amp_frame_median = median(
+        coarse
+            .amp
+            .iter()
+            .step_by(NOISE_STEP * NOISE_STEP)
+            .copied()
+            .collect(),
+    );
+    let amp_medians = (amp_frame_median, amp_ref_median);
+    let mut flags = image_flags(map, &coarse, amp_medians, ctx);
+    let bg = register::background(&coarse, &grid, carrier);
+    flags.insert_all(background_flags(&bg));
+    let reliable = reliable_pixels(&coarse.rel, &grid, &margin);
+    let mut wrapped = WrappedPhase {
+        cw: grid.coarse.0,
+        coarse: coarse.phase.iter().map(|p| p.units()).collect(),
+        local: None,
+    };
+    let frame = FrameResult {
+        grid,
+        factor,
+        flags,
+        noise_rad: bg.noise as f32 / UNITS_PER_RAD,
+        offset_rad: bg.offset.units() as f32 / UNITS_PER_RAD,
+    };
+    // The region is found on |Δφ|: at the centre of a deep press the wrapped phase has
+    // wrapped to the other sign, and it must be unwrapped, not seeded from. Only
+    // indentation (positive signed phase) is reported as depth.
+    let Some((tiles_on, tiles)) = &bg.contact else {
+        return (frame.without_contact(reliable), wrapped);
+    };
+    let found = Found {
+        map,
+        factor,
+        coarse: &coarse,
+        margin: &margin,
+        bg: &bg,
+        tiles_on,
+        amp_medians,
+    };
+    match found.measure(carrier, ctx, &reliable, &mut wrapped) {
+        Some(c) => (frame.with_contact(c, *tiles, reliable), wrapped),
+        None => (frame.without_contact(reliable), wrapped),
+    }
+}
+
+/// Flags the image earns before any phase is read: fringes too faint against the
+/// reference's, or too few reliable samples; newly saturated pixels.
+fn image_flags<M: PhaseMap>(
+    map: &M,
+    coarse: &Coarse<'_, M::P>,
+    (amp_frame_median, amp_ref_median): (u32, u32),
+    ctx: &Context<'_>,
+) -> QualityFlags {
+    let mut flags = QualityFlags::NONE;
+    if (amp_frame_median as f32) < LOW_CONTRAST_RATIO * amp_ref_median as f32
+        || coarse.reliable_n * 2 < coarse.inside_n
+    {
+        flags.insert(Flag::LowContrast);
+    }
+    if map.saturated_fraction() - ctx.ref_saturated_fraction > OVER_EXPOSED_FRACTION {
+        flags.insert(Flag::OverExposure);
+    }
+    flags
+}
+
+/// Flags the background earns: an offset too large to remove for sure, and fringes too
+/// weak for the sensor's noise (not judged when a contact covering most of the view left
+/// no background to measure the noise on; the amplitude tests still are).
+fn background_flags<P: PhaseNum>(bg: &Background<P>) -> QualityFlags {
+    let mut flags = QualityFlags::NONE;
+    if (bg.offset.units() as f32 / UNITS_PER_RAD).abs() > MISREGISTRATION_RAD {
+        flags.insert(Flag::Misregistration);
+    }
+    if bg.noise_clean && bg.noise as f32 / UNITS_PER_RAD > NOISY_RAD {
+        flags.insert(Flag::LowContrast);
+    }
+    flags
+}
+
+/// Reliability per working pixel, from the coarse grid (the contact window refines it).
+fn reliable_pixels(rel: &[bool], grid: &Grid, margin: &Margin) -> Vec<bool> {
+    let (w, cw) = (grid.w, grid.coarse.0);
+    let mut reliable = vec![false; grid.w * grid.h];
+    let (xa, xb) = (margin.xs.start, margin.xs.end);
+    for y in margin.ys.clone() {
+        // The rows of one coarse row are the same: the first is built, the next copied.
+        if y % GRID != 0 && y > margin.ys.start {
+            reliable.copy_within((y - 1) * w..y * w, y * w);
+            continue;
+        }
+        let crow = &rel[(y / GRID) * cw..(y / GRID + 1) * cw];
+        let row = &mut reliable[y * w..(y + 1) * w];
+        // Fixed-size runs (a `fill` of a run of unknown length would be a call per run).
+        let (runs, rest) = row.as_chunks_mut::<GRID>();
+        for (run, &r) in runs.iter_mut().zip(crow) {
+            *run = [r; GRID];
+        }
+        if let Some(&r) = crow.get(runs.len()) {
+            rest.fill(r);
+        }
+        // The coarse samples' own margin test is a pixel coarse; the pixel's is exact.
+        row[..xa].fill(false);
+        row[xb..].fill(false);
+    }
+    reliable
+}
+
+/// What every frame's result carries, contact or not.
+struct FrameResult {
+    grid: Grid,
+    factor: usize,
+    flags: QualityFlags,
+    noise_rad: f32,
+    offset_rad: f32,
+}
+
+/// A contact's share of the result.
+struct ContactResult {
+    feats: Features,
+    flags: QualityFlags,
+    integrated_rad_mm2: f32,
+    force_n: f32,
+    threshold_um: i32,
+    /// The window's depth, and its pixels: origin and size.
+    depth_um: Vec<i32>,
+    origin: (usize, usize),
+    size: (usize, usize),
+}
+
+impl FrameResult {
+    fn without_contact(&self, reliable: Vec<bool>) -> Measurement {
+        let (w, h) = (self.grid.w, self.grid.h);
+        self.measurement(reliable, vec![0; w * h])
+    }
+
+    /// The result with this depth map, before any contact's fields are filled in.
+    fn measurement(&self, reliable: Vec<bool>, depth_um: Vec<i32>) -> Measurement {
+        Measurement {
+            w: self.grid.w,
+            h: self.grid.h,
+            factor: self.factor,
+            depth_um,
+            reliable,
+            contact: false,
+            peak_depth_mm: 0.0,
+            contact_area_mm2: 0.0,
+            volume_mm3: 0.0,
+            centroid_px: None,
+            integrated_phase_rad_mm2: 0.0,
+            force_n: 0.0,
+            flags: self.flags,
+            noise_rad: self.noise_rad,
+            offset_rad: self.offset_rad,
+            floor_um: 0,
+            tiles: 0,
+            window: None,
+            temperature: None,
+        }
+    }
+
+    fn with_contact(&self, c: ContactResult, tiles: usize, reliable: Vec<bool>) -> Measurement {
+        let (w, h) = (self.grid.w, self.grid.h);
+        let ((x0, y0), (bw, bh)) = (c.origin, c.size);
+        let mut depth_um = vec![0; w * h];
+        let cols = bw.min(w - x0);
+        for ly in 0..bh.min(h - y0) {
+            let row = (y0 + ly) * w + x0;
+            depth_um[row..row + cols].copy_from_slice(&c.depth_um[ly * bw..ly * bw + cols]);
+        }
+        let mut flags = self.flags;
+        flags.insert_all(c.flags);
+        Measurement {
+            contact: true,
+            peak_depth_mm: c.feats.peak_mm,
+            contact_area_mm2: c.feats.area_mm2,
+            volume_mm3: c.feats.volume_mm3,
+            centroid_px: c.feats.centroid_px,
+            integrated_phase_rad_mm2: c.integrated_rad_mm2,
+            force_n: c.force_n,
+            tiles,
+            floor_um: c.threshold_um,
+            window: Some([x0, y0, x0 + cols, y0 + bh.min(h - y0)]),
+            flags,
+            ..self.measurement(reliable, depth_um)
+        }
+    }
+}
+
+/// A frame with contact tiles, and what its contact stage reads.
+struct Found<'a, M: PhaseMap> {
+    map: &'a M,
+    factor: usize,
+    coarse: &'a Coarse<'a, M::P>,
+    margin: &'a Margin,
+    bg: &'a Background<M::P>,
+    tiles_on: &'a [bool],
+    amp_medians: (u32, u32),
+}
+
+impl<M: PhaseMap> Found<'_, M> {
+    /// The contact read at every pixel of its window: `None` when it turns out to be no
+    /// contact (a dipole, or nothing above the threshold's depth). The window's phase as
+    /// read goes into `wrapped`.
+    fn measure(
+        &self,
+        carrier: Carrier,
+        ctx: &Context<'_>,
+        reliable: &[bool],
+        wrapped: &mut WrappedPhase,
+    ) -> Option<ContactResult> {
+        let grid = Grid::of(self.map.size());
+        let sign: i32 = if ctx.calib.phase_sign < 0.0 { -1 } else { 1 };
+        let win = Window::around(self.tiles_on, &grid);
+        let region = region_samples(self.tiles_on, &grid);
+        let (signed, unreached, residues) = indentation_phase(
+            self.coarse,
+            &region,
+            &win,
+            (self.bg.offset, sign),
+            ctx.unwrap,
+        );
+        let up = upsampled(&signed, &win);
+        let ((x0, y0), (bw, bh)) = win.pixels();
+        let threshold_um = self
+            .map
+            .depth_um(<M::P as PhaseNum>::from_units(self.bg.threshold));
+        // The phase as read, back in the wrapped difference's terms.
+        let off_units = self.bg.offset.units();
+        let raw: Vec<i32> = up
+            .iter()
+            .map(|&v| i32::from((sign * v).wrapping_add(off_units) as i16))
+            .collect();
+        wrapped.local = Some((x0, y0, bw, bh, raw));
+        let on = region_pixels(self.tiles_on, grid.tiles.0, (x0, y0), (bw, bh));
+        let pass = DepthPass::run(
+            self.map,
+            &up,
+            &on,
+            reliable,
+            (grid.w, x0, y0, bw),
+            (self.bg.threshold, threshold_um),
+        );
+        if pass.is_dipole() {
+            return None;
+        }
+        let feats = summarize(
+            &pass.depth_um,
+            bw,
+            (x0, y0),
+            self.factor,
+            ctx.mm_per_px,
+            threshold_um,
+        );
+        if feats.peak_mm == 0.0 {
+            return None;
+        }
+        let px_mm = ctx.mm_per_px * self.factor as f32;
+        let integrated_rad_mm2 = pass.integrated_units as f32 / UNITS_PER_RAD * px_mm * px_mm;
+        let limits = Limits {
+            coarse: self.coarse,
+            margin: self.margin,
+            win: &win,
+            pass: &pass,
+            up: &up,
+            amp_medians: self.amp_medians,
+            unwrap: (unreached, residues),
+        };
+        let flags = limits.flags(&feats, carrier, ctx);
+        let force_n = force_of(ctx.calib, &feats, integrated_rad_mm2);
+        Some(ContactResult {
+            feats,
+            flags,
+            integrated_rad_mm2,
+            force_n,
+            threshold_um,
+            depth_um: pass.depth_um,
+            origin: (x0, y0),
+            size: (bw, bh),
+        })
+    }
+}

@@ -1,0 +1,187 @@
+//! The background: the global phase offset between frame and reference (registration),
+//! the phase noise floor, and the contact tiles found above it.
+//!
+//! Registration is the amplitude-weighted mean direction of the background phase: first
+//! over everything, then without outliers, then outside the contact region once it is
+//! known. Each later set is the reliable samples less some; its resultant is the whole's
+//! less that of the samples it drops, or, when it keeps fewer than it drops, its own.
+
+use super::coarse::{contact_tiles, dilate, local_noise_units, samples_in, Coarse};
+use super::{Grid, CONTACT_SIGMAS, MIN_CONTACT_RAD, TILE_MIN_SAMPLES, TILE_PX};
+use crate::ftp::carrier::Carrier;
+use crate::phase::{PhaseNum, Resultant, GRID};
+
+/// A first offset's neighbourhood: samples this close to it (rad) make the second estimate.
+const NEAR_FIRST_RAD: f32 = 0.5;
+/// Samples a background must keep to register on: four tiles' worth (a mean direction
+/// from 64 samples is a σ/8 estimate).
+const MIN_BACKGROUND_TILES: usize = 4;
+
+/// What the background says about a frame.
+#[derive(Debug)]
+pub(super) struct Background<P> {
+    /// The global phase offset removed.
+    pub(super) offset: P,
+    /// Phase noise (1σ), units.
+    pub(super) noise: i32,
+    /// Whether the noise was measured on the background alone (a contact's curvature
+    /// counts as noise in the first estimate).
+    pub(super) noise_clean: bool,
+    /// The contact threshold, units.
+    pub(super) threshold: i32,
+    /// The contact region's tiles (and how many), if there is contact.
+    pub(super) contact: Option<(Vec<bool>, usize)>,
+}
+
+/// The coarse samples' directions, and sums over subsets of them.
+struct Directions<'c, P: PhaseNum> {
+    coarse: &'c Coarse<'c, P>,
+    /// Every reliable sample's resultant (an unreliable one weighs nothing).
+    all: Resultant<P::Sum>,
+}
+
+impl<'c, P: PhaseNum> Directions<'c, P> {
+    fn new(coarse: &'c Coarse<'c, P>) -> Self {
+        // Branch-free: an unreliable sample's amplitude counts zero.
+        let all = P::resultant(
+            coarse
+                .phase
+                .iter()
+                .zip(&coarse.amp)
+                .zip(&coarse.rel)
+                .map(|((p, a), r)| (*p, a * u32::from(*r))),
+        );
+        Directions { coarse, all }
+    }
+
+    /// The resultant of the reliable samples `keep` leaves out.
+    fn dropped(&self, keep: &[bool]) -> Resultant<P::Sum> {
+        let c = self.coarse;
+        let mask: Vec<bool> = c.rel.iter().zip(keep).map(|(r, k)| *r && !*k).collect();
+        P::masked_resultant(&c.phase, &c.amp, &mask)
+    }
+
+    /// The mean direction of the reliable samples where `keep` holds, summing the whole's
+    /// less what it drops.
+    fn of_most(&self, keep: &[bool]) -> P {
+        P::angle(self.all - self.dropped(keep))
+    }
+
+    /// The mean direction of the samples where `keep` holds (all reliable), summing the
+    /// smaller side; `None` when they are too few to register on.
+    fn of_background(&self, keep: &[bool]) -> Option<P> {
+        let tile_samples = (TILE_PX / GRID) * (TILE_PX / GRID);
+        let kept = keep.iter().filter(|k| **k).count();
+        (kept >= MIN_BACKGROUND_TILES * tile_samples).then(|| {
+            if 2 * kept < self.coarse.reliable_n {
+                P::angle(P::masked_resultant(
+                    &self.coarse.phase,
+                    &self.coarse.amp,
+                    keep,
+                ))
+            } else {
+                self.of_most(keep)
+            }
+        })
+    }
+
+    /// Every sample's phase less `offset`, units.
+    fn relative(&self, offset: P) -> Vec<i32> {
+        self.coarse
+            .phase
+            .iter()
+            .map(|p| p.minus(offset).units())
+            .collect()
+    }
+}
+
+/// Registers the frame on its background, measures the noise floor and finds the contact
+/// tiles above it; with a contact, registration and noise are measured again outside it.
+pub(super) fn background<P: PhaseNum>(
+    coarse: &Coarse<'_, P>,
+    grid: &Grid,
+    carrier: Carrier,
+) -> Background<P> {
+    let dirs = Directions::new(coarse);
+    let first = P::angle(dirs.all);
+    let near = P::from_rad(NEAR_FIRST_RAD).units();
+    let close: Vec<bool> = coarse
+        .phase
+        .iter()
+        .map(|p| p.minus(first).units().abs() < near)
+        .collect();
+    let offset = dirs.of_most(&close);
+    let phi = dirs.relative(offset);
+    let noise_box = ((2.0 * carrier.period_px()) / GRID as f32).round().max(2.0) as usize;
+    let min_threshold = P::from_rad(MIN_CONTACT_RAD).units();
+    let threshold_of = |noise: i32| ((CONTACT_SIGMAS * noise as f32) as i32).max(min_threshold);
+    // A contact covers at least a disc one period across, in coarse samples.
+    let min_total = ((carrier.period_px() / GRID as f32).powi(2) * std::f32::consts::FRAC_PI_4)
+        .round()
+        .max(TILE_MIN_SAMPLES as f32) as usize;
+    let tiles_above = |phi: &[i32], thr: i32| {
+        contact_tiles(phi, &coarse.rel, thr, grid.coarse, grid.tiles, min_total)
+    };
+    let noise = local_noise_units(&phi, &coarse.rel, grid.coarse.0, grid.coarse.1, noise_box);
+    let threshold = threshold_of(noise);
+    let Some((region, _)) = tiles_above(&phi, threshold) else {
+        return Background {
+            offset,
+            noise,
+            noise_clean: true,
+            threshold,
+            contact: None,
+        };
+    };
+    // With the contact known, registration and noise come from the background only.
+    let (offset, background, outside_n) = outside_contact(&dirs, &region, grid);
+    let phi = dirs.relative(offset);
+    // The background must be big enough to measure; otherwise keep the first estimate.
+    let (noise, noise_clean) = if outside_n * 4 > phi.len() {
+        let (cw, ch) = grid.coarse;
+        (
+            local_noise_units(&phi, &background, cw, ch, noise_box),
+            true,
+        )
+    } else {
+        (noise, false)
+    };
+    let threshold = threshold_of(noise);
+    Background {
+        offset,
+        noise,
+        noise_clean,
+        threshold,
+        contact: tiles_above(&phi, threshold),
+    }
+}
+
+/// The offset registered outside a contact `region` (tiles), the reliable samples outside
+/// it (`true` = background), and how many samples lie outside it, reliable or not.
+///
+/// An indentation's skirt (the skin around a contact sinks with it, and the band-pass
+/// spreads it a period further) stays below the contact threshold but moves the mean: the
+/// offset comes from the background a tile further out still. With too few samples there,
+/// the nearer background; with too few there too (a contact filling the view), there is
+/// nothing outside the contact to register on, and the frame is taken as unshifted.
+fn outside_contact<P: PhaseNum>(
+    dirs: &Directions<'_, P>,
+    region: &[bool],
+    grid: &Grid,
+) -> (P, Vec<bool>, usize) {
+    let rel = &dirs.coarse.rel;
+    // The reliable samples outside a set of tiles (`inside`: the samples in them).
+    let outside = |inside: &[bool]| -> Vec<bool> {
+        inside.iter().zip(rel).map(|(i, ok)| !i && *ok).collect()
+    };
+    let (tw, th) = grid.tiles;
+    let in_region = samples_in(region, grid.coarse, tw);
+    let near = outside(&in_region);
+    let far = outside(&samples_in(&dilate(region, tw, th), grid.coarse, tw));
+    let offset = dirs
+        .of_background(&far)
+        .or_else(|| dirs.of_background(&near))
+        .unwrap_or(P::from_units(0));
+    let outside_n = in_region.iter().filter(|i| !**i).count();
+    (offset, near, outside_n)
+}

@@ -1,0 +1,334 @@
+//! The plan for one reference: the carrier found, the chosen FTP path prepared, the
+//! temperature side's grating phase computed, all once; then [`Analyzer::analyze`] turns
+//! each frame into a [`Measurement`].
+//!
+//! ```text
+//!  reference ─▶ carrier (once) ─▶ reference analytic signal (once)
+//!  frame ─▶ luminance, area-downsampled ─▶ analytic signal ─▶ Δφ = arg(z · conj z_ref)
+//!        ─▶ registration offset, noise floor ─▶ no contact? leave early
+//!        ─▶ contact tiles ─▶ unwrap (only if it can have wrapped) ─▶ depth (calibration)
+//!        ─▶ peak, area, volume, centre, force ─▶ flags
+//!        ─▶ temperatures (stripe colours placed by the frame's grating phase)
+//! ```
+//!
+//! Two paths share this contract behind [`FtpPath`]: [`FloatFtp`] (rustfft, the oracle) and
+//! [`FixedFtp`] (integer arithmetic per frame, the device path). Both hand the measurement a
+//! [`PhaseMap`](crate::phase::PhaseMap), and [`measure::measure`] turns either into the same features.
+
+use image::RgbImage;
+
+use crate::calibration::{Calibration, CalibrationError};
+use crate::ftp::band::BandWindow;
+use crate::ftp::carrier::{self, Carrier};
+use crate::ftp::fixed::FixedFtp;
+use crate::ftp::float::FloatFtp;
+use crate::image_ops;
+use crate::measure::{self, Context, Unwrap};
+use crate::phase::WrappedPhase;
+use crate::thermal::stripes::{region, Geometry, Regions, Sums};
+use crate::thermal::Thermometer;
+use crate::Measurement;
+
+/// Which implementation runs per frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Implementation {
+    /// rustfft float FTP: the reference.
+    Float,
+    /// Integer demodulation: the device path.
+    #[default]
+    Fixed,
+}
+
+impl std::str::FromStr for Implementation {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "float" => Ok(Implementation::Float),
+            "fixed" => Ok(Implementation::Fixed),
+            other => Err(format!("pipeline {other:?}: expected float or fixed")),
+        }
+    }
+}
+
+/// Why a frame or reference cannot be analysed at all (as opposed to a flagged result).
+#[derive(Debug, thiserror::Error)]
+pub enum PipelineError {
+    /// No usable grating in the reference.
+    #[error("reference: {0}")]
+    Carrier(carrier::CarrierError),
+    /// The frame's size differs from the reference's.
+    #[error("frame is {got_w}×{got_h} px, the reference is {w}×{h} px")]
+    SizeMismatch {
+        /// Reference width.
+        w: u32,
+        /// Reference height.
+        h: u32,
+        /// Frame width.
+        got_w: u32,
+        /// Frame height.
+        got_h: u32,
+    },
+    /// The calibration does not fit this sensor.
+    #[error(transparent)]
+    Calibration(#[from] CalibrationError),
+}
+
+impl From<carrier::CarrierError> for PipelineError {
+    fn from(e: carrier::CarrierError) -> PipelineError {
+        PipelineError::Carrier(e)
+    }
+}
+
+/// Options of an [`Analyzer`].
+#[derive(Debug, Clone, Copy, Default)]
+pub struct AnalyzerOptions {
+    /// Override the downsampling factor chosen from the carrier period.
+    pub factor: Option<usize>,
+    /// Use a calibration made for another geometry.
+    pub force_calibration: bool,
+    /// Band-pass window of the float path.
+    pub band: BandWindow,
+    /// When to unwrap the contact region's phase.
+    pub unwrap: Unwrap,
+    /// Device path: low-pass along rows only (a 1-D band-pass per row) instead of 2-D.
+    pub rows_only: bool,
+}
+
+/// Adds the frame's temperatures to its force-side result `d`: the frame's grating phase
+/// (`phase(y, reference, row)`: the reference's plus the FTP's wrapped phase difference,
+/// units, a working row at a time) places the stripes, the contact region (depth ≥ half
+/// the peak, read from its core at ≥ ¾ of the peak where that is big enough) gets its own
+/// temperature, and a reading outside the calibration is flagged.
+fn with_temperature(
+    mut d: Measurement,
+    frame: &RgbImage,
+    thermo: &Thermometer,
+    phase: impl Fn(usize, &[u16], &mut [u16]),
+) -> Measurement {
+    if !thermo.has_model() {
+        return d;
+    }
+    let peak_um = d.peak_depth_mm * 1000.0;
+    let (half, core) = (
+        (peak_um * 0.5).round() as i32,
+        (peak_um * 0.75).round() as i32,
+    );
+    // Branch-free, so the pass over the map vectorises: the codes count the thresholds
+    // passed.
+    const _: () = assert!(region::NONE == 0 && region::CONTACT == 1 && region::CORE == 2);
+    let (half, core) = (half.max(1), core.max(1));
+    // Over the contact window only (clipped to the map): depth is zero outside it.
+    let window = d.window.filter(|_| d.contact).map(|[x0, y0, x1, y1]| {
+        let (x1, y1) = (x1.min(d.w), y1.min(d.h));
+        [x0.min(x1), y0.min(y1), x1, y1]
+    });
+    let mut codes = Vec::new();
+    if let Some([x0, y0, x1, y1]) = window {
+        codes.reserve((x1 - x0) * (y1 - y0));
+        for y in y0..y1 {
+            let row = &d.depth_um[y * d.w + x0..y * d.w + x1];
+            codes.extend(
+                row.iter()
+                    .map(|&u| u8::from(u >= half) + u8::from(u >= core)),
+            );
+        }
+    }
+    let regions = window.map(|[x0, y0, x1, _]| Regions::new(&codes, x0, y0, x1 - x0));
+    d.temperature = thermo.measure(frame, phase, &d.reliable, regions);
+    if d.temperature.as_ref().is_some_and(|t| t.out_of_range) {
+        d.flags.insert(vistaf_protocol::Flag::TemperatureOutOfRange);
+    }
+    d
+}
+
+/// One FTP implementation, prepared for a reference: what the plan runs per frame.
+///
+/// A path demodulates the frame against the reference into a
+/// [`PhaseMap`](crate::phase::PhaseMap) and hands it to
+/// the shared measurement ([`measure::measure`]), in the path's own phase representation.
+pub trait FtpPath: std::fmt::Debug + Send + Sync {
+    /// Working width and height, pixels, and input pixels per working pixel.
+    fn geometry(&self) -> (usize, usize, usize);
+    /// The carrier at the working resolution.
+    fn carrier(&self) -> Carrier;
+    /// The frame's force-side measurement (no temperatures yet) and the wrapped phase
+    /// difference as the measurement read it.
+    fn measure(&self, frame: &RgbImage, ctx: &Context<'_>) -> (Measurement, WrappedPhase);
+}
+
+impl FtpPath for FloatFtp {
+    fn geometry(&self) -> (usize, usize, usize) {
+        FloatFtp::geometry(self)
+    }
+    fn carrier(&self) -> Carrier {
+        FloatFtp::carrier(self)
+    }
+    fn measure(&self, frame: &RgbImage, ctx: &Context<'_>) -> (Measurement, WrappedPhase) {
+        let map = self.field(frame, &ctx.calib.depth.model);
+        measure::measure(&map, self.geometry().2, self.carrier(), ctx)
+    }
+}
+
+impl FtpPath for FixedFtp {
+    fn geometry(&self) -> (usize, usize, usize) {
+        FixedFtp::geometry(self)
+    }
+    fn carrier(&self) -> Carrier {
+        FixedFtp::carrier(self)
+    }
+    fn measure(&self, frame: &RgbImage, ctx: &Context<'_>) -> (Measurement, WrappedPhase) {
+        let field = self.phase(frame);
+        measure::measure(&field, self.geometry().2, self.carrier(), ctx)
+    }
+}
+
+/// A prepared pipeline: reference-side work done, ready for frames.
+pub struct Analyzer {
+    path: Box<dyn FtpPath>,
+    unwrap: Unwrap,
+    thermo: Thermometer,
+    calib: Calibration,
+    size: (u32, u32),
+    mm_per_px: f32,
+    period_px: f32,
+    ref_saturation: f32,
+}
+
+impl std::fmt::Debug for Analyzer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Analyzer")
+            .field("size", &self.size)
+            .field("mm_per_px", &self.mm_per_px)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Analyzer {
+    /// Prepares a pipeline for `reference` (a no-contact frame).
+    pub fn new(
+        reference: &RgbImage,
+        calib: Calibration,
+        imp: Implementation,
+        opts: AnalyzerOptions,
+    ) -> Result<Analyzer, PipelineError> {
+        let working = carrier::working(reference, opts.factor)?;
+        let c = working.full;
+        if !opts.force_calibration {
+            calib.check_fits(
+                reference.width(),
+                reference.height(),
+                f64::from(c.period_px()),
+            )?;
+        }
+        // The reference's grating phase per working pixel, in the path's arithmetic, and
+        // whether temperatures are read in integers (the device path) or floats.
+        let (path, theta, integer): (Box<dyn FtpPath>, Vec<u16>, bool) = match imp {
+            Implementation::Float => {
+                let f = FloatFtp::new(reference, &working, opts.band);
+                let theta = f.grating_phase();
+                (Box::new(f), theta, false)
+            }
+            Implementation::Fixed => {
+                let f = FixedFtp::with_filter(reference, &working, &calib, opts.rows_only);
+                let theta = f.grating_phase(reference);
+                (Box::new(f), theta, true)
+            }
+        };
+        let mm_per_px = calib.unit.grating_period_mm as f32 / c.period_px();
+        let (w, h, factor) = path.geometry();
+        let wc = working.carrier;
+        let thermo = Thermometer::new(
+            Geometry::new(w, h, factor, wc.fx, wc.fy),
+            theta,
+            calib.temperature.clone(),
+            integer,
+            mm_per_px,
+        );
+        Ok(Analyzer {
+            path,
+            unwrap: opts.unwrap,
+            thermo,
+            mm_per_px,
+            period_px: c.period_px(),
+            calib,
+            size: reference.dimensions(),
+            ref_saturation: image_ops::saturated_fraction(reference),
+        })
+    }
+
+    /// Input scale, mm per pixel (from the measured carrier period).
+    pub fn mm_per_px(&self) -> f32 {
+        self.mm_per_px
+    }
+
+    /// Measured carrier period, input pixels.
+    pub fn period_px(&self) -> f32 {
+        self.period_px
+    }
+
+    /// The calibration in use.
+    pub fn calibration(&self) -> &Calibration {
+        &self.calib
+    }
+
+    /// The frame's force-side result and its colour sums per block (for calibrating
+    /// colour → temperature; no model needed).
+    pub fn colour_sums(&self, frame: &RgbImage) -> Result<(Measurement, Vec<Sums>), PipelineError> {
+        self.run(frame, |d, wrapped| {
+            let (s, _) = self.thermo.sums(
+                frame,
+                |y, r, row| wrapped.frame_row(y, r, row),
+                &d.reliable,
+                None,
+            );
+            (d, s)
+        })
+    }
+
+    /// Phase and measurement of a frame on either path; `then` gets the force-side result
+    /// and the wrapped phase difference as the measurement read it.
+    fn run<R>(
+        &self,
+        frame: &RgbImage,
+        then: impl FnOnce(Measurement, &WrappedPhase) -> R,
+    ) -> Result<R, PipelineError> {
+        self.check_size(frame)?;
+        let (d, wrapped) = self.path.measure(frame, &self.context());
+        Ok(then(d, &wrapped))
+    }
+
+    /// The temperature side's prepared state.
+    pub fn thermometer(&self) -> &Thermometer {
+        &self.thermo
+    }
+
+    fn check_size(&self, frame: &RgbImage) -> Result<(), PipelineError> {
+        if frame.dimensions() != self.size {
+            return Err(PipelineError::SizeMismatch {
+                w: self.size.0,
+                h: self.size.1,
+                got_w: frame.width(),
+                got_h: frame.height(),
+            });
+        }
+        Ok(())
+    }
+
+    fn context(&self) -> Context<'_> {
+        Context {
+            calib: &self.calib,
+            mm_per_px: self.mm_per_px,
+            ref_saturated_fraction: self.ref_saturation,
+            unwrap: self.unwrap,
+        }
+    }
+
+    /// Analyses one frame.
+    pub fn analyze(&self, frame: &RgbImage) -> Result<Measurement, PipelineError> {
+        self.run(frame, |d, wrapped| {
+            with_temperature(d, frame, &self.thermo, |y, r, row| {
+                wrapped.frame_row(y, r, row)
+            })
+        })
+    }
+}

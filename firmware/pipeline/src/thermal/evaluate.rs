@@ -1,0 +1,215 @@
+//! Temperatures from colour sums, in either arithmetic: the float models ([`FloatModel`],
+//! the oracle) or their integer form ([`FixedModel`], the device path), each an
+//! [`Evaluator`]; the map over a frame's blocks is the same code for both.
+//!
+//! A block's reading fuses two populations: the coloured stripes read per block, the
+//! black stripes over its neighbourhood (they are dark and their model is the coarse one).
+//! The blend reads the populations' variances first at a guess, the median black estimate
+//! of the block's neighbourhood, then at the result.
+
+use super::fixed::{invariants_q16, FixedModel};
+use super::lab::Invariants;
+use super::model::{Population, TemperatureModel};
+use super::stripes::{pool_at, Sums};
+use super::{Reading, BLACK_POOL};
+
+/// One arithmetic for the calibration's temperature models.
+pub trait Evaluator {
+    /// A population's estimate: temperature, and whether its colours lie in the
+    /// calibrated box.
+    type Estimate: Copy;
+    /// Where the blend first reads the populations' variances, prepared once for every
+    /// block that shares it.
+    type Guess: Copy;
+    /// A population's estimate from sums that hold enough samples; `None` when their
+    /// colours say nothing (the coloured stripes black).
+    fn population(&self, p: Population, s: &Sums) -> Option<Self::Estimate>;
+    /// An integer that orders estimates as their temperatures.
+    fn key(e: &Self::Estimate) -> i64;
+    /// The blend's first pass at a black estimate.
+    fn guess(&self, black: Self::Estimate) -> Self::Guess;
+    /// The inverse-variance blend of a coloured and a black estimate.
+    fn fuse(&self, coloured: Self::Estimate, black: Self::Estimate, guess: Self::Guess) -> Reading;
+}
+
+/// The float models: exact CIELAB and the polynomials.
+#[derive(Debug, Clone)]
+pub struct FloatModel(pub TemperatureModel);
+
+impl Evaluator for FloatModel {
+    type Estimate = (f64, bool);
+    type Guess = f64;
+
+    fn population(&self, p: Population, s: &Sums) -> Option<(f64, bool)> {
+        let (c, k) = s.means();
+        let v = Invariants::from_linear(c, k)?;
+        Some((self.0.population(p, &v), self.0.domain.contains(&v)))
+    }
+
+    /// The float's bits mapped as `f64::total_cmp` orders them.
+    fn key(e: &(f64, bool)) -> i64 {
+        let b = e.0.to_bits() as i64;
+        b ^ (((b >> 63) as u64) >> 1) as i64
+    }
+
+    fn guess(&self, black: (f64, bool)) -> f64 {
+        black.0
+    }
+
+    fn fuse(&self, (tc, ic): (f64, bool), (tb, ib): (f64, bool), guess: f64) -> Reading {
+        let (t, var) = self.0.blend(tc, tb, guess);
+        Reading {
+            t_c: t as f32,
+            var_c2: var as f32,
+            trusted: ic && ib && !self.0.out_of_range(t, var),
+        }
+    }
+}
+
+impl Evaluator for FixedModel {
+    /// Q16 °C, in the calibrated box.
+    type Estimate = (i64, bool);
+    /// The black estimate's weight at the guess, Q16 ([`FixedModel::guess_weight`]).
+    type Guess = i64;
+
+    fn population(&self, p: Population, s: &Sums) -> Option<(i64, bool)> {
+        Some(FixedModel::population(self, p, invariants_q16(s)?))
+    }
+
+    fn key(e: &(i64, bool)) -> i64 {
+        e.0
+    }
+
+    fn guess(&self, black: (i64, bool)) -> i64 {
+        self.guess_weight(black.0)
+    }
+
+    fn fuse(&self, c: (i64, bool), b: (i64, bool), guess: i64) -> Reading {
+        let (t, var, trusted) = FixedModel::fuse(self, c, b, guess);
+        Reading {
+            t_c: t as f32,
+            var_c2: var as f32,
+            trusted,
+        }
+    }
+}
+
+/// A frame's blocks read.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BlockMap {
+    /// Temperature per block, °C (NaN where a block could not be measured).
+    pub map_c: Vec<f32>,
+    /// Blocks measured.
+    pub measured: usize,
+    /// Blocks read outside the calibration.
+    pub outside: usize,
+    /// Sum of the measured blocks' temperatures, °C.
+    pub sum_c: f64,
+    /// Coldest and hottest measured block, °C (±∞ when none).
+    pub min_c: f32,
+    /// See `min_c`.
+    pub max_c: f32,
+    /// Index of the hottest block.
+    pub hottest: Option<usize>,
+}
+
+/// What the thermometer asks of an evaluator, whichever its arithmetic.
+pub trait Temperatures: std::fmt::Debug + Send + Sync {
+    /// A reading from a region's own sums (coloured stripes) and its neighbourhood's
+    /// (black stripes).
+    fn read(&self, own: &Sums, pooled: &Sums) -> Option<Reading>;
+    /// Every block of a `bw × bh` frame (see the module doc).
+    fn map(&self, blocks: &[Sums], bw: usize, bh: usize) -> BlockMap;
+}
+
+/// A population's estimate, when the sums hold enough samples.
+fn estimate<E: Evaluator>(e: &E, p: Population, s: &Sums) -> Option<E::Estimate> {
+    if !s.enough() {
+        return None;
+    }
+    e.population(p, s)
+}
+
+impl<E: Evaluator + std::fmt::Debug + Send + Sync> Temperatures for E {
+    fn read(&self, own: &Sums, pooled: &Sums) -> Option<Reading> {
+        let c = estimate(self, Population::Coloured, own)?;
+        let b = estimate(self, Population::Black, pooled)?;
+        Some(self.fuse(c, b, self.guess(b)))
+    }
+
+    fn map(&self, blocks: &[Sums], bw: usize, bh: usize) -> BlockMap {
+        // The black stripes' estimate on every other block each way (their 3 × 3 pooling
+        // makes neighbours nearly the same), shared by the 2 × 2 blocks it stands for.
+        let (gw, gh) = (bw.div_ceil(2), bh.div_ceil(2));
+        let black: Vec<Option<E::Estimate>> = (0..gw * gh)
+            .map(|k| {
+                let p = pool_at(blocks, bw, bh, 2 * (k % gw), 2 * (k / gw), BLACK_POOL);
+                estimate(self, Population::Black, &p)
+            })
+            .collect();
+        let guess = guesses(self, &black, (gw, gh));
+        let mut m = BlockMap {
+            map_c: vec![f32::NAN; blocks.len()],
+            measured: 0,
+            outside: 0,
+            sum_c: 0.0,
+            min_c: f32::INFINITY,
+            max_c: f32::NEG_INFINITY,
+            hottest: None,
+        };
+        for (b, s) in blocks.iter().enumerate() {
+            let cell = (b / bw / 2) * gw + (b % bw) / 2;
+            let Some(r) = black[cell]
+                .zip(guess[cell])
+                .and_then(|k| Some((estimate(self, Population::Coloured, s)?, k)))
+                .map(|(c, (k, guess))| self.fuse(c, k, guess))
+            else {
+                continue;
+            };
+            m.map_c[b] = r.t_c;
+            m.outside += usize::from(!r.trusted);
+            m.sum_c += f64::from(r.t_c);
+            m.measured += 1;
+            m.min_c = m.min_c.min(r.t_c);
+            if r.t_c > m.max_c {
+                m.max_c = r.t_c;
+                m.hottest = Some(b);
+            }
+        }
+        m
+    }
+}
+
+/// Where each cell of the black estimates' grid (`gw × gh`) reads the populations'
+/// variances: the median black estimate of its 3 × 3 neighbourhood (about 6 blocks, 12 mm,
+/// across). A single block's black estimate is noisy (a few °C on a pale unit), and where
+/// it decides whether the coloured stripes are inside their transition, its noise would
+/// choose blocks by their error and bias the map.
+fn guesses<E: Evaluator>(
+    e: &E,
+    black: &[Option<E::Estimate>],
+    (gw, gh): (usize, usize),
+) -> Vec<Option<E::Guess>> {
+    (0..gw * gh)
+        .map(|k| {
+            let (x, y) = (k % gw, k / gw);
+            // (key, index) of the measured neighbours; their median by key.
+            let mut near = [(0i64, 0usize); 9];
+            let mut m = 0;
+            for j in y.saturating_sub(1)..(y + 2).min(gh) {
+                for i in x.saturating_sub(1)..(x + 2).min(gw) {
+                    if let Some(b) = &black[j * gw + i] {
+                        near[m] = (E::key(b), j * gw + i);
+                        m += 1;
+                    }
+                }
+            }
+            let near = &mut near[..m];
+            if m == 0 {
+                return None;
+            }
+            let (_, mid, _) = near.select_nth_unstable_by_key(m / 2, |a| a.0);
+            Some(e.guess(black[mid.1]?))
+        })
+        .collect()
+}

@@ -1,0 +1,247 @@
+//! Temperature from the same frame: per-block thermochromic thermometry, fused across the
+//! coloured and the black stripes.
+//!
+//! ```text
+//!  reference ─▶ grating phase per working pixel (once)
+//!  frame + FTP's Δφ ─▶ frame's grating phase ─▶ stripe centres, per input pixel
+//!        ─▶ linear colour sums per block (one stripe pair) and over the contact
+//!        ─▶ invariants (chromaticity, black/coloured ratio)
+//!        ─▶ float: CIELAB + both polynomials + inverse-variance fusion
+//!           device: integer invariants + 3-D look-up table of the same
+//!        ─▶ map, min / mean / max, hottest block, contact temperature, range flag
+//! ```
+//!
+//! [`lab`] holds the colour science, [`stripes`] the segmentation, [`model`] the
+//! calibration's models and their fusion, [`evaluate`] the map over blocks in either
+//! arithmetic ([`Evaluator`]), and [`fixed`] the device path's integer evaluation of the
+//! models. Fitting them is the calibration's job (`vistaf-calibrate`).
+
+pub mod evaluate;
+pub mod fixed;
+pub mod lab;
+pub mod model;
+pub mod stripes;
+
+use image::RgbImage;
+
+pub use self::evaluate::{BlockMap, Evaluator, FloatModel, Temperatures};
+use self::fixed::FixedModel;
+use self::model::TemperatureModel;
+use self::stripes::{Geometry, Regions, Sums};
+
+/// A frame's temperatures.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Temperature {
+    /// Blocks across and down.
+    pub bw: usize,
+    /// See `bw`.
+    pub bh: usize,
+    /// Side of a block on the skin, mm.
+    pub block_mm: f32,
+    /// Temperature per block, °C (NaN where a block could not be measured).
+    pub map_c: Vec<f32>,
+    /// Coldest, mean and hottest block, °C (NaN when no block was measured).
+    pub min_c: f32,
+    /// See `min_c`.
+    pub mean_c: f32,
+    /// See `min_c`.
+    pub max_c: f32,
+    /// Centre of the hottest block, input pixels.
+    pub hottest_px: Option<(f32, f32)>,
+    /// Temperature over the contact region, °C, when there is contact.
+    pub contact_c: Option<f32>,
+    /// A block read outside the calibrated range (or outside the calibrated colours).
+    pub out_of_range: bool,
+    /// Blocks measured.
+    pub measured: usize,
+}
+
+/// The black stripes are read over a block and its neighbours within this many blocks (a
+/// 3 × 3 window, about 6 mm): they are dark, so one block's worth is noisy, and their model
+/// is the wide, coarse one. The coloured stripes are read per block.
+pub const BLACK_POOL: usize = 1;
+
+/// Blocks that must read outside the calibration (at least; or 1 % of the measured ones)
+/// for the frame to be flagged: a single block out of range is noise, a hot or cold object
+/// covers several. The contact region's own reading is flagged on its own.
+pub const OUT_OF_RANGE_BLOCKS: usize = 2;
+
+/// Fewest samples of each population in the contact core before the whole contact region
+/// is used instead.
+const CORE_SAMPLES: u32 = 24;
+
+/// One reading: temperature (°C), variance (°C²), and whether it is trusted (inside the
+/// calibrated colours and range).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Reading {
+    /// Fused temperature, °C.
+    pub t_c: f32,
+    /// Its variance, °C².
+    pub var_c2: f32,
+    /// Inside what was calibrated.
+    pub trusted: bool,
+}
+
+/// Reference-side state: stripe geometry, the reference's grating phase, the model and
+/// the arithmetic it is evaluated in.
+#[derive(Debug)]
+pub struct Thermometer {
+    geom: Geometry,
+    theta_ref: Vec<u16>,
+    lin: [u32; 256],
+    model: Option<TemperatureModel>,
+    evaluator: Option<Box<dyn Temperatures>>,
+    mm_per_px: f32,
+}
+
+impl Thermometer {
+    /// Prepares for frames of a reference whose grating phase per working pixel is
+    /// `theta_ref` (units of 2π/65 536), on the device path (`fixed`: integer evaluation)
+    /// or the float reference. Without a model it only sums colours (for calibration).
+    pub fn new(
+        geom: Geometry,
+        theta_ref: Vec<u16>,
+        model: Option<TemperatureModel>,
+        fixed: bool,
+        mm_per_px: f32,
+    ) -> Thermometer {
+        let evaluator = model.as_ref().map(|m| -> Box<dyn Temperatures> {
+            if fixed {
+                Box::new(FixedModel::new(m))
+            } else {
+                Box::new(FloatModel(m.clone()))
+            }
+        });
+        Thermometer {
+            geom,
+            theta_ref,
+            lin: stripes::linear_q16(),
+            model,
+            evaluator,
+            mm_per_px,
+        }
+    }
+
+    /// Whether temperatures can be measured (the calibration has a model).
+    pub fn has_model(&self) -> bool {
+        self.model.is_some()
+    }
+
+    /// Block geometry.
+    pub fn geometry(&self) -> &Geometry {
+        &self.geom
+    }
+
+    /// Colour sums of a frame whose grating phase along working row `y` is what
+    /// `phase(y, reference, row)` writes into `row` (units) from the reference's along that
+    /// row (`reference`), over the working pixels the FTP found `reliable`; `regions` marks
+    /// the contact region and its core.
+    pub fn sums(
+        &self,
+        frame: &RgbImage,
+        phase: impl Fn(usize, &[u16], &mut [u16]),
+        reliable: &[bool],
+        regions: Option<Regions<'_>>,
+    ) -> (Vec<Sums>, [Sums; 2]) {
+        let w = self.geom.w;
+        stripes::accumulate(
+            frame,
+            &self.geom,
+            |y, row: &mut [u16]| {
+                let reference = self.theta_ref.get(y * w..(y + 1) * w).unwrap_or(&[]);
+                phase(y, reference, row);
+            },
+            reliable,
+            regions,
+            &self.lin,
+        )
+    }
+
+    /// The reading of a block from its own sums (coloured stripes) and its neighbourhood's
+    /// (black stripes), in the path's arithmetic.
+    pub fn read(&self, own: &Sums, pooled: &Sums) -> Option<Reading> {
+        self.evaluator.as_ref()?.read(own, pooled)
+    }
+
+    /// [`Thermometer::read`] through the float models even on the device path: the oracle
+    /// the integer arithmetic is tested against.
+    pub fn read_exact(&self, own: &Sums, pooled: &Sums) -> Option<Reading> {
+        FloatModel(self.model.clone()?).read(own, pooled)
+    }
+
+    /// Measures a frame (see [`Thermometer::sums`]); `None` without a model. The contact's
+    /// core gives the contact temperature when it holds enough stripe samples (the region's
+    /// edge is where heat spreads into the cooler skin around).
+    pub fn measure(
+        &self,
+        frame: &RgbImage,
+        phase: impl Fn(usize, &[u16], &mut [u16]),
+        reliable: &[bool],
+        regions: Option<Regions<'_>>,
+    ) -> Option<Temperature> {
+        let evaluator = self.evaluator.as_ref()?;
+        let g = &self.geom;
+        let (blocks, [inside, core]) = self.sums(frame, &phase, reliable, regions);
+        let map = evaluator.map(&blocks, g.bw, g.bh);
+        let region = if core.n[0] >= CORE_SAMPLES && core.n[1] >= CORE_SAMPLES {
+            core
+        } else {
+            inside
+        };
+        let n = map.measured;
+        let mut out_of_range = map.outside >= OUT_OF_RANGE_BLOCKS.max(n / 100);
+        let contact_c = regions
+            .and_then(|_| evaluator.read(&region, &region))
+            .map(|r| {
+                out_of_range |= !r.trusted;
+                r.t_c
+            });
+        let nan = |v: f32| if n == 0 { f32::NAN } else { v };
+        Some(Temperature {
+            bw: g.bw,
+            bh: g.bh,
+            block_mm: (g.block_px * g.factor) as f32 * self.mm_per_px,
+            min_c: nan(map.min_c),
+            mean_c: nan((map.sum_c / n.max(1) as f64) as f32),
+            max_c: nan(map.max_c),
+            hottest_px: map.hottest.map(|b| g.block_center_px(b)),
+            map_c: map.map_c,
+            contact_c,
+            out_of_range,
+            measured: n,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Estimates order by their integer keys as by their temperatures, on either path
+    /// (negative, zero and positive, near and far apart).
+    #[test]
+    fn keys_order_estimates_as_their_temperatures() {
+        let mut rng = crate::test_rng::XorShift(0x2545_f491_4f6c_dd1d);
+        let mut ts: Vec<f64> = (0..400)
+            .map(|_| (rng.next() as i32) as f64 / (1 + rng.next() % 1000) as f64)
+            .collect();
+        ts.extend([
+            0.0,
+            -0.0,
+            1e-300,
+            -1e-300,
+            37.5,
+            37.500_000_000_000_01,
+            -40.0,
+        ]);
+        for a in &ts {
+            for b in &ts {
+                let (ka, kb) = (FloatModel::key(&(*a, true)), FloatModel::key(&(*b, true)));
+                assert_eq!(ka.cmp(&kb), a.total_cmp(b), "{a} {b}");
+                let (qa, qb) = ((a * 65_536.0) as i64, (b * 65_536.0) as i64);
+                let (ka, kb) = (FixedModel::key(&(qa, true)), FixedModel::key(&(qb, false)));
+                assert_eq!(ka.cmp(&kb), qa.cmp(&qb));
+            }
+        }
+    }
+}

@@ -1,0 +1,632 @@
+//! Colour → temperature models as a calibration file stores them, and their fusion.
+//!
+//! One polynomial per stripe population, on standardised features (see [`super::lab`]):
+//! the coloured stripes' model is precise inside its transition and says nothing outside
+//! it; the black stripes' model is wide and coarse. Each carries a table of how far the
+//! truth scatters around its estimate, *given the estimate* (measured by cross-validation
+//! on the calibration frames): where the colour hardly changes with temperature, or where a
+//! model is out of its depth, that scatter is large. The two estimates are blended by the
+//! inverse of those variances — the derivative of colour with temperature and the residual
+//! noise are both in it — instead of by fixed thresholds.
+
+use serde::{Deserialize, Serialize};
+
+use super::lab::Invariants;
+
+/// Exponents of every monomial of total degree ≤ `degree` in `n` variables, by degree and
+/// then lexicographically (the constant first).
+pub fn monomials(n: usize, degree: u32) -> Vec<Vec<u32>> {
+    let mut out = vec![vec![0; n]];
+    for d in 1..=degree {
+        let mut cur = vec![0u32; n];
+        gen(&mut out, &mut cur, 0, d);
+    }
+    out
+}
+
+fn gen(out: &mut Vec<Vec<u32>>, cur: &mut Vec<u32>, k: usize, left: u32) {
+    if k + 1 == cur.len() {
+        cur[k] = left;
+        out.push(cur.clone());
+        cur[k] = 0;
+        return;
+    }
+    for e in (0..=left).rev() {
+        cur[k] = e;
+        gen(out, cur, k + 1, left - e);
+    }
+    cur[k] = 0;
+}
+
+/// Values of [`monomials`] at standardised features `z`.
+pub fn terms(z: &[f64], exps: &[Vec<u32>]) -> Vec<f64> {
+    exps.iter()
+        .map(|e| z.iter().zip(e).map(|(v, &p)| v.powi(p as i32)).product())
+        .collect()
+}
+
+/// A polynomial in standardised features.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Polynomial {
+    /// Feature names, in order.
+    pub features: Vec<String>,
+    /// Feature means of the training samples.
+    pub mean: Vec<f64>,
+    /// Feature standard deviations of the training samples.
+    pub std: Vec<f64>,
+    /// Total degree.
+    pub degree: u32,
+    /// Coefficients, one per monomial of [`monomials`], °C.
+    pub coef: Vec<f64>,
+}
+
+impl Polynomial {
+    /// Standardised features.
+    pub fn standardise(&self, x: &[f64]) -> Vec<f64> {
+        x.iter()
+            .zip(self.mean.iter().zip(&self.std))
+            .map(|(v, (m, s))| (v - m) / s)
+            .collect()
+    }
+
+    /// The polynomial at raw features `x`, °C.
+    pub fn eval(&self, x: &[f64]) -> f64 {
+        let z = self.standardise(x);
+        terms(&z, &monomials(z.len(), self.degree))
+            .iter()
+            .zip(&self.coef)
+            .map(|(t, c)| t * c)
+            .sum()
+    }
+
+    /// Whether the stored shapes agree with each other.
+    pub fn is_consistent(&self) -> bool {
+        let n = self.features.len();
+        n > 0
+            && self.mean.len() == n
+            && self.std.len() == n
+            && self.std.iter().all(|s| s.is_finite() && *s > 0.0)
+            && self.degree <= 4
+            && self.coef.len() == monomials(n, self.degree).len()
+            && self.coef.iter().chain(&self.mean).all(|v| v.is_finite())
+    }
+
+    /// The equation as text, in the standardised features `z_name = (name − μ)/σ`.
+    pub fn equation(&self) -> String {
+        let exps = monomials(self.features.len(), self.degree);
+        let mut s = String::from("T_c =");
+        for (c, e) in self.coef.iter().zip(&exps) {
+            let mut term = format!(" {} {:.6}", if *c < 0.0 { '-' } else { '+' }, c.abs());
+            for (name, &p) in self.features.iter().zip(e) {
+                match p {
+                    0 => {}
+                    1 => term.push_str(&format!("·z_{name}")),
+                    p => term.push_str(&format!("·z_{name}^{p}")),
+                }
+            }
+            s.push_str(&term);
+        }
+        let scalers: Vec<String> = self
+            .features
+            .iter()
+            .zip(self.mean.iter().zip(&self.std))
+            .map(|(n, (m, sd))| format!("z_{n} = ({n} − {m:.6})/{sd:.6}"))
+            .collect();
+        format!("{s}; {}", scalers.join(", "))
+    }
+}
+
+/// The calibration curve: the per-setpoint mean features as knots, joined by straight
+/// segments. A block reads the temperature of the nearest point on the curve (distance in
+/// units of each feature's block-to-block noise; the segments searched are those at the
+/// two nearest knots), linear beyond the end segments. It has as
+/// many parameters as knots × features, so the parsimony rule only takes it when the
+/// polynomials cannot follow the colour's path.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Curve {
+    /// Feature names, in order.
+    pub features: Vec<String>,
+    /// Block-to-block noise of each feature (the distance scale).
+    pub scale: Vec<f64>,
+    /// Setpoints of the knots, °C, increasing.
+    pub t_c: Vec<f64>,
+    /// Mean features at each setpoint.
+    pub knots: Vec<Vec<f64>>,
+}
+
+impl Curve {
+    /// Temperature of the nearest point on the segments that meet at the two nearest knots
+    /// (on a curve sampled as finely as a calibration's, the nearest point of all), °C.
+    pub fn eval(&self, x: &[f64]) -> f64 {
+        let n = self.t_c.len();
+        if n < 2 {
+            return self.t_c.first().copied().unwrap_or(f64::NAN);
+        }
+        let dist2 = |k: usize| -> f64 {
+            x.iter()
+                .zip(&self.knots[k])
+                .zip(&self.scale)
+                .map(|((v, c), s)| ((v - c) / s).powi(2))
+                .sum()
+        };
+        // The two nearest knots, and the segments meeting at either.
+        let (mut k1, mut k2) = ((f64::INFINITY, 0usize), (f64::INFINITY, 0usize));
+        for k in 0..n {
+            let d = dist2(k);
+            if d < k1.0 {
+                k2 = k1;
+                k1 = (d, k);
+            } else if d < k2.0 {
+                k2 = (d, k);
+            }
+        }
+        let mut segments: Vec<usize> = [k1.1, k2.1]
+            .iter()
+            .flat_map(|&k| [k.saturating_sub(1), k.min(n - 2)])
+            .collect();
+        segments.sort_unstable();
+        segments.dedup();
+        // Each searched segment's nearest point, then their likelihood-weighted mean
+        // (weight e^{−Δd/2} for a squared distance Δd in σ² beyond the nearest): where a
+        // block sits on the inner side of a bend, two segments are about equally near and
+        // the reading moves smoothly between them instead of jumping.
+        let mut found: Vec<(f64, f64)> = Vec::with_capacity(4);
+        for k in segments {
+            let (a, b) = (&self.knots[k], &self.knots[k + 1]);
+            let (mut ab, mut ax, mut bb) = (0.0, 0.0, 0.0);
+            for j in 0..x.len() {
+                let s = self.scale[j];
+                let (d, e) = ((b[j] - a[j]) / s, (x[j] - a[j]) / s);
+                ab += d * e;
+                bb += d * d;
+                ax += e * e;
+            }
+            let mut u = if bb > 0.0 { ab / bb } else { 0.0 };
+            let lo = if k == 0 { f64::NEG_INFINITY } else { 0.0 };
+            let hi = if k == n - 2 { f64::INFINITY } else { 1.0 };
+            u = u.clamp(lo, hi);
+            let dist = ax - 2.0 * u * ab + u * u * bb;
+            found.push((dist, self.t_c[k] + u * (self.t_c[k + 1] - self.t_c[k])));
+        }
+        let best = found.iter().map(|f| f.0).fold(f64::INFINITY, f64::min);
+        let (mut sw, mut st) = (0.0, 0.0);
+        for (d, t) in found {
+            let w = softmin_weight(d - best);
+            sw += w;
+            st += w * t;
+        }
+        if sw > 0.0 {
+            st / sw
+        } else {
+            f64::NAN
+        }
+    }
+
+    /// Whether the stored shapes agree with each other.
+    pub fn is_consistent(&self) -> bool {
+        let n = self.features.len();
+        n > 0
+            && self.scale.len() == n
+            && self.scale.iter().all(|s| s.is_finite() && *s > 0.0)
+            && self.t_c.len() >= 2
+            && self.t_c.windows(2).all(|w| w[1] > w[0])
+            && self.knots.len() == self.t_c.len()
+            && self
+                .knots
+                .iter()
+                .all(|k| k.len() == n && k.iter().all(|v| v.is_finite()))
+    }
+
+    /// The model as text.
+    pub fn equation(&self) -> String {
+        let knots: Vec<String> = self
+            .t_c
+            .iter()
+            .zip(&self.knots)
+            .map(|(t, k)| {
+                let f: Vec<String> = k.iter().map(|v| format!("{v:.4}")).collect();
+                format!("{t}: ({})", f.join(", "))
+            })
+            .collect();
+        let scale: Vec<String> = self
+            .features
+            .iter()
+            .zip(&self.scale)
+            .map(|(n, s)| format!("σ_{n} = {s:.5}"))
+            .collect();
+        format!(
+            "T_c = temperature of the nearest point on the piecewise-linear curve through \
+             ({}) at each setpoint, distances scaled by {}; knots {}",
+            self.features.join(", "),
+            scale.join(", "),
+            knots.join("; ")
+        )
+    }
+}
+
+/// Squared distances (σ²) beyond the nearest at which a segment's weight is cut to zero.
+pub const SOFTMIN_CUT: f64 = 32.0;
+
+/// Weight of a segment `delta` σ² farther than the nearest: `e^{−delta/2}`, zero beyond
+/// [`SOFTMIN_CUT`] (the device tabulates it over that span).
+pub fn softmin_weight(delta: f64) -> f64 {
+    if (0.0..SOFTMIN_CUT).contains(&delta) {
+        (-delta / 2.0).exp()
+    } else if delta < 0.0 {
+        1.0
+    } else {
+        0.0
+    }
+}
+
+/// A population's colour → temperature model.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum ColourModel {
+    /// A polynomial in standardised features.
+    Polynomial(Polynomial),
+    /// The calibration curve.
+    Curve(Curve),
+}
+
+impl ColourModel {
+    /// Temperature at raw features `x`, °C.
+    pub fn eval(&self, x: &[f64]) -> f64 {
+        match self {
+            ColourModel::Polynomial(p) => p.eval(x),
+            ColourModel::Curve(c) => c.eval(x),
+        }
+    }
+
+    /// Feature names.
+    pub fn features(&self) -> &[String] {
+        match self {
+            ColourModel::Polynomial(p) => &p.features,
+            ColourModel::Curve(c) => &c.features,
+        }
+    }
+
+    /// Whether the stored shapes agree with each other.
+    pub fn is_consistent(&self) -> bool {
+        match self {
+            ColourModel::Polynomial(p) => p.is_consistent(),
+            ColourModel::Curve(c) => c.is_consistent(),
+        }
+    }
+
+    /// The model as text.
+    pub fn equation(&self) -> String {
+        match self {
+            ColourModel::Polynomial(p) => p.equation(),
+            ColourModel::Curve(c) => c.equation(),
+        }
+    }
+}
+
+/// A population's mean squared error per block as a function of the temperature: bins of
+/// `step_c` from `t0_c`; outside the table, [`VarianceTable::UNKNOWN_C2`].
+///
+/// It is indexed by the true temperature (in calibration, the setpoint) and read at the
+/// black stripes' estimate, the only one valid over the whole range: a coloured stripe
+/// below or above its transition shows the same colour whatever the temperature, so its
+/// own estimate sits at the transition's edge, where its error says nothing about how far
+/// outside the truth is.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct VarianceTable {
+    /// Centre of the first bin, °C.
+    pub t0_c: f64,
+    /// Bin width, °C.
+    pub step_c: f64,
+    /// Mean squared error of the estimate per bin, °C².
+    pub var_c2: Vec<f64>,
+}
+
+impl VarianceTable {
+    /// Variance outside the table: the estimate says nothing (a 1000 °C deviation, so its
+    /// weight in a fusion vanishes).
+    pub const UNKNOWN_C2: f64 = 1e6;
+
+    /// Variance of a bin with (almost) no samples: a 10 °C deviation.
+    pub const SPARSE_C2: f64 = 100.0;
+
+    /// Variance at temperature `t`, linear between bin centres. Over the outer half of the
+    /// end bins the weight (1/variance) falls linearly to zero, so an estimate crossing the
+    /// table's edge loses its say gradually and the fusion stays continuous.
+    pub fn at(&self, t: f64) -> f64 {
+        let n = self.var_c2.len();
+        if n == 0 || !t.is_finite() {
+            return Self::UNKNOWN_C2;
+        }
+        let x = (t - self.t0_c) / self.step_c;
+        let last = (n - 1) as f64;
+        let beyond = if x < 0.0 {
+            -x
+        } else if x > last {
+            x - last
+        } else {
+            0.0
+        };
+        if beyond >= 0.5 {
+            return Self::UNKNOWN_C2;
+        }
+        let x = x.clamp(0.0, last);
+        let k = (x.floor() as usize).min(n - 1);
+        let f = x - k as f64;
+        let next = self.var_c2[(k + 1).min(n - 1)];
+        let v = self.var_c2[k] * (1.0 - f) + next * f;
+        (v / (1.0 - 2.0 * beyond)).min(Self::UNKNOWN_C2)
+    }
+
+    /// Whether the table is usable.
+    pub fn is_consistent(&self) -> bool {
+        self.step_c > 0.0
+            && self.t0_c.is_finite()
+            && self.var_c2.iter().all(|v| v.is_finite() && *v > 0.0)
+    }
+}
+
+/// One stripe population's model.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PopulationModel {
+    /// The chosen model.
+    pub model: ColourModel,
+    /// The model as text.
+    pub equation: String,
+    /// Setpoints the model was fitted on, °C (lowest, highest).
+    pub fit_range_c: [f64; 2],
+    /// Scatter of the truth around the estimate.
+    pub variance: VarianceTable,
+    /// Leave-one-setpoint-out RMSE of per-setpoint means inside `fit_range_c`, °C.
+    pub cv_rmse_c: f64,
+    /// In-sample RMSE of per-setpoint means inside `fit_range_c`, °C.
+    pub in_sample_rmse_c: f64,
+    /// Every candidate tried.
+    pub candidates: Vec<crate::evidence::CandidateScore>,
+}
+
+/// Where the invariants of the calibration frames lay: the device's look-up table covers
+/// this box.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Domain {
+    /// Chromaticity r (lowest, highest).
+    pub r: [f64; 2],
+    /// Chromaticity g.
+    pub g: [f64; 2],
+    /// Black-to-coloured luminance ratio q.
+    pub q: [f64; 2],
+}
+
+impl Domain {
+    /// Whether `v` lies in the box.
+    pub fn contains(&self, v: &Invariants) -> bool {
+        let inr = |x: f64, r: [f64; 2]| x >= r[0] && x <= r[1];
+        inr(v.r, self.r) && inr(v.g, self.g) && inr(v.q, self.q)
+    }
+}
+
+/// Held-out error of the fused estimate at one setpoint.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SetpointError {
+    /// Setpoint, °C.
+    pub setpoint_c: f64,
+    /// Mean fused estimate with this setpoint left out of both fits, °C.
+    pub estimate_c: f64,
+}
+
+/// Colour → temperature: both populations, fused.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TemperatureModel {
+    /// Coloured stripes (features a*, b*).
+    pub coloured: PopulationModel,
+    /// Black stripes (features L* against the coloured white, a*, b*).
+    pub black: PopulationModel,
+    /// Calibrated setpoints, °C (lowest, highest): estimates outside are flagged.
+    pub range_c: [f64; 2],
+    /// Invariants seen in calibration, widened by half their span on each side (the
+    /// stripes of a steep indentation mix a little more than any calibration frame's).
+    pub domain: Domain,
+    /// Per-setpoint means of the fused estimate, leave-one-setpoint-out.
+    pub held_out: Vec<SetpointError>,
+    /// RMSE of `held_out` inside 22–32 °C and over the whole range, °C.
+    pub cv_rmse_transition_c: f64,
+    /// See `cv_rmse_transition_c`.
+    pub cv_rmse_c: f64,
+    /// Calibration blocks used.
+    pub n: usize,
+}
+
+/// One block's reading.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Estimate {
+    /// Fused temperature, °C.
+    pub t_c: f64,
+    /// Its variance, °C².
+    pub var_c2: f64,
+    /// The coloured stripes' estimate, °C.
+    pub coloured_c: f64,
+    /// The black stripes' estimate, °C.
+    pub black_c: f64,
+}
+
+/// The blend of a coloured (`tc`) and a black (`tb`) estimate, °C and °C²: each
+/// population's variance ([`VarianceTable`], indexed by temperature) is read at `guess` (a
+/// black estimate: the block's own, or its neighbourhood's), the two are fused by inverse
+/// variance, and the variances are read again at that result and fused once more. The
+/// second pass lets a coloured stripe inside its transition have its say when the black
+/// stripes, coarse and sometimes biased there by a degree, put the guess at the
+/// transition's edge; outside the transition the coloured table has no entry and the
+/// result stays the black estimate.
+pub fn blend(
+    coloured: &VarianceTable,
+    black: &VarianceTable,
+    tc: f64,
+    tb: f64,
+    guess: f64,
+) -> (f64, f64) {
+    let (t, _) = fuse(tc, coloured.at(guess), tb, black.at(guess));
+    fuse(tc, coloured.at(t), tb, black.at(t))
+}
+
+/// Inverse-variance blend of two estimates.
+pub fn fuse(a: f64, va: f64, b: f64, vb: f64) -> (f64, f64) {
+    let (wa, wb) = (1.0 / va.max(1e-6), 1.0 / vb.max(1e-6));
+    ((a * wa + b * wb) / (wa + wb), 1.0 / (wa + wb))
+}
+
+/// Largest standard deviation the range check allows a reading, °C.
+pub const OUT_OF_RANGE_SIGMA_C: f64 = 1.0;
+
+/// Which stripe population.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Population {
+    /// Coloured stripes: read per block.
+    Coloured,
+    /// Black stripes: read over a block's neighbourhood (see [`super::BLACK_POOL`]).
+    Black,
+}
+
+impl TemperatureModel {
+    /// One population's estimate (°C) from a block's invariants.
+    pub fn population(&self, p: Population, v: &Invariants) -> f64 {
+        match p {
+            Population::Coloured => self.coloured.model.eval(&v.coloured_features()),
+            Population::Black => self.black.model.eval(&v.black_features()),
+        }
+    }
+
+    /// See [`blend`].
+    pub fn blend(&self, tc: f64, tb: f64, guess: f64) -> (f64, f64) {
+        blend(&self.coloured.variance, &self.black.variance, tc, tb, guess)
+    }
+
+    /// The float reference: exact CIELAB features, both models, fused. `own` are the
+    /// block's invariants, `pooled` those of its neighbourhood.
+    pub fn estimate(&self, own: &Invariants, pooled: &Invariants) -> Estimate {
+        let tc = self.population(Population::Coloured, own);
+        let tb = self.population(Population::Black, pooled);
+        let (t, var) = self.blend(tc, tb, tb);
+        Estimate {
+            t_c: t,
+            var_c2: var,
+            coloured_c: tc,
+            black_c: tb,
+        }
+    }
+
+    /// Whether `t` (variance `var`) lies confidently outside the calibrated range: more
+    /// than two standard deviations beyond it, with half a degree of slack. The deviation
+    /// is capped at [`OUT_OF_RANGE_SIGMA_C`]: beyond the calibration no sample says how
+    /// wide it is, and a wide guess must not hide a reading far outside.
+    pub fn out_of_range(&self, t: f64, var: f64) -> bool {
+        let two_sigma = 2.0 * var.max(0.0).sqrt().min(OUT_OF_RANGE_SIGMA_C);
+        !t.is_finite()
+            || t - two_sigma > self.range_c[1] + 0.5
+            || t + two_sigma < self.range_c[0] - 0.5
+    }
+
+    /// Whether the stored shapes agree with each other.
+    pub fn is_consistent(&self) -> bool {
+        let pop = |p: &PopulationModel| p.model.is_consistent() && p.variance.is_consistent();
+        pop(&self.coloured)
+            && pop(&self.black)
+            && self.coloured.model.features().len() == 3
+            && self.black.model.features().len() == 3
+            && self.range_c[0] < self.range_c[1]
+            && [self.domain.r, self.domain.g, self.domain.q]
+                .iter()
+                .all(|r| r[0].is_finite() && r[1].is_finite() && r[0] < r[1])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn monomials_count_and_order() {
+        assert_eq!(monomials(2, 1), vec![vec![0, 0], vec![1, 0], vec![0, 1]]);
+        assert_eq!(monomials(2, 3).len(), 10);
+        assert_eq!(monomials(3, 3).len(), 20);
+        assert_eq!(monomials(4, 3).len(), 35);
+    }
+
+    #[test]
+    fn curve_reads_the_nearest_segment_and_extrapolates_at_the_ends() {
+        // Noise far below the segments' length: the nearest segment alone decides.
+        let c = Curve {
+            features: vec!["x".into(), "y".into()],
+            scale: vec![0.01, 0.01],
+            t_c: vec![10.0, 20.0, 30.0],
+            knots: vec![vec![0.0, 0.0], vec![1.0, 0.0], vec![1.0, 1.0]],
+        };
+        assert!(c.is_consistent());
+        assert!((c.eval(&[0.5, 0.1]) - 15.0).abs() < 1e-9);
+        assert!((c.eval(&[1.1, 0.5]) - 25.0).abs() < 1e-9);
+        assert!((c.eval(&[1.0, 2.0]) - 40.0).abs() < 1e-9);
+        assert!((c.eval(&[-1.0, 0.0]) - 0.0).abs() < 1e-9);
+        // Noise as large as the segments: near the bend both segments count.
+        let wide = Curve {
+            scale: vec![1.0, 1.0],
+            ..c
+        };
+        let t = wide.eval(&[0.9, 0.1]);
+        assert!(t > 19.0 && t < 21.0, "{t}");
+    }
+
+    #[test]
+    fn a_coloured_stripe_outside_its_transition_has_no_say() {
+        // Coloured: precise in 22–33 °C, its colour frozen (a large error) outside; black:
+        // coarse everywhere.
+        let coloured = VarianceTable {
+            t0_c: 15.0,
+            step_c: 1.0,
+            var_c2: (15..=47)
+                .map(|t| if (22..=33).contains(&t) { 0.05 } else { 150.0 })
+                .collect(),
+        };
+        let black = VarianceTable {
+            t0_c: 0.0,
+            step_c: 1.0,
+            var_c2: vec![4.0; 63],
+        };
+        // A cold skin: the coloured estimate stuck at its transition's edge.
+        let (t, _) = blend(&coloured, &black, 23.8, 16.5, 16.5);
+        assert!((t - 16.5).abs() < 0.3, "cold skin read {t}");
+        // A hot one: the same at the other edge.
+        let (t, _) = blend(&coloured, &black, 32.9, 43.0, 43.0);
+        assert!((t - 43.0).abs() < 0.3, "hot skin read {t}");
+        // Inside the transition the coloured stripes decide, even when the black guess
+        // falls just outside it (the second pass reads the tables inside).
+        let (first, _) = fuse(23.5, coloured.at(21.8), 21.8, black.at(21.8));
+        assert!(first < 22.5, "one pass: {first}");
+        let (t, var) = blend(&coloured, &black, 23.5, 21.8, 21.8);
+        assert!((t - 23.5).abs() < 0.1 && var < 0.1, "{t} ± {var}");
+    }
+
+    #[test]
+    fn variance_table_interpolates_and_is_unknown_outside() {
+        let t = VarianceTable {
+            t0_c: 20.0,
+            step_c: 1.0,
+            var_c2: vec![1.0, 3.0],
+        };
+        assert_eq!(t.at(20.0), 1.0);
+        assert_eq!(t.at(20.5), 2.0);
+        assert_eq!(t.at(21.0), 3.0);
+        assert_eq!(
+            t.at(21.25),
+            6.0,
+            "half the weight half-way out of the end bin"
+        );
+        assert_eq!(t.at(25.0), VarianceTable::UNKNOWN_C2);
+        assert_eq!(t.at(f64::NAN), VarianceTable::UNKNOWN_C2);
+    }
+
+    #[test]
+    fn fusion_leans_on_the_surer_estimate() {
+        let (t, v) = fuse(30.0, 0.01, 40.0, 1.0);
+        assert!((t - 30.099).abs() < 0.01, "{t}");
+        assert!(v < 0.01);
+        assert_eq!(fuse(10.0, 1.0, 20.0, 1.0).0, 15.0);
+    }
+}

@@ -1,0 +1,111 @@
+//! Where the method fails, it says so: each failure mode sets its flag, and clean frames
+//! carry none. (The stability sweeps that chart error and flag rate against each axis are
+//! a benchmark; these are the pass/fail edges.)
+#![allow(clippy::unwrap_used)] // tests unwrap: a failure is the test failing
+
+use vistaf_pipeline::calibration::Calibration;
+use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement};
+use vistaf_protocol::Flag;
+use vistaf_sim::contact::{Contact, Indenter};
+use vistaf_sim::scene::{center_mm, ROOM_C};
+use vistaf_sim::{Renderer, SensorUnit, SkinState};
+
+fn unit() -> SensorUnit {
+    SensorUnit {
+        width_px: 320,
+        height_px: 240,
+        ..SensorUnit::reference()
+    }
+}
+
+fn analyze(state: &SkinState, imp: Implementation) -> Measurement {
+    let r = Renderer::new(unit());
+    let (reference, _) = r.render(&SkinState::idle(ROOM_C), 1);
+    let opts = AnalyzerOptions {
+        force_calibration: true,
+        ..Default::default()
+    };
+    let a = Analyzer::new(&reference, Calibration::default_sim(), imp, opts).unwrap();
+    let (img, _) = r.render(state, 9);
+    a.analyze(&img).unwrap()
+}
+
+fn sphere(r_mm: f32, depth_mm: f32) -> SkinState {
+    let mut s = SkinState::idle(ROOM_C);
+    s.contacts.push(Contact {
+        indenter: Indenter::Sphere { r_mm },
+        center_mm: center_mm(&unit()),
+        depth_mm,
+    });
+    s
+}
+
+fn both(state: &SkinState, flag: Flag, want: bool) {
+    for imp in [Implementation::Fixed, Implementation::Float] {
+        let d = analyze(state, imp);
+        assert_eq!(
+            d.flags.contains(flag),
+            want,
+            "{imp:?}: {flag:?} expected {want}: {d:?}"
+        );
+    }
+}
+
+#[test]
+fn washed_out_fringes_flag_low_contrast() {
+    let mut s = SkinState::idle(ROOM_C);
+    s.contrast_scale = 0.15;
+    both(&s, Flag::LowContrast, true);
+    both(&SkinState::idle(ROOM_C), Flag::LowContrast, false);
+}
+
+#[test]
+fn saturation_flags_over_exposure() {
+    let mut s = SkinState::idle(ROOM_C);
+    s.exposure_scale = 4.0;
+    both(&s, Flag::OverExposure, true);
+}
+
+#[test]
+fn a_shift_near_half_a_period_flags_misregistration() {
+    let mut s = SkinState::idle(ROOM_C);
+    s.shift_px = (7.5, 0.0); // 7.5 px of a 16 px period: 2.9 rad, nearly ambiguous
+    both(&s, Flag::Misregistration, true);
+    s.shift_px = (5.0, 1.0); // compensated exactly
+    both(&s, Flag::Misregistration, false);
+}
+
+/// Spheres sharper than the calibrated 10 mm indenter are smoothed by the band more than
+/// the calibration knows: wherever the depth error leaves the tolerance, the phase-slope
+/// flag is set, and the calibrated indenter itself is never flagged.
+#[test]
+fn out_of_tolerance_sharp_contacts_are_flagged_and_the_calibrated_indenter_is_not() {
+    for (r, d) in [
+        (10.0, 0.1),
+        (10.0, 1.0),
+        (10.0, 2.5),
+        (5.0, 1.0),
+        (5.0, 2.0),
+        (3.0, 0.5),
+        (3.0, 2.0),
+        (1.5, 0.5),
+        (1.5, 2.0),
+    ] {
+        for imp in [Implementation::Fixed, Implementation::Float] {
+            let x = analyze(&sphere(r, d), imp);
+            let err = (x.peak_depth_mm - d).abs();
+            let flagged = x.flags.contains(Flag::PhaseSlope);
+            if r == 10.0 {
+                assert!(
+                    !flagged && err <= 0.03 * d + 0.02,
+                    "{imp:?} R {r} d {d}: {x:?}"
+                );
+            } else if err > 0.03 * d + 0.02 {
+                assert!(
+                    flagged,
+                    "{imp:?} R {r} d {d}: error {err} mm without a flag: {x:?}"
+                );
+            }
+        }
+    }
+}

@@ -1,0 +1,386 @@
+//! The service's decisions, without threads or I/O: each event (a frame, a host command, a
+//! camera outage, the passing of time) goes in, the messages to send come out. The time
+//! comes from an injected [`Clock`], so a test drives the service frame by frame with a
+//! clock it moves by hand.
+
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use image::RgbImage;
+use vistaf_hardware::led::{LedConfig, LedRing};
+use vistaf_hardware::source::SourceFormat;
+use vistaf_pipeline::{Analyzer, AnalyzerOptions, PipelineError};
+use vistaf_protocol::msg::truncated;
+use vistaf_protocol::{
+    schema_hash, Command, DeviceError, DeviceMsg, ErrorCode, FirmwareVersion, Flag, Hello, HostMsg,
+    MapKind, RunState, Status, PROTOCOL_VERSION,
+};
+
+use super::clock::Clock;
+use super::reference::{ReferenceKeeper, Verdict};
+use super::wire::{depth_tile, summary_of, temperature_tile};
+use super::{Counters, Settings};
+
+/// How often a `Status` goes out.
+pub const STATUS_INTERVAL: Duration = Duration::from_secs(1);
+
+/// Counts kept by the threads at the edge (capture, link reader), read into `Status`.
+#[derive(Debug, Default)]
+pub struct EdgeCounters {
+    /// Frames delivered by the source.
+    pub captured: AtomicU32,
+    /// Frames evicted by a newer one before the pipeline took them.
+    pub dropped: AtomicU32,
+    /// Times frames resumed after the camera was lost.
+    pub camera_restarts: AtomicU32,
+    /// Host frames the link reader could not decode.
+    pub link_frames_dropped: AtomicU32,
+}
+
+impl EdgeCounters {
+    fn get(counter: &AtomicU32) -> u32 {
+        counter.load(Ordering::Relaxed)
+    }
+}
+
+/// The camera went away, or came back.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum CameraEvent {
+    /// Lost, with the reason.
+    Lost(String),
+    /// Frames again.
+    Back,
+}
+
+/// The service's state between events.
+pub struct Service<'a, C: Clock> {
+    settings: &'a Settings,
+    clock: C,
+    led: &'a mut dyn LedRing,
+    edge: Arc<EdgeCounters>,
+    format: SourceFormat,
+    started: Instant,
+    counters: Counters,
+    keeper: ReferenceKeeper,
+    streaming: bool,
+    max_rate_hz: u16,
+    /// When the next summary may go out under the rate limit (`None`: now).
+    next_due: Option<Instant>,
+    /// Maps asked for, sent with the next analysed frame: [depth, temperature].
+    maps_requested: [bool; 2],
+    /// When the last `Status` went out (`None`: one is due now).
+    last_status: Option<Instant>,
+    camera_lost: bool,
+    seq: u32,
+}
+
+impl<C: Clock> std::fmt::Debug for Service<'_, C> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Service")
+            .field("counters", &self.counters)
+            .field("streaming", &self.streaming)
+            .field("seq", &self.seq)
+            .finish_non_exhaustive()
+    }
+}
+
+impl<'a, C: Clock> Service<'a, C> {
+    /// A service for a source delivering `format`, reading its edge's counts from `edge`.
+    pub fn new(
+        settings: &'a Settings,
+        format: SourceFormat,
+        led: &'a mut dyn LedRing,
+        edge: Arc<EdgeCounters>,
+        clock: C,
+    ) -> Service<'a, C> {
+        let now = clock.now();
+        Service {
+            settings,
+            clock,
+            led,
+            edge,
+            format,
+            started: now,
+            counters: Counters::default(),
+            keeper: ReferenceKeeper::new(settings.reference, now),
+            streaming: true,
+            max_rate_hz: settings.max_rate_hz,
+            next_due: None,
+            maps_requested: [false; 2],
+            last_status: Some(now),
+            camera_lost: false,
+            seq: 0,
+        }
+    }
+
+    /// What goes out first: `Hello`, and the LED ring lit (a failing ring is reported on
+    /// stderr: the skin keeps reporting without it).
+    pub fn start(&mut self) -> Vec<DeviceMsg> {
+        if let Err(e) = self.led.show(&self.settings.led) {
+            eprintln!("vistaf-skin: {e}");
+        }
+        vec![self.hello()]
+    }
+
+    /// Whether the frame limit of the settings is reached.
+    pub fn done(&self) -> bool {
+        self.settings
+            .frames
+            .is_some_and(|n| u64::from(self.counters.processed) >= n)
+    }
+
+    /// The counters so far (the edge's come from [`EdgeCounters`] and the link).
+    pub fn counters(&self) -> Counters {
+        Counters {
+            references: self.keeper.taken(),
+            ..self.counters
+        }
+    }
+
+    /// The last `Status` (state `Stopped`), and the LED ring off.
+    pub fn finish(&mut self) -> DeviceMsg {
+        let _ = self.led.off();
+        self.status(RunState::Stopped)
+    }
+
+    /// The device's identity.
+    pub fn hello(&self) -> DeviceMsg {
+        DeviceMsg::Hello(Hello {
+            protocol_version: PROTOCOL_VERSION,
+            schema_hash: schema_hash(),
+            firmware: firmware_version(),
+            serial: truncated(&self.settings.serial),
+            frame_width_px: u16::try_from(self.format.width).unwrap_or(u16::MAX),
+            frame_height_px: u16::try_from(self.format.height).unwrap_or(u16::MAX),
+            calibration_id: self.settings.calibration.id(),
+        })
+    }
+
+    /// A host command and its answer.
+    pub fn on_command(&mut self, cmd: HostMsg) -> DeviceMsg {
+        match cmd {
+            HostMsg::Ping { nonce } => DeviceMsg::Pong { nonce },
+            HostMsg::GetInfo => self.hello(),
+            HostMsg::CaptureReference => {
+                self.keeper.renew();
+                DeviceMsg::Ack(Command::CaptureReference)
+            }
+            HostMsg::SetRate { max_rate_hz } => {
+                self.max_rate_hz = max_rate_hz;
+                self.next_due = None;
+                DeviceMsg::Ack(Command::SetRate)
+            }
+            HostMsg::SetLed(l) => {
+                let cfg = LedConfig {
+                    rgb: smart_leds::RGB8 {
+                        r: l.rgb.r,
+                        g: l.rgb.g,
+                        b: l.rgb.b,
+                    },
+                    brightness: l.brightness,
+                    lit_mask: l.lit_mask,
+                    ..self.settings.led
+                };
+                match self.led.show(&cfg) {
+                    Ok(()) => DeviceMsg::Ack(Command::SetLed),
+                    Err(e) => error(ErrorCode::LedFault, &e.to_string()),
+                }
+            }
+            HostMsg::RequestMap(MapKind::Temperature)
+                if self
+                    .keeper
+                    .analyzer()
+                    .is_some_and(|a| a.calibration().temperature.is_none()) =>
+            {
+                error(
+                    ErrorCode::UnsupportedCommand,
+                    "the calibration has no temperature model",
+                )
+            }
+            HostMsg::RequestMap(kind) => {
+                self.maps_requested[usize::from(kind == MapKind::Temperature)] = true;
+                DeviceMsg::Ack(Command::RequestMap)
+            }
+            HostMsg::Start => {
+                self.streaming = true;
+                DeviceMsg::Ack(Command::Start)
+            }
+            HostMsg::Stop => {
+                self.streaming = false;
+                DeviceMsg::Ack(Command::Stop)
+            }
+        }
+    }
+
+    /// The camera went away or came back: a loss is reported (the capture side reports
+    /// each outage once), and a `Status` with the new state is due at the next tick.
+    pub fn on_camera(&mut self, event: CameraEvent) -> Option<DeviceMsg> {
+        self.camera_lost = matches!(event, CameraEvent::Lost(_));
+        self.last_status = None;
+        match event {
+            CameraEvent::Lost(detail) => Some(error(ErrorCode::CameraLost, &detail)),
+            CameraEvent::Back => None,
+        }
+    }
+
+    /// The `Status`, once a second.
+    pub fn on_tick(&mut self) -> Option<DeviceMsg> {
+        let now = self.clock.now();
+        if self
+            .last_status
+            .is_some_and(|t| now.saturating_duration_since(t) < STATUS_INTERVAL)
+        {
+            return None;
+        }
+        self.last_status = Some(now);
+        let state = if self.camera_lost {
+            RunState::CameraLost
+        } else if self.keeper.analyzer().is_none() {
+            RunState::Referencing
+        } else if self.streaming {
+            RunState::Streaming
+        } else {
+            RunState::Stopped
+        };
+        Some(self.status(state))
+    }
+
+    /// A frame from the source: a reference when the keeper needs one, else a summary (at
+    /// the rate asked for) and the maps asked for. A frame of the wrong size or one that
+    /// cannot be decoded is counted and skipped; a reference without a usable grating is an
+    /// error (the service cannot measure anything).
+    pub fn on_frame(
+        &mut self,
+        frame: vistaf_hardware::Frame,
+    ) -> Result<Vec<DeviceMsg>, PipelineError> {
+        let capture_us = u64::try_from(frame.timestamp.as_micros()).unwrap_or(u64::MAX);
+        let img: RgbImage = match frame.into_rgb() {
+            Ok(i) if i.dimensions() == (self.format.width, self.format.height) => i,
+            _ => {
+                self.counters.bad += 1;
+                return Ok(Vec::new());
+            }
+        };
+        if self.keeper.analyzer().is_none() {
+            return self.take_reference(&img);
+        }
+        Ok(self.measure(&img, capture_us))
+    }
+
+    /// Offers the frame to the reference keeper; a reference taken is announced by a
+    /// `Status`.
+    fn take_reference(&mut self, img: &RgbImage) -> Result<Vec<DeviceMsg>, PipelineError> {
+        let opts = AnalyzerOptions {
+            force_calibration: self.settings.force_calibration,
+            ..Default::default()
+        };
+        let (calibration, pipeline) = (&self.settings.calibration, self.settings.pipeline);
+        let taken = self.keeper.offer(img, self.clock.now(), |r| {
+            Analyzer::new(r, calibration.clone(), pipeline, opts)
+        })?;
+        Ok(if taken {
+            vec![self.status(RunState::Streaming)]
+        } else {
+            Vec::new()
+        })
+    }
+
+    /// Measures a frame against the reference and says what it found.
+    fn measure(&mut self, img: &RgbImage, capture_us: u64) -> Vec<DeviceMsg> {
+        let mut out = Vec::new();
+        let Some(analyzer) = self.keeper.analyzer() else {
+            return out;
+        };
+        let mm_per_px = analyzer.mm_per_px();
+        let t0 = self.clock.now();
+        let Ok(mut d) = analyzer.analyze(img) else {
+            self.counters.bad += 1;
+            return out;
+        };
+        self.counters.processed += 1;
+        let verdict = self.keeper.judge(&d, img, self.clock.now());
+        if verdict == Verdict::Stale {
+            d.flags.insert(Flag::StaleReference);
+            self.counters.stale += 1;
+        }
+        let now = self.clock.now();
+        let latency_us =
+            u32::try_from(now.saturating_duration_since(t0).as_micros()).unwrap_or(u32::MAX);
+        if self.streaming && self.summary_due(now) {
+            out.push(DeviceMsg::Summary(summary_of(
+                &d, self.seq, capture_us, latency_us, mm_per_px,
+            )));
+            self.seq = self.seq.wrapping_add(1);
+        }
+        let last_seq = self.seq.wrapping_sub(1);
+        if std::mem::take(&mut self.maps_requested[0]) {
+            out.push(DeviceMsg::Map(depth_tile(&d, last_seq, mm_per_px)));
+        }
+        if std::mem::take(&mut self.maps_requested[1]) {
+            out.extend(temperature_tile(&d, last_seq).map(DeviceMsg::Map));
+        }
+        if verdict == Verdict::Renew {
+            self.keeper.renew();
+            out.push(self.status(RunState::Referencing));
+        }
+        out
+    }
+
+    /// Whether a summary may go out at `now` under the rate limit, and if so when the next
+    /// may. Summaries are due on a fixed schedule, not a period after the last one: a
+    /// 10 Hz limit on a 30 frames/s camera gives every third frame, not every fourth (a
+    /// frame a nanosecond early would otherwise wait for the next). A schedule more than a
+    /// period behind (the frames stopped) starts afresh.
+    fn summary_due(&mut self, now: Instant) -> bool {
+        if self.max_rate_hz == 0 {
+            return true;
+        }
+        let period = Duration::from_secs_f64(1.0 / f64::from(self.max_rate_hz));
+        if self.next_due.is_some_and(|t| now < t) {
+            return false;
+        }
+        let slot = match self.next_due {
+            Some(t) if t + period >= now => t,
+            _ => now,
+        };
+        self.next_due = Some(slot + period);
+        true
+    }
+
+    /// A `Status` in `state`.
+    fn status(&self, state: RunState) -> DeviceMsg {
+        let now = self.clock.now();
+        let edge = &self.edge;
+        DeviceMsg::Status(Status {
+            uptime_ms: now.saturating_duration_since(self.started).as_millis() as u64,
+            state,
+            max_rate_hz: self.max_rate_hz,
+            frames_captured: EdgeCounters::get(&edge.captured),
+            frames_processed: self.counters.processed,
+            frames_dropped: EdgeCounters::get(&edge.dropped),
+            bad_frames: self.counters.bad,
+            link_frames_dropped: EdgeCounters::get(&edge.link_frames_dropped),
+            reference_age_ms: self.keeper.age(now).as_millis().min(u128::from(u32::MAX)) as u32,
+            camera_restarts: u16::try_from(EdgeCounters::get(&edge.camera_restarts))
+                .unwrap_or(u16::MAX),
+        })
+    }
+}
+
+/// A device error message, its detail cut to what the wire carries.
+fn error(code: ErrorCode, detail: &str) -> DeviceMsg {
+    DeviceMsg::Error(DeviceError {
+        code,
+        detail: truncated(detail),
+    })
+}
+
+fn firmware_version() -> FirmwareVersion {
+    let v = |s: &str| s.parse::<u8>().unwrap_or(0);
+    FirmwareVersion {
+        major: v(env!("CARGO_PKG_VERSION_MAJOR")),
+        minor: v(env!("CARGO_PKG_VERSION_MINOR")),
+        patch: v(env!("CARGO_PKG_VERSION_PATCH")),
+    }
+}

@@ -1,0 +1,86 @@
+//! The on-device service: camera → pipeline → serial.
+//!
+//! ```text
+//!  capture thread ──(Newest: one slot, newest wins)──▶ ┐
+//!  link reader thread ──(HostMsg)────────────────────▶ ├─ runner ─▶ Service ─▶ link
+//!  camera lost / back ───────────────────────────────▶ ┘   (edge)   (decides)  (postcard frames)
+//! ```
+//!
+//! * [`Service`] ([`machine`]) decides: every event (a frame, a host command, a camera
+//!   outage, the passing of time) goes in, the messages to send come out. It owns the
+//!   [`ReferenceKeeper`] ([`reference`]: when the reference is taken, whether it drifted,
+//!   when it is renewed) and reads the time from an injected [`Clock`], so its tests drive
+//!   it frame by frame with a clock they move by hand.
+//! * [`run`] ([`runner`]) is the edge: it starts the capture and link-reader threads, feeds
+//!   their events to the service, and writes what comes out. The capture thread reads the
+//!   source as fast as it delivers into a one-slot [`runner::Newest`] mailbox: a newer
+//!   frame evicts the waiting one, and every eviction is counted
+//!   (`Status.frames_dropped`), so the pipeline always works on the newest image.
+//! * Camera lost (a transient source error): one `Error(CameraLost)` and
+//!   `RunState::CameraLost` in `Status` while the source retries with back-off; frames
+//!   resuming count in `Status.camera_restarts`.
+//! * Host commands are handled between frames: `Ping`, `GetInfo`, `CaptureReference`,
+//!   `SetRate`, `SetLed`, `RequestMap`, `Start`, `Stop`.
+//! * A `Hello` goes out at start and on request; a `Status` every second.
+//! * A bad frame (wrong size, undecodable) is counted and skipped; a failing link write is
+//!   counted and the service keeps running (the host may come back).
+
+pub mod clock;
+pub mod machine;
+pub mod reference;
+pub mod runner;
+pub mod wire;
+
+pub use clock::{Clock, ManualClock, SystemClock};
+pub use machine::{CameraEvent, EdgeCounters, Service};
+pub use reference::{ReferenceKeeper, Verdict, TEMPERATURE_EXPLAINS_C};
+pub use runner::run;
+pub use wire::{depth_tile, summary_of, temperature_tile};
+
+pub use crate::config::ReferencePolicy;
+use vistaf_hardware::led::LedConfig;
+use vistaf_pipeline::{Calibration, Implementation};
+
+/// Service settings.
+#[derive(Debug, Clone)]
+pub struct Settings {
+    /// Device serial sent in `Hello` (cut to the wire's 24 bytes).
+    pub serial: String,
+    /// Calibration.
+    pub calibration: Calibration,
+    /// Use the calibration even for another geometry.
+    pub force_calibration: bool,
+    /// Pipeline implementation.
+    pub pipeline: Implementation,
+    /// Stop after this many processed frames.
+    pub frames: Option<u64>,
+    /// Summary rate limit, Hz (0 = every frame).
+    pub max_rate_hz: u16,
+    /// LED ring at start.
+    pub led: LedConfig,
+    /// When the reference is taken and renewed.
+    pub reference: ReferencePolicy,
+}
+
+/// Counters at the end of a run.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Counters {
+    /// Frames delivered by the source.
+    pub captured: u32,
+    /// Frames processed.
+    pub processed: u32,
+    /// Frames evicted by a newer one.
+    pub dropped: u32,
+    /// Malformed frames skipped.
+    pub bad: u32,
+    /// Summaries written.
+    pub sent: u32,
+    /// Link writes that failed.
+    pub link_errors: u32,
+    /// References taken (the first one included).
+    pub references: u32,
+    /// Times frames resumed after the camera was lost.
+    pub camera_restarts: u32,
+    /// Summaries flagged `stale_reference`.
+    pub stale: u32,
+}

@@ -1,0 +1,373 @@
+//! The service's edge: the threads that read the camera and the link, the loop that feeds
+//! their events to the [`Service`], and the writer that frames what it says.
+
+use std::io::{Read, Write};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use crossbeam_channel::{bounded, Receiver, RecvTimeoutError, Sender, TrySendError};
+use vistaf_hardware::frame::Frame;
+use vistaf_hardware::led::LedRing;
+use vistaf_hardware::source::FrameSource;
+use vistaf_protocol::frame::DEVICE_FRAME_MAX;
+use vistaf_protocol::{encode, DeviceMsg, HostDecoder, HostMsg};
+
+use super::clock::SystemClock;
+use super::machine::{CameraEvent, EdgeCounters, Service};
+use super::{Counters, Settings};
+
+/// How long the loop waits for a frame before it looks at commands and time again.
+const FRAME_WAIT: Duration = Duration::from_millis(50);
+/// Pause of a source that reports a transient error without a back-off of its own.
+const RETRY_PAUSE: Duration = Duration::from_millis(20);
+/// Pause of the link reader when the link reads nothing or fails.
+const LINK_IDLE: Duration = Duration::from_millis(20);
+const LINK_ERROR_PAUSE: Duration = Duration::from_millis(100);
+
+/// Writes framed messages to the link, counting failures (and summaries written) instead
+/// of stopping.
+struct Tx<W: Write> {
+    out: W,
+    buf: Box<[u8; DEVICE_FRAME_MAX]>,
+    errors: u32,
+    summaries: u32,
+}
+
+impl<W: Write> Tx<W> {
+    fn send(&mut self, msg: &DeviceMsg) {
+        let ok = match encode(msg, &mut self.buf[..]) {
+            Ok(n) => self
+                .out
+                .write_all(&self.buf[..n])
+                .and_then(|()| self.out.flush())
+                .is_ok(),
+            Err(_) => false,
+        };
+        if !ok {
+            self.errors += 1;
+        } else if matches!(msg, DeviceMsg::Summary(_)) {
+            self.summaries += 1;
+        }
+    }
+
+    fn send_all(&mut self, msgs: impl IntoIterator<Item = DeviceMsg>) {
+        for m in msgs {
+            self.send(&m);
+        }
+    }
+}
+
+/// A one-slot mailbox where the newest item wins: putting into a full slot evicts the
+/// waiting item (and says so), so the taker always gets the newest.
+#[derive(Debug, Clone)]
+pub struct Newest<T> {
+    tx: Sender<T>,
+    rx: Receiver<T>,
+}
+
+impl<T> Default for Newest<T> {
+    fn default() -> Newest<T> {
+        let (tx, rx) = bounded(1);
+        Newest { tx, rx }
+    }
+}
+
+impl<T> Newest<T> {
+    /// Puts `item`, evicting a waiting one; `true` when one was evicted.
+    pub fn put(&self, item: T) -> bool {
+        match self.tx.try_send(item) {
+            Ok(()) | Err(TrySendError::Disconnected(_)) => false,
+            Err(TrySendError::Full(item)) => {
+                let evicted = self.rx.try_recv().is_ok();
+                let _ = self.tx.try_send(item);
+                evicted
+            }
+        }
+    }
+
+    /// The waiting item, waiting up to `timeout` for one.
+    pub fn take(&self, timeout: Duration) -> Result<T, RecvTimeoutError> {
+        self.rx.recv_timeout(timeout)
+    }
+
+    /// Whether nothing is waiting.
+    pub fn is_empty(&self) -> bool {
+        self.rx.is_empty()
+    }
+}
+
+/// Reads the source as fast as it delivers into `frames` until it ends, fails for good, or
+/// `stop` is set; returns the failure, if any. A transient error (the camera lost) is
+/// reported once per outage and retried after `retry_pause`.
+fn capture(
+    mut source: Box<dyn FrameSource>,
+    frames: Newest<Frame>,
+    camera: Sender<CameraEvent>,
+    edge: Arc<EdgeCounters>,
+    stop: Arc<AtomicBool>,
+    retry_pause: Duration,
+) -> Option<String> {
+    let mut lost = false;
+    while !stop.load(Ordering::Relaxed) {
+        let frame = match source.next_frame() {
+            Ok(Some(f)) => f,
+            Ok(None) => return None,
+            Err(e) if e.is_transient() => {
+                if !lost {
+                    lost = true;
+                    let _ = camera.try_send(CameraEvent::Lost(e.to_string()));
+                }
+                std::thread::sleep(retry_pause);
+                continue;
+            }
+            Err(e) => return Some(e.to_string()),
+        };
+        if lost {
+            lost = false;
+            edge.camera_restarts.fetch_add(1, Ordering::Relaxed);
+            let _ = camera.try_send(CameraEvent::Back);
+        }
+        edge.captured.fetch_add(1, Ordering::Relaxed);
+        if frames.put(frame) {
+            edge.dropped.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+    None
+}
+
+/// Decodes host commands from the link into `commands` until `stop` is set; frames that
+/// do not decode are counted.
+fn read_commands(
+    mut link: Box<dyn Read + Send>,
+    commands: Sender<HostMsg>,
+    edge: Arc<EdgeCounters>,
+    stop: Arc<AtomicBool>,
+) {
+    let mut dec = HostDecoder::new();
+    let mut buf = [0u8; 256];
+    while !stop.load(Ordering::Relaxed) {
+        match link.read(&mut buf) {
+            Ok(0) => std::thread::sleep(LINK_IDLE),
+            Ok(n) => dec.push(&buf[..n], |r| match r {
+                Ok(m) => {
+                    let _ = commands.try_send(m);
+                }
+                Err(_) => {
+                    edge.link_frames_dropped.fetch_add(1, Ordering::Relaxed);
+                }
+            }),
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    std::io::ErrorKind::WouldBlock
+                        | std::io::ErrorKind::TimedOut
+                        | std::io::ErrorKind::Interrupted
+                ) => {}
+            Err(_) => std::thread::sleep(LINK_ERROR_PAUSE),
+        }
+    }
+}
+
+/// The threads at the edge and the channels from them.
+struct Edge {
+    frames: Newest<Frame>,
+    commands: Receiver<HostMsg>,
+    camera: Receiver<CameraEvent>,
+    capture: JoinHandle<Option<String>>,
+    counters: Arc<EdgeCounters>,
+}
+
+impl Edge {
+    fn start(
+        source: Box<dyn FrameSource>,
+        link_in: Option<Box<dyn Read + Send>>,
+        stop: &Arc<AtomicBool>,
+    ) -> Edge {
+        let counters = Arc::new(EdgeCounters::default());
+        let frames = Newest::default();
+        let (camera_tx, camera) = bounded(16);
+        let (frames_in, edge, cap_stop) = (frames.clone(), counters.clone(), stop.clone());
+        let capture = std::thread::spawn(move || {
+            capture(source, frames_in, camera_tx, edge, cap_stop, RETRY_PAUSE)
+        });
+        let (commands_tx, commands) = bounded(64);
+        if let Some(rd) = link_in {
+            let (edge, rd_stop) = (counters.clone(), stop.clone());
+            std::thread::spawn(move || read_commands(rd, commands_tx, edge, rd_stop));
+        }
+        Edge {
+            frames,
+            commands,
+            camera,
+            capture,
+            counters,
+        }
+    }
+}
+
+/// Runs the service until the source ends, `frames` have been processed, or `stop` is set.
+///
+/// `commands` is the link's read side (None for a write-only link such as stdout).
+pub fn run(
+    source: Box<dyn FrameSource>,
+    link: impl Write,
+    commands: Option<Box<dyn Read + Send>>,
+    led: &mut dyn LedRing,
+    settings: &Settings,
+    stop: Arc<AtomicBool>,
+) -> anyhow::Result<Counters> {
+    let format = source.format();
+    let mut tx = Tx {
+        out: link,
+        buf: Box::new([0u8; DEVICE_FRAME_MAX]),
+        errors: 0,
+        summaries: 0,
+    };
+    let edge = Edge::start(source, commands, &stop);
+    let mut service = Service::new(settings, format, led, edge.counters.clone(), SystemClock);
+    tx.send_all(service.start());
+    let result = serve(&mut service, &edge, &mut tx, &stop);
+    stop.store(true, Ordering::Relaxed);
+    let failure = match edge.capture.join() {
+        Ok(failure) => failure,
+        Err(_) => Some("the capture thread panicked".into()),
+    };
+    tx.send(&service.finish());
+    let counters = service.counters();
+    result?;
+    if let Some(e) = failure {
+        anyhow::bail!("source failed: {e}");
+    }
+    let e = &edge.counters;
+    Ok(Counters {
+        captured: e.captured.load(Ordering::Relaxed),
+        dropped: e.dropped.load(Ordering::Relaxed),
+        camera_restarts: e.camera_restarts.load(Ordering::Relaxed),
+        sent: tx.summaries,
+        link_errors: tx.errors,
+        ..counters
+    })
+}
+
+/// The loop: commands first (they never wait for a frame), then camera events, the
+/// `Status` when due, and the next frame.
+fn serve<W: Write>(
+    service: &mut Service<'_, SystemClock>,
+    edge: &Edge,
+    tx: &mut Tx<W>,
+    stop: &AtomicBool,
+) -> Result<(), vistaf_pipeline::PipelineError> {
+    while !stop.load(Ordering::Relaxed) && !service.done() {
+        for cmd in edge.commands.try_iter() {
+            tx.send(&service.on_command(cmd));
+        }
+        for event in edge.camera.try_iter() {
+            tx.send_all(service.on_camera(event));
+        }
+        tx.send_all(service.on_tick());
+        let frame = match edge.frames.take(FRAME_WAIT) {
+            Ok(f) => f,
+            Err(RecvTimeoutError::Timeout) => {
+                if edge.capture.is_finished() && edge.frames.is_empty() {
+                    break;
+                }
+                continue;
+            }
+            Err(RecvTimeoutError::Disconnected) => break,
+        };
+        tx.send_all(service.on_frame(frame)?);
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use vistaf_hardware::source::{SourceError, SourceFormat};
+    use vistaf_hardware::PixelFormat;
+
+    #[test]
+    fn the_newest_item_wins_and_evictions_are_told() {
+        let slot = Newest::default();
+        assert!(!slot.put(1));
+        assert!(slot.put(2));
+        assert!(slot.put(3));
+        assert_eq!(slot.take(Duration::ZERO), Ok(3));
+        assert!(slot.is_empty());
+        assert_eq!(slot.take(Duration::ZERO), Err(RecvTimeoutError::Timeout));
+    }
+
+    /// Frames, then the camera gone for a few reads, then frames again.
+    struct Flaky {
+        next: u64,
+        gone: std::ops::Range<u64>,
+        frames: u64,
+    }
+
+    impl FrameSource for Flaky {
+        fn format(&self) -> SourceFormat {
+            SourceFormat {
+                width: 2,
+                height: 1,
+                pixel: PixelFormat::Gray8,
+                interval: None,
+            }
+        }
+        fn name(&self) -> String {
+            "flaky".into()
+        }
+        fn next_frame(&mut self) -> Result<Option<Frame>, SourceError> {
+            self.next += 1;
+            if self.gone.contains(&self.next) {
+                return Err(SourceError::Gone {
+                    device: "/dev/video9".into(),
+                    detail: "unplugged".into(),
+                });
+            }
+            Ok((self.next <= self.frames).then(|| Frame {
+                width: 2,
+                height: 1,
+                format: PixelFormat::Gray8,
+                data: vec![0, 0],
+                timestamp: Duration::ZERO,
+                seq: self.next,
+            }))
+        }
+    }
+
+    #[test]
+    fn a_lost_camera_is_reported_once_and_counted_when_it_returns() {
+        let source = Box::new(Flaky {
+            next: 0,
+            gone: 6..11,
+            frames: 14,
+        });
+        let (frames, edge) = (Newest::default(), Arc::new(EdgeCounters::default()));
+        let (events_tx, events) = bounded(16);
+        let stop = Arc::new(AtomicBool::new(false));
+        let failure = capture(
+            source,
+            frames.clone(),
+            events_tx,
+            edge.clone(),
+            stop,
+            Duration::ZERO,
+        );
+        assert_eq!(failure, None, "the source ended");
+        let seen: Vec<CameraEvent> = events.try_iter().collect();
+        assert_eq!(
+            seen,
+            [
+                CameraEvent::Lost("/dev/video9: device not available: unplugged".into()),
+                CameraEvent::Back
+            ]
+        );
+        assert_eq!(edge.camera_restarts.load(Ordering::Relaxed), 1);
+        assert_eq!(edge.captured.load(Ordering::Relaxed), 9);
+        // Nobody took frames: all but the newest were evicted.
+        assert_eq!(edge.dropped.load(Ordering::Relaxed), 8);
+        assert_eq!(frames.take(Duration::ZERO).map(|f| f.seq), Ok(14));
+    }
+}

@@ -1,0 +1,471 @@
+//! The service's decisions, frame by frame, on a clock the test moves by hand (no test here
+//! sleeps): the reference is taken once the image is stable, summaries follow the rate
+//! limit, a drifting reference is flagged or renewed after a quiet spell, a camera outage
+//! is reported and the state follows it, maps come with the next frame, and bad frames are
+//! counted and skipped.
+#![allow(clippy::unwrap_used)] // tests unwrap: a failure is the test failing
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use vistaf_firmware::service::{
+    CameraEvent, EdgeCounters, ManualClock, ReferencePolicy, Service, Settings,
+};
+use vistaf_hardware::frame::Frame;
+use vistaf_hardware::led::{LedConfig, MemoryLedRing};
+use vistaf_hardware::source::SourceFormat;
+use vistaf_hardware::PixelFormat;
+use vistaf_pipeline::{Calibration, Implementation};
+use vistaf_protocol::{Command, DeviceMsg, ErrorCode, Flag, HostMsg, MapKind, RunState, Summary};
+use vistaf_sim::contact::{Contact, Indenter};
+use vistaf_sim::scene::{center_mm, states, ROOM_C, SPHERE_R_MM};
+use vistaf_sim::{Renderer, SensorUnit, SkinState};
+
+/// Frames per second of the simulated camera.
+const FPS: f64 = 30.0;
+
+fn unit() -> SensorUnit {
+    SensorUnit {
+        width_px: 320,
+        height_px: 240,
+        ..SensorUnit::reference()
+    }
+}
+
+fn settings(reference: ReferencePolicy) -> Settings {
+    Settings {
+        serial: "VSK-TEST".into(),
+        calibration: Calibration::default_sim(),
+        force_calibration: true,
+        pipeline: Implementation::Fixed,
+        frames: None,
+        max_rate_hz: 0,
+        led: LedConfig::default(),
+        reference,
+    }
+}
+
+fn format() -> SourceFormat {
+    let u = unit();
+    SourceFormat {
+        width: u.width_px,
+        height: u.height_px,
+        pixel: PixelFormat::Rgb8,
+        interval: None,
+    }
+}
+
+/// A simulated camera stepping the clock one frame interval per frame.
+struct Camera<'c> {
+    renderer: Renderer,
+    clock: &'c ManualClock,
+    seq: u64,
+}
+
+impl<'c> Camera<'c> {
+    fn new(clock: &'c ManualClock) -> Camera<'c> {
+        Camera {
+            renderer: Renderer::new(unit()),
+            clock,
+            seq: 0,
+        }
+    }
+
+    fn frame(&mut self, s: &SkinState) -> Frame {
+        self.clock.advance(Duration::from_secs_f64(1.0 / FPS));
+        let (img, _) = self.renderer.render(s, 11 + self.seq);
+        self.seq += 1;
+        Frame::from_rgb(
+            img,
+            Duration::from_secs_f64(self.seq as f64 / FPS),
+            self.seq,
+        )
+    }
+}
+
+fn press(depth_mm: f32) -> SkinState {
+    let mut s = SkinState::idle(ROOM_C);
+    s.contacts.push(Contact {
+        indenter: Indenter::Sphere { r_mm: SPHERE_R_MM },
+        center_mm: center_mm(&unit()),
+        depth_mm,
+    });
+    s
+}
+
+fn summaries(msgs: &[DeviceMsg]) -> Vec<Summary> {
+    msgs.iter()
+        .filter_map(|m| match m {
+            DeviceMsg::Summary(s) => Some(*s),
+            _ => None,
+        })
+        .collect()
+}
+
+fn states_of(msgs: &[DeviceMsg]) -> Vec<RunState> {
+    msgs.iter()
+        .filter_map(|m| match m {
+            DeviceMsg::Status(s) => Some(s.state),
+            _ => None,
+        })
+        .collect()
+}
+
+/// Feeds `scene` to the service, one frame each, collecting what it says.
+fn feed<C: vistaf_firmware::service::Clock>(
+    svc: &mut Service<'_, C>,
+    cam: &mut Camera<'_>,
+    scene: &[SkinState],
+) -> Vec<DeviceMsg> {
+    let mut out = Vec::new();
+    for s in scene {
+        out.extend(svc.on_frame(cam.frame(s)).unwrap());
+        out.extend(svc.on_tick());
+    }
+    out
+}
+
+#[test]
+fn the_reference_waits_for_a_stable_image_then_summaries_follow() {
+    let (clock, set, edge) = (
+        ManualClock::new(),
+        settings(Default::default()),
+        Arc::default(),
+    );
+    let mut led = MemoryLedRing::default();
+    let mut svc = Service::new(&set, format(), &mut led, edge, &clock);
+    let hello = svc.start();
+    assert!(matches!(&hello[..], [DeviceMsg::Hello(h)] if h.serial == "VSK-TEST"));
+    let mut cam = Camera::new(&clock);
+    let idle = SkinState::idle(ROOM_C);
+    // The first frame has nothing to compare with; the second is as still as the first.
+    assert!(svc.on_frame(cam.frame(&idle)).unwrap().is_empty());
+    let taken = svc.on_frame(cam.frame(&idle)).unwrap();
+    assert_eq!(states_of(&taken), [RunState::Streaming]);
+    let out = feed(&mut svc, &mut cam, &[idle.clone(), press(1.0)]);
+    let s = summaries(&out);
+    assert_eq!(s.len(), 2);
+    assert_eq!((s[0].seq, s[1].seq), (0, 1));
+    assert_eq!(s[0].force_mn, 0);
+    let depth_mm = s[1].peak_depth_um as f32 / 1000.0;
+    assert!((depth_mm - 1.0).abs() < 0.05, "{depth_mm}");
+    assert_eq!(svc.counters().processed, 2);
+    assert_eq!(svc.counters().references, 1);
+    drop(svc);
+    assert!(led.is_lit(), "the ring is lit at start");
+}
+
+#[test]
+fn a_status_goes_out_once_a_second() {
+    let (clock, set, edge) = (
+        ManualClock::new(),
+        settings(Default::default()),
+        Arc::default(),
+    );
+    let mut led = MemoryLedRing::default();
+    let mut svc = Service::new(&set, format(), &mut led, edge, &clock);
+    svc.start();
+    assert!(svc.on_tick().is_none());
+    clock.advance(Duration::from_millis(999));
+    assert!(svc.on_tick().is_none());
+    clock.advance(Duration::from_millis(1));
+    match svc.on_tick() {
+        Some(DeviceMsg::Status(s)) => {
+            assert_eq!(s.state, RunState::Referencing);
+            assert_eq!(s.uptime_ms, 1000);
+        }
+        other => panic!("{other:?}"),
+    }
+    clock.advance(Duration::from_millis(500));
+    assert!(svc.on_tick().is_none());
+    clock.advance(Duration::from_millis(500));
+    assert!(svc.on_tick().is_some());
+}
+
+#[test]
+fn summaries_follow_the_rate_limit() {
+    let (clock, set, edge) = (
+        ManualClock::new(),
+        settings(Default::default()),
+        Arc::default(),
+    );
+    let mut led = MemoryLedRing::default();
+    let mut svc = Service::new(&set, format(), &mut led, edge, &clock);
+    let mut cam = Camera::new(&clock);
+    let idle = vec![SkinState::idle(ROOM_C); 2];
+    feed(&mut svc, &mut cam, &idle);
+    assert_eq!(
+        svc.on_command(HostMsg::SetRate { max_rate_hz: 10 }),
+        DeviceMsg::Ack(Command::SetRate)
+    );
+    let out = feed(&mut svc, &mut cam, &vec![SkinState::idle(ROOM_C); 30]);
+    // One second of frames at 30 per second, summaries at 10 per second.
+    assert_eq!(svc.counters().processed, 30);
+    let n = summaries(&out).len();
+    assert!((9..=11).contains(&n), "{n} summaries");
+}
+
+/// Idle frames for the reference, then the skin creeps and the light fades.
+fn creeping() -> Vec<SkinState> {
+    let mut s = vec![SkinState::idle(ROOM_C); 4];
+    s.extend(states("creep", &unit(), 40).unwrap());
+    s
+}
+
+#[test]
+fn a_drifting_reference_is_flagged_stale_when_renewing_is_off() {
+    let clock = ManualClock::new();
+    let set = settings(ReferencePolicy {
+        auto_after_s: 0.0,
+        ..Default::default()
+    });
+    let mut led = MemoryLedRing::default();
+    let mut svc = Service::new(&set, format(), &mut led, Arc::default(), &clock);
+    let mut cam = Camera::new(&clock);
+    let out = feed(&mut svc, &mut cam, &creeping());
+    assert_eq!(svc.counters().references, 1);
+    let flags: Vec<bool> = summaries(&out)
+        .iter()
+        .map(|s| s.flags.contains(Flag::StaleReference))
+        .collect();
+    // Early frames are fresh; once the creep passes the limit every frame says so.
+    assert!(!flags[0] && !flags[3], "{flags:?}");
+    let first = flags.iter().position(|f| *f).unwrap();
+    assert!(flags[first..].iter().all(|f| *f), "{flags:?}");
+    assert!(first < flags.len() - 5, "{flags:?}");
+    assert_eq!(svc.counters().stale as usize, flags.len() - first);
+}
+
+#[test]
+fn a_drifting_reference_is_renewed_after_a_quiet_spell() {
+    let clock = ManualClock::new();
+    let set = settings(ReferencePolicy {
+        auto_after_s: 0.5,
+        ..Default::default()
+    });
+    let mut led = MemoryLedRing::default();
+    let mut svc = Service::new(&set, format(), &mut led, Arc::default(), &clock);
+    let mut cam = Camera::new(&clock);
+    let out = feed(&mut svc, &mut cam, &creeping());
+    assert!(svc.counters().references >= 2, "{:?}", svc.counters());
+    let states = states_of(&out);
+    let renewed = states
+        .iter()
+        .position(|s| *s == RunState::Referencing)
+        .unwrap();
+    assert!(
+        states[renewed..].contains(&RunState::Streaming),
+        "a new reference follows: {states:?}"
+    );
+    // The skin had been calm longer than the spell when the drift showed: renewed at
+    // once, no frame before it flagged.
+    let first_renewal = out
+        .iter()
+        .position(|m| matches!(m, DeviceMsg::Status(s) if s.state == RunState::Referencing))
+        .unwrap();
+    assert!(summaries(&out[..first_renewal])
+        .iter()
+        .all(|s| !s.flags.contains(Flag::StaleReference)));
+}
+
+/// A skin warming from room temperature to 37 °C changes the stripes' colours, and with
+/// them the image's brightness: that is the reading, not a drifting reference.
+#[test]
+fn a_warming_skin_is_not_a_drifting_reference() {
+    let clock = ManualClock::new();
+    let set = settings(ReferencePolicy {
+        auto_after_s: 0.0,
+        ..Default::default()
+    });
+    let mut led = MemoryLedRing::default();
+    let mut svc = Service::new(&set, format(), &mut led, Arc::default(), &clock);
+    let mut cam = Camera::new(&clock);
+    let mut scene = vec![SkinState::idle(ROOM_C); 4];
+    scene.extend((0..24).map(|i| SkinState::idle(ROOM_C + 12.0 * i as f32 / 23.0)));
+    let s = summaries(&feed(&mut svc, &mut cam, &scene));
+    let last = s.last().unwrap();
+    assert!(
+        (f32::from(last.temp_mean_centi_c) / 100.0 - (ROOM_C + 12.0)).abs() < 1.0,
+        "the warming is read: {last:?}"
+    );
+    assert!(s.iter().all(|s| !s.flags.contains(Flag::StaleReference)));
+    assert_eq!(svc.counters().stale, 0);
+}
+
+#[test]
+fn a_lost_camera_is_reported_and_the_state_follows() {
+    let (clock, set, edge) = (
+        ManualClock::new(),
+        settings(Default::default()),
+        Arc::default(),
+    );
+    let mut led = MemoryLedRing::default();
+    let mut svc = Service::new(&set, format(), &mut led, edge, &clock);
+    let mut cam = Camera::new(&clock);
+    feed(&mut svc, &mut cam, &vec![SkinState::idle(ROOM_C); 2]);
+    match svc.on_camera(CameraEvent::Lost("/dev/video9: unplugged".into())) {
+        Some(DeviceMsg::Error(e)) => {
+            assert_eq!(e.code, ErrorCode::CameraLost);
+            assert!(e.detail.contains("unplugged"));
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(
+        states_of(&Vec::from_iter(svc.on_tick())),
+        [RunState::CameraLost]
+    );
+    assert_eq!(svc.on_camera(CameraEvent::Back), None);
+    assert_eq!(
+        states_of(&Vec::from_iter(svc.on_tick())),
+        [RunState::Streaming]
+    );
+}
+
+#[test]
+fn maps_come_with_the_next_frame() {
+    let (clock, set, edge) = (
+        ManualClock::new(),
+        settings(Default::default()),
+        Arc::default(),
+    );
+    let mut led = MemoryLedRing::default();
+    let mut svc = Service::new(&set, format(), &mut led, edge, &clock);
+    let mut cam = Camera::new(&clock);
+    feed(&mut svc, &mut cam, &vec![SkinState::idle(ROOM_C); 3]);
+    for kind in [MapKind::Depth, MapKind::Temperature] {
+        assert_eq!(
+            svc.on_command(HostMsg::RequestMap(kind)),
+            DeviceMsg::Ack(Command::RequestMap)
+        );
+    }
+    let out = feed(&mut svc, &mut cam, &[press(1.5)]);
+    let s = summaries(&out);
+    let maps: Vec<_> = out
+        .iter()
+        .filter_map(|m| match m {
+            DeviceMsg::Map(m) => Some(m),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(maps.len(), 2);
+    assert!(maps.iter().all(|m| m.seq == s[0].seq && m.is_consistent()));
+    let deepest = maps[0].cells.iter().copied().max().unwrap();
+    assert!(
+        (f32::from(deepest) / 1000.0 - 1.5).abs() < 0.1,
+        "{deepest} µm"
+    );
+    // Asked once, sent once.
+    assert!(feed(&mut svc, &mut cam, &[press(1.5)])
+        .iter()
+        .all(|m| !matches!(m, DeviceMsg::Map(_))));
+}
+
+#[test]
+fn stop_silences_summaries_until_start() {
+    let (clock, set, edge) = (
+        ManualClock::new(),
+        settings(Default::default()),
+        Arc::default(),
+    );
+    let mut led = MemoryLedRing::default();
+    let mut svc = Service::new(&set, format(), &mut led, edge, &clock);
+    let mut cam = Camera::new(&clock);
+    let idle = vec![SkinState::idle(ROOM_C); 3];
+    assert_eq!(summaries(&feed(&mut svc, &mut cam, &idle)).len(), 1);
+    assert_eq!(svc.on_command(HostMsg::Stop), DeviceMsg::Ack(Command::Stop));
+    assert!(summaries(&feed(&mut svc, &mut cam, &idle)).is_empty());
+    assert_eq!(
+        svc.on_command(HostMsg::Start),
+        DeviceMsg::Ack(Command::Start)
+    );
+    let s = summaries(&feed(&mut svc, &mut cam, &idle));
+    assert_eq!(s.iter().map(|s| s.seq).collect::<Vec<_>>(), [1, 2, 3]);
+    assert_eq!(svc.counters().processed, 7);
+}
+
+#[test]
+fn a_frame_of_the_wrong_size_is_counted_and_skipped() {
+    let (clock, set, edge) = (
+        ManualClock::new(),
+        settings(Default::default()),
+        Arc::default(),
+    );
+    let mut led = MemoryLedRing::default();
+    let mut svc = Service::new(&set, format(), &mut led, edge, &clock);
+    let mut cam = Camera::new(&clock);
+    feed(&mut svc, &mut cam, &vec![SkinState::idle(ROOM_C); 2]);
+    let mut small = cam.frame(&SkinState::idle(ROOM_C));
+    small.width /= 2;
+    small.height /= 2;
+    small.data.truncate(small.data.len() / 4);
+    assert!(svc.on_frame(small).unwrap().is_empty());
+    let mut torn = cam.frame(&SkinState::idle(ROOM_C));
+    torn.data.truncate(100);
+    assert!(svc.on_frame(torn).unwrap().is_empty());
+    assert_eq!(svc.counters().bad, 2);
+    assert_eq!(svc.counters().processed, 0);
+}
+
+#[test]
+fn a_new_reference_is_taken_when_the_host_asks() {
+    let (clock, set, edge) = (
+        ManualClock::new(),
+        settings(Default::default()),
+        Arc::default(),
+    );
+    let mut led = MemoryLedRing::default();
+    let mut svc = Service::new(&set, format(), &mut led, edge, &clock);
+    let mut cam = Camera::new(&clock);
+    let idle = vec![SkinState::idle(ROOM_C); 3];
+    feed(&mut svc, &mut cam, &idle);
+    assert_eq!(
+        svc.on_command(HostMsg::CaptureReference),
+        DeviceMsg::Ack(Command::CaptureReference)
+    );
+    let out = feed(&mut svc, &mut cam, &idle);
+    assert_eq!(states_of(&out), [RunState::Streaming]);
+    assert_eq!(
+        summaries(&out).len(),
+        1,
+        "two frames settle, the third is measured"
+    );
+    assert_eq!(svc.counters().references, 2);
+}
+
+#[test]
+fn the_frame_limit_ends_the_run() {
+    let clock = ManualClock::new();
+    let set = Settings {
+        frames: Some(3),
+        ..settings(Default::default())
+    };
+    let mut led = MemoryLedRing::default();
+    let mut svc = Service::new(&set, format(), &mut led, Arc::default(), &clock);
+    let mut cam = Camera::new(&clock);
+    feed(&mut svc, &mut cam, &vec![SkinState::idle(ROOM_C); 4]);
+    assert!(!svc.done());
+    feed(&mut svc, &mut cam, &[SkinState::idle(ROOM_C)]);
+    assert!(svc.done());
+    match svc.finish() {
+        DeviceMsg::Status(s) => assert_eq!((s.state, s.frames_processed), (RunState::Stopped, 3)),
+        other => panic!("{other:?}"),
+    }
+    drop(svc);
+    assert!(!led.is_lit(), "the ring is off at the end");
+}
+
+#[test]
+fn a_long_serial_is_cut_on_a_character_boundary() {
+    let clock = ManualClock::new();
+    let set = Settings {
+        serial: "Ä".repeat(13),
+        ..settings(Default::default())
+    };
+    let mut led = MemoryLedRing::default();
+    let edge = Arc::new(EdgeCounters::default());
+    let svc = Service::new(&set, format(), &mut led, edge, &clock);
+    match svc.hello() {
+        DeviceMsg::Hello(h) => assert_eq!(h.serial.as_str(), "Ä".repeat(12)),
+        other => panic!("{other:?}"),
+    }
+}

@@ -1,0 +1,162 @@
+//! The simulated skin: synthetic sensor frames with ground truth.
+//!
+//! ```text
+//!  SensorUnit (from a unit seed)      SkinState (contacts, temperature, shift, exposure)
+//!          │                                   │
+//!          └──────────── Renderer ─────────────┘──▶ RgbImage + Truth (depth, T, force)
+//! ```
+//!
+//! * [`unit`]: what differs between manufactured units (period in pixels, tilt, phase
+//!   response, stiffness, optics, noise, pigment batch).
+//! * [`footprint`]: flat shapes on the skin (discs, letters, a hex nut).
+//! * [`contact`]: indenters and the elastic half-space model (Hertz for spheres).
+//! * [`state`]: what the skin shows in one frame (contacts, temperature, optics).
+//! * [`thermal`]: temperature fields (heated contacts with lateral conduction, gradients).
+//! * [`render`]: the image formation model ([`plane`]: blurs on the pixel grid).
+//! * [`scene`]: named scripted scenes.
+//! * [`sets`]: writing scenes and calibration kits as `vistaf-frames/1` sets with truth.
+//!
+//! Deterministic: the same unit seed, scene and noise seed give the same bytes.
+
+pub mod contact;
+pub mod footprint;
+pub mod plane;
+pub mod render;
+pub mod rng;
+pub mod scene;
+pub mod sets;
+pub mod state;
+pub mod thermal;
+pub mod unit;
+
+pub use render::{render, Renderer, Truth};
+pub use state::SkinState;
+pub use unit::SensorUnit;
+
+use std::time::{Duration, Instant};
+
+use vistaf_hardware::frame::{Frame, PixelFormat};
+use vistaf_hardware::source::{FrameSource, SourceError, SourceFormat};
+
+/// A camera that films a scripted simulated skin.
+#[derive(Debug)]
+pub struct SimSource {
+    renderer: Renderer,
+    name: String,
+    states: Vec<SkinState>,
+    next: usize,
+    looping: bool,
+    fps: Option<f32>,
+    seed: u64,
+    started: Option<Instant>,
+    delivered: u64,
+    last_truth: Option<Truth>,
+}
+
+impl SimSource {
+    /// Films `states` with `unit`; `fps` paces delivery (None = as fast as asked).
+    pub fn new(
+        name: &str,
+        unit: SensorUnit,
+        states: Vec<SkinState>,
+        fps: Option<f32>,
+        seed: u64,
+    ) -> SimSource {
+        SimSource {
+            renderer: Renderer::new(unit),
+            name: format!("sim:{name}"),
+            states,
+            next: 0,
+            looping: false,
+            fps,
+            seed,
+            started: None,
+            delivered: 0,
+            last_truth: None,
+        }
+    }
+
+    /// Films the named scene; `None` for an unknown name.
+    pub fn scene(
+        name: &str,
+        unit: SensorUnit,
+        frames: usize,
+        fps: Option<f32>,
+        seed: u64,
+    ) -> Option<SimSource> {
+        let states = scene::states(name, &unit, frames)?;
+        Some(SimSource::new(name, unit, states, fps, seed))
+    }
+
+    /// Starts over after the last state.
+    pub fn looping(mut self, on: bool) -> SimSource {
+        self.looping = on;
+        self
+    }
+
+    /// The no-contact frame of this unit at the scene's base temperature.
+    pub fn reference_frame(&self) -> image::RgbImage {
+        let base = self
+            .states
+            .first()
+            .map_or(scene::ROOM_C, |s| s.temperature.base_c);
+        self.renderer
+            .render(&SkinState::idle(base), self.seed ^ 0xfeed)
+            .0
+    }
+
+    /// Ground truth of the frame last delivered.
+    pub fn last_truth(&self) -> Option<&Truth> {
+        self.last_truth.as_ref()
+    }
+
+    /// The unit being filmed.
+    pub fn unit(&self) -> &SensorUnit {
+        self.renderer.unit()
+    }
+}
+
+impl FrameSource for SimSource {
+    fn format(&self) -> SourceFormat {
+        let u = self.renderer.unit();
+        SourceFormat {
+            width: u.width_px,
+            height: u.height_px,
+            pixel: PixelFormat::Rgb8,
+            interval: self.fps.map(|f| (1000, (f * 1000.0).round() as u32)),
+        }
+    }
+
+    fn name(&self) -> String {
+        self.name.clone()
+    }
+
+    fn next_frame(&mut self) -> Result<Option<Frame>, SourceError> {
+        if self.next >= self.states.len() {
+            if !self.looping || self.states.is_empty() {
+                return Ok(None);
+            }
+            self.next = 0;
+        }
+        let i = self.next;
+        let started = *self.started.get_or_insert_with(Instant::now);
+        let seq = self.delivered;
+        let (img, truth) = self
+            .renderer
+            .render(&self.states[i], self.seed.wrapping_add(seq));
+        let timestamp = match self.fps {
+            Some(fps) => {
+                let due = Duration::from_secs_f64(seq as f64 / f64::from(fps.max(0.1)));
+                if let Some(wait) = due.checked_sub(started.elapsed()) {
+                    std::thread::sleep(wait);
+                }
+                started.elapsed()
+            }
+            None => started.elapsed(),
+        };
+        self.next += 1;
+        self.delivered += 1;
+        self.last_truth = Some(truth);
+        Ok(Some(Frame::from_rgb(img, timestamp, seq)))
+    }
+}
