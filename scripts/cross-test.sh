@@ -14,7 +14,9 @@ export PROPTEST_CASES=${PROPTEST_CASES:-64}
 cargo test --release --target "$target" \
   -p vistaf-protocol --lib --test golden --test corruption --test roundtrip --test sizes
 cargo test --release --target "$target" \
-  -p vistaf-hardware --lib --test frameset --test sources
+  -p vistaf-hardware --lib
 cargo test --release --target "$target" \
-  -p vistaf-firmware --lib --test flags --test paths_agree
+  -p vistaf-sim --lib --test frameset --test sources
+cargo test --release --target "$target" \
+  -p vistaf-pipeline --lib --test flags --test paths_agree
 echo "cross-test: $target passed"

@@ -1,16 +1,15 @@
 #!/usr/bin/env bash
-# Installs the Debian packages the workspace needs to build and test on a fresh machine.
+# Installs the Debian packages the workspace's tests need on a fresh machine (the demo and
+# the host need none: `cargo run --release -p vistaf-demo` builds without them).
 #
-#   libudev-dev   serialport's libudev feature (USB VID/PID/serial of ports)
-#   libclang-dev  v4l → v4l2-sys-mit runs bindgen at build time
-#   pkg-config    finds libudev
-#   socat         optional second pseudo-terminal implementation used by tests
+#   libclang-dev  the V4L2 camera (v4l → v4l2-sys-mit runs bindgen at build time)
+#   socat         a second pseudo-terminal implementation the tests use
 #
-# Safe to run more than once. Needs root (or sudo) for apt-get; a machine that already has
-# every package skips apt entirely.
+# Safe to run more than once. Installs as root, or with sudo when not root; a machine that
+# already has every package skips apt entirely.
 set -euo pipefail
 
-packages=(libudev-dev libclang-dev pkg-config socat)
+packages=(libclang-dev socat)
 
 missing=()
 for p in "${packages[@]}"; do
@@ -24,7 +23,7 @@ fi
 
 SUDO=""
 if [ "$(id -u)" -ne 0 ]; then
-  command -v sudo >/dev/null 2>&1 || { echo "install-deps: need root or sudo to install: ${missing[*]}" >&2; exit 1; }
+  command -v sudo >/dev/null 2>&1 || { echo "install-deps: not root and no sudo: install ${missing[*]} as root, then run this again" >&2; exit 1; }
   SUDO="sudo"
 fi
 

@@ -6,10 +6,10 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
 use vistaf_pipeline::calibration::Calibration;
-use vistaf_pipeline::ftp::fixed::FixedFtp;
+use vistaf_pipeline::ftp::fixed::{FixedFtp, Scratch as FixedScratch};
 use vistaf_pipeline::image_ops::{gray_down_f32, gray_down_q8};
 use vistaf_pipeline::measure::{measure, Context};
-use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation};
+use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Scratch};
 use vistaf_sim::{scene, Renderer, SensorUnit, SkinState};
 
 fn pipeline(c: &mut Criterion) {
@@ -31,10 +31,13 @@ fn pipeline(c: &mut Criterion) {
     let calib = Calibration::default_sim();
     let working = vistaf_pipeline::ftp::carrier::working(&reference, None).unwrap();
     let fixed = FixedFtp::new(&reference, &working, &calib);
+    let mut scratch = FixedScratch::default();
     g.bench_function("Fixed_stage_demodulate_and_phase", |b| {
-        b.iter(|| fixed.phase(black_box(&frame)))
+        b.iter(|| {
+            fixed.phase(black_box(&frame), &mut scratch);
+        })
     });
-    let field = fixed.phase(&frame);
+    let field = fixed.phase(&frame, &mut scratch);
     let ctx = Context {
         calib: &calib,
         mm_per_px: 0.125,
@@ -54,18 +57,19 @@ fn pipeline(c: &mut Criterion) {
             AnalyzerOptions::default(),
         )
         .unwrap();
+        let mut scratch = Scratch::default();
         g.bench_function(format!("{imp:?}_press_1.9mm"), |b| {
-            b.iter(|| a.analyze(black_box(&frame)).unwrap())
+            b.iter(|| a.analyze_with(black_box(&frame), &mut scratch).unwrap())
         });
         g.bench_function(format!("{imp:?}_no_contact"), |b| {
-            b.iter(|| a.analyze(black_box(&idle)).unwrap())
+            b.iter(|| a.analyze_with(black_box(&idle), &mut scratch).unwrap())
         });
         // The temperature stage alone: the same frame without the temperature model.
         let mut bare = Calibration::default_sim();
         bare.temperature = None;
         let a = Analyzer::new(&reference, bare, imp, AnalyzerOptions::default()).unwrap();
         g.bench_function(format!("{imp:?}_press_1.9mm_without_temperature"), |b| {
-            b.iter(|| a.analyze(black_box(&frame)).unwrap())
+            b.iter(|| a.analyze_with(black_box(&frame), &mut scratch).unwrap())
         });
     }
     g.finish();

@@ -16,7 +16,8 @@
 use sha2::{Digest, Sha256};
 use vistaf_hardware::frameset::FrameSet;
 use vistaf_pipeline::calibration::{
-    Calibration, DepthModel, Fitted, ForceFeature, SetRecord, ShapeSignature, UnitGeometry, FORMAT,
+    Calibration, DepthModel, Fitted, ForceFeature, ForceModel, SetRecord, ShapeSignature,
+    UnitGeometry, FORMAT,
 };
 use vistaf_pipeline::ftp::carrier;
 use vistaf_pipeline::image_ops::gray_down_f32;
@@ -286,22 +287,52 @@ pub fn calibrate<O: Observer>(
             return Err(CalibrateError::MixedSizes(s.dir().display().to_string()));
         }
     }
+    let unit = unit_geometry(first)?;
+    let mut run = Run { sets, imp, obs };
+    let sign = phase_sign(&mut run, &unit)?;
+    let mut calib = identity(&unit, sign);
+    calib.depth = depth_model(&mut run, &calib)?;
+    calib.shape = shape_signature(&mut run, &calib)?;
+    calib.force = force_model(&mut run, &calib)?;
+    calib.temperature = temperature_model(&mut run, &calib)?;
+    calib.sets = sets
+        .iter()
+        .map(|s| {
+            Ok(SetRecord {
+                path: s.dir().display().to_string(),
+                sha256: sha_of(s)?,
+                frames: s.len(),
+            })
+        })
+        .collect::<Result<_, CalibrateError>>()?;
+    Ok(calib)
+}
+
+/// The unit geometry (carrier period, orientation, image size) from the first set's
+/// reference.
+fn unit_geometry(first: &FrameSet) -> Result<UnitGeometry, CalibrateError> {
     let reference = first.load_reference()?;
     let (g, gw, gh) = gray_down_f32(&reference, 1);
     let c = carrier::estimate(&g, gw, gh).map_err(|e| CalibrateError::Pipeline {
         set: first.dir().display().to_string(),
         cause: e.into(),
     })?;
-    let unit = UnitGeometry {
+    Ok(UnitGeometry {
         width_px: reference.width(),
         height_px: reference.height(),
         period_px: f64::from(c.period_px()),
         angle_deg: f64::from(c.angle_deg()),
         grating_period_mm: first.manifest.grating_period_mm,
-    };
-    let mut run = Run { sets, imp, obs };
+    })
+}
 
-    let deepest = sets
+/// The phase sign under which the deepest `depth_mm`-labelled frame shows an indentation.
+fn phase_sign<O: Observer>(
+    run: &mut Run<'_, O>,
+    unit: &UnitGeometry,
+) -> Result<f64, CalibrateError> {
+    let deepest = run
+        .sets
         .iter()
         .flat_map(|s| s.manifest.frames.iter().filter_map(|f| f.depth_mm))
         .fold(0.0, f64::max);
@@ -310,24 +341,26 @@ pub fn calibrate<O: Observer>(
             "no frame is labelled with depth_mm > 0: phase → depth needs a depth set".into(),
         ));
     }
-    let peak_under = |run: &mut Run<'_, O>, sign: f64| -> Result<f32, CalibrateError> {
-        let r = run.analyze(&identity(&unit, sign), Label::Depth, "phase sign", &|v| {
+    let mut peak_under = |sign: f64| -> Result<f32, CalibrateError> {
+        let r = run.analyze(&identity(unit, sign), Label::Depth, "phase sign", &|v| {
             v == deepest
         })?;
         Ok(r.iter().map(|(_, d)| d.peak_depth_mm).fold(0.0, f32::max))
     };
-    let sign = if peak_under(&mut run, -1.0)? > peak_under(&mut run, 1.0)? {
+    Ok(if peak_under(-1.0)? > peak_under(1.0)? {
         -1.0
     } else {
         1.0
-    };
+    })
+}
 
-    let depth_frames = run.analyze(
-        &identity(&unit, sign),
-        Label::Depth,
-        "phase → depth",
-        &|_| true,
-    )?;
+/// Phase → depth: every trusted frame labelled `depth_mm > 0`, analysed with the identity
+/// depth model of `calib`, gives its peak phase against its label.
+fn depth_model<O: Observer>(
+    run: &mut Run<'_, O>,
+    calib: &Calibration,
+) -> Result<Fitted<DepthModel>, CalibrateError> {
+    let depth_frames = run.analyze(calib, Label::Depth, "phase → depth", &|_| true)?;
     let samples: Vec<Sample> = depth_frames
         .iter()
         .filter(|(_, d)| d.contact)
@@ -342,19 +375,23 @@ pub fn calibrate<O: Observer>(
             "phase → depth needs trusted frames at three or more depths".into(),
         )
     })?;
-    let mut calib = identity(&unit, sign);
-    calib.depth = Fitted {
+    Ok(Fitted {
         equation: model.equation(),
         model,
         cv_rmse: chosen.cv_rmse,
         in_sample_rmse: chosen.in_sample_rmse,
         n: samples.len(),
         candidates,
-    };
+    })
+}
 
-    // The calibrated indenter's contact area against its measured depth, averaged per
-    // setpoint and made monotone.
-    let shaped = run.analyze(&calib, Label::Depth, "indenter shape", &|_| true)?;
+/// The calibrated indenter's contact area against its measured depth, averaged per
+/// setpoint and made monotone; `None` with fewer than three setpoints.
+fn shape_signature<O: Observer>(
+    run: &mut Run<'_, O>,
+    calib: &Calibration,
+) -> Result<Option<ShapeSignature>, CalibrateError> {
+    let shaped = run.analyze(calib, Label::Depth, "indenter shape", &|_| true)?;
     let shape_samples: Vec<Sample> = shaped
         .iter()
         .filter(|(_, d)| d.contact)
@@ -365,9 +402,16 @@ pub fn calibrate<O: Observer>(
         })
         .collect();
     let (depth_mm, area_mm2) = crate::fit::monotone_knots(&shape_samples);
-    calib.shape = (depth_mm.len() >= 3).then_some(ShapeSignature { depth_mm, area_mm2 });
+    Ok((depth_mm.len() >= 3).then_some(ShapeSignature { depth_mm, area_mm2 }))
+}
 
-    let force_frames = run.analyze(&calib, Label::Force, "deformation → force", &|_| true)?;
+/// Deformation → force: frames labelled `force_n > 0`, analysed with the fitted depth
+/// model; every feature a candidate input. `None` (with a note) with too few levels.
+fn force_model<O: Observer>(
+    run: &mut Run<'_, O>,
+    calib: &Calibration,
+) -> Result<Option<Fitted<ForceModel>>, CalibrateError> {
+    let force_frames = run.analyze(calib, Label::Force, "deformation → force", &|_| true)?;
     let feats: Vec<(ForceFeature, Vec<Sample>)> = ForceFeature::ALL
         .iter()
         .map(|&f| {
@@ -387,7 +431,7 @@ pub fn calibrate<O: Observer>(
             (f, s)
         })
         .collect();
-    calib.force = fit_force(&feats, |_, _| {}).map(|(m, chosen, candidates)| Fitted {
+    let force = fit_force(&feats, |_, _| {}).map(|(m, chosen, candidates)| Fitted {
         equation: m.equation(),
         model: m,
         cv_rmse: chosen.cv_rmse,
@@ -395,21 +439,10 @@ pub fn calibrate<O: Observer>(
         n: force_frames.len(),
         candidates,
     });
-    if calib.force.is_none() {
+    if force.is_none() {
         run.obs.note(
             "too few trusted force levels (need three): no force model, force reads 0".into(),
         );
     }
-    calib.temperature = temperature_model(&mut run, &calib)?;
-    calib.sets = sets
-        .iter()
-        .map(|s| {
-            Ok(SetRecord {
-                path: s.dir().display().to_string(),
-                sha256: sha_of(s)?,
-                frames: s.len(),
-            })
-        })
-        .collect::<Result<_, CalibrateError>>()?;
-    Ok(calib)
+    Ok(force)
 }

@@ -493,19 +493,78 @@ pub enum ThermalFitError {
     Singular(&'static str),
 }
 
+/// The calibration's samples grouped by setpoint.
+struct Setpoints<'a> {
+    samples: &'a [BlockSample],
+    /// The setpoints, sorted, and each sample's index into them.
+    sp: Vec<f64>,
+    idx: Vec<usize>,
+    /// Each sample's setpoint, °C.
+    truth: Vec<f64>,
+}
+
 /// Fits both populations and their fusion.
 pub fn fit_temperature(samples: &[BlockSample]) -> Result<TemperatureModel, ThermalFitError> {
     let (sp, idx) = groups(samples);
     if sp.len() < MIN_SETPOINTS {
         return Err(ThermalFitError::TooFewSetpoints(sp.len()));
     }
-    let truth: Vec<f64> = samples.iter().map(|s| s.t_c).collect();
-    let (span, rate) = coloured_span(samples, &sp, &idx);
+    let set = Setpoints {
+        samples,
+        truth: samples.iter().map(|s| s.t_c).collect(),
+        sp,
+        idx,
+    };
+    let (span, rate) = coloured_span(samples, &set.sp, &set.idx);
+    let (dc, db) = designs(&set, &span);
+    let c = score(&dc, samples, &set.sp, &set.idx).ok_or(ThermalFitError::Singular("coloured"))?;
+    let k = score(&db, samples, &set.sp, &set.idx).ok_or(ThermalFitError::Singular("black"))?;
+    let (lo, hi) = (set.sp[0], set.sp[set.sp.len() - 1]);
+    let (hc, hk) = (c.held_out.clone(), k.held_out.clone());
+    // The coloured stripes' table covers the whole calibration: outside their span their
+    // error is large (their colour no longer moves), and at least what the colour's rate
+    // of change allows (noise over sensitivity, squared): where the colour stops moving, a
+    // model that happens to land near the truth has still not measured it. The black
+    // stripes' reaches 15 °C past the calibration on either side (extrapolated, flagged as
+    // out of range).
+    let sensitivity: Vec<f64> = rate.iter().map(|r| 1.0 / (r * r).max(1e-9)).collect();
+    let coloured = set.population(c, &dc, span_of(&set, &span), [lo, hi], &sensitivity);
+    let black = set.population(
+        k,
+        &db,
+        [lo, hi],
+        [lo - 15.0, hi + 15.0],
+        &vec![0.0; set.sp.len()],
+    );
+    let (errs, held_out) = set.fused_held_out(&db, (&hc, &hk), (&coloured, &black));
+    let in_transition: Vec<f64> = held_out
+        .iter()
+        .filter(|h| (22.0..=32.0).contains(&h.setpoint_c))
+        .map(|h| h.estimate_c - h.setpoint_c)
+        .collect();
+    Ok(TemperatureModel {
+        domain: colour_domain(samples),
+        coloured,
+        black,
+        range_c: [lo, hi],
+        cv_rmse_transition_c: rms(&in_transition),
+        cv_rmse_c: rms(&errs),
+        held_out,
+        n: samples.len(),
+    })
+}
+
+/// The two populations' designs: the coloured stripes fitted over their `span`, the black
+/// stripes fitted everywhere (inside the coloured span their estimate places the reading
+/// on the variance tables) but judged where they are the ones that speak: outside the
+/// coloured stripes' span, when it holds enough setpoints.
+fn designs(set: &Setpoints<'_>, span: &[bool]) -> (Design, Design) {
+    let samples = set.samples;
     let dc = design(
         samples,
         &["a", "b", "Lk"],
         |s| s.v.coloured_features(),
-        span.clone(),
+        span.to_vec(),
     );
     let mut db = design(
         samples,
@@ -513,38 +572,47 @@ pub fn fit_temperature(samples: &[BlockSample]) -> Result<TemperatureModel, Ther
         |s| s.pooled.black_features(),
         vec![true; samples.len()],
     );
-    // The black stripes are fitted everywhere (inside the coloured span their estimate
-    // places the reading on the variance tables) but judged where they are the ones that
-    // speak: outside the coloured stripes' span.
     let outside: Vec<bool> = span.iter().map(|s| !s).collect();
     // Distinct setpoints among them (samples need not come in setpoint order).
-    let outside_setpoints = (0..sp.len())
-        .filter(|&g| idx.iter().zip(&outside).any(|(&i, &o)| o && i == g))
+    let outside_setpoints = (0..set.sp.len())
+        .filter(|&g| set.idx.iter().zip(&outside).any(|(&i, &o)| o && i == g))
         .count();
     if outside_setpoints >= MIN_SETPOINTS {
         db.scored = outside;
     }
-    let c = score(&dc, samples, &sp, &idx).ok_or(ThermalFitError::Singular("coloured"))?;
-    let k = score(&db, samples, &sp, &idx).ok_or(ThermalFitError::Singular("black"))?;
-    let (lo, hi) = (sp[0], sp[sp.len() - 1]);
-    let span_c = {
-        let ts: Vec<f64> = idx
-            .iter()
-            .zip(&span)
-            .filter(|x| *x.1)
-            .map(|x| sp[*x.0])
-            .collect();
-        [
-            ts.iter().copied().fold(f64::INFINITY, f64::min),
-            ts.iter().copied().fold(f64::NEG_INFINITY, f64::max),
-        ]
-    };
-    // Each model's error per setpoint, tabulated over `table` (outside it the estimate
-    // carries no weight): held out, except at the ends of the span the model was fitted
-    // on, where leaving a setpoint out makes the error an extrapolation the fitted model
-    // never does there.
-    let pop = |s: Scored, d: &Design, range: [f64; 2], table: [f64; 2], floor: &[f64]| {
-        let pred: Vec<f64> = samples
+    (dc, db)
+}
+
+/// The setpoints the coloured span covers, °C: lowest and highest.
+fn span_of(set: &Setpoints<'_>, span: &[bool]) -> [f64; 2] {
+    let ts: Vec<f64> = set
+        .idx
+        .iter()
+        .zip(span)
+        .filter(|x| *x.1)
+        .map(|x| set.sp[*x.0])
+        .collect();
+    [
+        ts.iter().copied().fold(f64::INFINITY, f64::min),
+        ts.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+    ]
+}
+
+impl Setpoints<'_> {
+    /// A population's model with its error per setpoint, tabulated over `table` (outside
+    /// it the estimate carries no weight): held out, except at the ends of the span the
+    /// model was fitted on (`range`), where leaving a setpoint out makes the error an
+    /// extrapolation the fitted model never does there.
+    fn population(
+        &self,
+        s: Scored,
+        d: &Design,
+        range: [f64; 2],
+        table: [f64; 2],
+        floor: &[f64],
+    ) -> PopulationModel {
+        let pred: Vec<f64> = self
+            .samples
             .iter()
             .zip(&s.held_out)
             .zip(&d.f)
@@ -558,56 +626,57 @@ pub fn fit_temperature(samples: &[BlockSample]) -> Result<TemperatureModel, Ther
             .collect();
         PopulationModel {
             equation: s.model.equation(),
-            variance: variance_table(&pred, &truth, (&idx, &sp), floor, (table[0], table[1])),
+            variance: variance_table(
+                &pred,
+                &self.truth,
+                (&self.idx, &self.sp),
+                floor,
+                (table[0], table[1]),
+            ),
             model: s.model,
             fit_range_c: range,
             cv_rmse_c: s.cv_rmse,
             in_sample_rmse_c: s.in_sample,
             candidates: s.candidates,
         }
-    };
-    let (hc, hk) = (c.held_out.clone(), k.held_out.clone());
-    // The coloured stripes' table covers the whole calibration: outside their span their
-    // error is large (their colour no longer moves), and at least what the colour's rate
-    // of change allows (noise over sensitivity, squared): where the colour stops moving, a
-    // model that happens to land near the truth has still not measured it. The black
-    // stripes' reaches 15 °C past the calibration on either side (extrapolated, flagged as
-    // out of range).
-    let sensitivity: Vec<f64> = rate.iter().map(|r| 1.0 / (r * r).max(1e-9)).collect();
-    let coloured = pop(c, &dc, span_c, [lo, hi], &sensitivity);
-    let black = pop(
-        k,
-        &db,
-        [lo, hi],
-        [lo - 15.0, hi + 15.0],
-        &vec![0.0; sp.len()],
-    );
-    // Held-out fused estimate per block: both estimates held out, the tables read at the
-    // fitted black model's estimate (a reading reads them at its neighbourhood's median of
-    // that). Read at the held-out black estimate instead, a setpoint inside the coloured
-    // transition, left out of a black calibration curve, would put the tables 40 °C away.
-    let fused: Vec<f64> =
-        db.f.iter()
-            .zip(hc.iter().zip(&hk))
-            .map(|(f, (&a, &b))| {
-                let guess = black.model.eval(f);
-                blend(&coloured.variance, &black.variance, a, b, guess).0
+    }
+
+    /// The held-out fused estimate per block (both estimates held out, `held`), its error
+    /// per setpoint, and the setpoints' estimates. The tables are read at the fitted black
+    /// model's estimate (a reading reads them at its neighbourhood's median of that). Read
+    /// at the held-out black estimate instead, a setpoint inside the coloured transition,
+    /// left out of a black calibration curve, would put the tables 40 °C away.
+    fn fused_held_out(
+        &self,
+        db: &Design,
+        held: (&[f64], &[f64]),
+        (coloured, black): (&PopulationModel, &PopulationModel),
+    ) -> (Vec<f64>, Vec<SetpointError>) {
+        let fused: Vec<f64> =
+            db.f.iter()
+                .zip(held.0.iter().zip(held.1))
+                .map(|(f, (&a, &b))| {
+                    let guess = black.model.eval(f);
+                    blend(&coloured.variance, &black.variance, a, b, guess).0
+                })
+                .collect();
+        let errs = setpoint_errors(&fused, &self.idx, &self.sp, &vec![true; self.samples.len()]);
+        let held_out = self
+            .sp
+            .iter()
+            .zip(&errs)
+            .map(|(&t, e)| SetpointError {
+                setpoint_c: t,
+                estimate_c: t + e,
             })
             .collect();
-    let errs = setpoint_errors(&fused, &idx, &sp, &vec![true; samples.len()]);
-    let held_out: Vec<SetpointError> = sp
-        .iter()
-        .zip(&errs)
-        .map(|(&t, e)| SetpointError {
-            setpoint_c: t,
-            estimate_c: t + e,
-        })
-        .collect();
-    let in_transition: Vec<f64> = held_out
-        .iter()
-        .filter(|h| (22.0..=32.0).contains(&h.setpoint_c))
-        .map(|h| h.estimate_c - h.setpoint_c)
-        .collect();
+        (errs, held_out)
+    }
+}
+
+/// The calibrated colours: each invariant's range over the blocks and their
+/// neighbourhoods, widened by half its span on either side.
+fn colour_domain(samples: &[BlockSample]) -> Domain {
     let widen = |f: &dyn Fn(&Invariants) -> f64| {
         let all = || samples.iter().flat_map(|s| [f(&s.v), f(&s.pooled)]);
         let lo = all().fold(f64::INFINITY, f64::min);
@@ -615,20 +684,11 @@ pub fn fit_temperature(samples: &[BlockSample]) -> Result<TemperatureModel, Ther
         let m = 0.5 * (hi - lo).max(1e-3);
         [lo - m, hi + m]
     };
-    Ok(TemperatureModel {
-        domain: Domain {
-            r: widen(&|v| v.r),
-            g: widen(&|v| v.g),
-            q: widen(&|v| v.q),
-        },
-        coloured,
-        black,
-        range_c: [lo, hi],
-        cv_rmse_transition_c: rms(&in_transition),
-        cv_rmse_c: rms(&errs),
-        held_out,
-        n: samples.len(),
-    })
+    Domain {
+        r: widen(&|v| v.r),
+        g: widen(&|v| v.g),
+        q: widen(&|v| v.q),
+    }
 }
 
 #[cfg(test)]

@@ -33,27 +33,36 @@ pub const SATURATION_ROW_STEP: usize = 4;
 /// Two orders of the same integer sums, chosen by the target: pixels first on AArch64,
 /// rows first elsewhere (see the two functions; measured on AArch64 and x86-64 only).
 pub fn gray_down_q8(img: &RgbImage, f: usize) -> (Vec<u16>, usize, usize, f32) {
-    let gray = match f {
-        0 | 1 => gray_down_with::<1>(img),
-        2 => gray_down_with::<2>(img),
-        3 => gray_down_with::<3>(img),
-        4 => gray_down_with::<4>(img),
-        5 => gray_down_with::<5>(img),
-        6 => gray_down_with::<6>(img),
-        7 => gray_down_with::<7>(img),
-        _ => gray_down_with::<8>(img),
+    let mut gray = Vec::new();
+    let (ow, oh, saturated) = gray_down_q8_into(img, f, &mut gray);
+    (gray, ow, oh, saturated)
+}
+
+/// [`gray_down_q8`] into a buffer the caller keeps from frame to frame (its contents are
+/// replaced); returns the output's width and height and the saturated fraction.
+pub fn gray_down_q8_into(img: &RgbImage, f: usize, out: &mut Vec<u16>) -> (usize, usize, f32) {
+    out.clear();
+    match f {
+        0 | 1 => gray_down_with::<1>(img, out),
+        2 => gray_down_with::<2>(img, out),
+        3 => gray_down_with::<3>(img, out),
+        4 => gray_down_with::<4>(img, out),
+        5 => gray_down_with::<5>(img, out),
+        6 => gray_down_with::<6>(img, out),
+        7 => gray_down_with::<7>(img, out),
+        _ => gray_down_with::<8>(img, out),
     };
     let f = f.clamp(1, 8);
     let (ow, oh) = (img.width() as usize / f, img.height() as usize / f);
-    (gray, ow, oh, saturated_fraction(img))
+    (ow, oh, saturated_fraction(img))
 }
 
-fn gray_down_with<const F: usize>(img: &RgbImage) -> Vec<u16> {
+fn gray_down_with<const F: usize>(img: &RgbImage, out: &mut Vec<u16>) {
     // The two orders give the same integers; each is the cheaper on one kind of core.
     if cfg!(target_arch = "aarch64") {
-        gray_down_pixels_first::<F>(img)
+        gray_down_pixels_first::<F>(img, out)
     } else {
-        gray_down_rows_first::<F>(img)
+        gray_down_rows_first::<F>(img, out)
     }
 }
 
@@ -61,12 +70,12 @@ fn gray_down_with<const F: usize>(img: &RgbImage) -> Vec<u16> {
 /// compiler vectorises on any core), then weighting each block once: three
 /// multiplications per output pixel instead of three per input pixel. The cheaper order
 /// where vectors have no 32-bit multiply (baseline x86-64).
-fn gray_down_rows_first<const F: usize>(img: &RgbImage) -> Vec<u16> {
+fn gray_down_rows_first<const F: usize>(img: &RgbImage, out: &mut Vec<u16>) {
     let (w, h) = (img.width() as usize, img.height() as usize);
     let (ow, oh) = (w / F, h / F);
     let raw: &[u8] = img.as_raw();
     // Every output is written once: no zeroed buffer first.
-    let mut out = Vec::with_capacity(ow * oh);
+    out.reserve(ow * oh);
     let span = ow * F * 3;
     let mut sum = vec![0u16; span];
     let n = (F * F) as u32;
@@ -92,20 +101,19 @@ fn gray_down_rows_first<const F: usize>(img: &RgbImage) -> Vec<u16> {
             ((acc + n / 2) / n) as u16
         }));
     }
-    out
 }
 
 /// [`gray_down_q8`] weighting every input pixel first, in 16 bits (a luminance is at most
 /// 65 280, so 16-bit arithmetic is exact), then summing the block's rows and columns in 32
 /// bits. The pixel loop vectorises where loads de-interleave RGB (AArch64's `ld3`), which
-/// makes this the cheaper order there: 1.3 M instructions fewer per 640×480 frame than
-/// rows first. On x86-64 it is the dearer one, by 0.5 M.
-fn gray_down_pixels_first<const F: usize>(img: &RgbImage) -> Vec<u16> {
+/// makes this the cheaper order there; on x86-64 it is the dearer one (both measured in
+/// `docs/pipeline.md`).
+fn gray_down_pixels_first<const F: usize>(img: &RgbImage, out: &mut Vec<u16>) {
     let (w, h) = (img.width() as usize, img.height() as usize);
     let (ow, oh) = (w / F, h / F);
     let raw: &[u8] = img.as_raw();
     // Every output is written once: no zeroed buffer first.
-    let mut out = Vec::with_capacity(ow * oh);
+    out.reserve(ow * oh);
     let span = ow * F;
     let mut luma = vec![0u16; span];
     let mut sum = vec![0u32; span];
@@ -132,7 +140,6 @@ fn gray_down_pixels_first<const F: usize>(img: &RgbImage) -> Vec<u16> {
                 .map(|block| ((block.iter().sum::<u32>() + n / 2) / n) as u16),
         );
     }
-    out
 }
 
 /// Float luminance (0…255), area-downsampled by `f`: the reference path's twin of
@@ -251,10 +258,13 @@ mod tests {
                 .collect()
         };
         fn both<const F: usize>(img: &RgbImage) -> [Vec<u16>; 2] {
-            [
-                gray_down_rows_first::<F>(img),
-                gray_down_pixels_first::<F>(img),
-            ]
+            // A buffer with stale contents: each order replaces them.
+            let (mut rows, mut pixels) = (vec![7u16; 3], vec![9u16; 5]);
+            rows.clear();
+            pixels.clear();
+            gray_down_rows_first::<F>(img, &mut rows);
+            gray_down_pixels_first::<F>(img, &mut pixels);
+            [rows, pixels]
         }
         let orders = [
             both::<1>(&img),

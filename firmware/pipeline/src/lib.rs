@@ -3,7 +3,8 @@
 //! The per-frame pipeline of a vistaf skin, and nothing else: a reference frame and a
 //! calibration in, an [`Analyzer`] (the plan for that reference) out; then each frame in, a
 //! [`Measurement`] out (depth map, contact, area, volume, centre, force, temperatures,
-//! flags). No I/O beyond reading a calibration file, no clock, no threads.
+//! flags), working in a [`Scratch`] the caller keeps from frame to frame. No I/O beyond
+//! reading a calibration file, no clock, no threads.
 //!
 //! ```text
 //!  fixed_point, image_ops          integer phase arithmetic, luminance and downsampling
@@ -44,4 +45,4 @@ pub mod unwrap;
 
 pub use calibration::Calibration;
 pub use measurement::Measurement;
-pub use plan::{Analyzer, AnalyzerOptions, Implementation, PipelineError};
+pub use plan::{Analyzer, AnalyzerOptions, Implementation, PipelineError, Scratch};

@@ -152,8 +152,22 @@ pub trait FtpPath: std::fmt::Debug + Send + Sync {
     /// The carrier at the working resolution.
     fn carrier(&self) -> Carrier;
     /// The frame's force-side measurement (no temperatures yet) and the wrapped phase
-    /// difference as the measurement read it.
-    fn measure(&self, frame: &RgbImage, ctx: &Context<'_>) -> (Measurement, WrappedPhase);
+    /// difference as the measurement read it, working in `scratch`.
+    fn measure(
+        &self,
+        frame: &RgbImage,
+        ctx: &Context<'_>,
+        scratch: &mut Scratch,
+    ) -> (Measurement, WrappedPhase);
+}
+
+/// What the pipeline keeps from frame to frame: the device path's luminance image,
+/// demodulator buffers and analytic signal. Owned by the caller, one per stream of
+/// frames ([`Analyzer::analyze_with`]), as RustFFT's scratch is: a frame then allocates
+/// none of them. Any plan may use any scratch; a scratch adapts to the plan it meets.
+#[derive(Debug, Clone, Default)]
+pub struct Scratch {
+    fixed: crate::ftp::fixed::Scratch,
 }
 
 impl FtpPath for FloatFtp {
@@ -163,7 +177,12 @@ impl FtpPath for FloatFtp {
     fn carrier(&self) -> Carrier {
         FloatFtp::carrier(self)
     }
-    fn measure(&self, frame: &RgbImage, ctx: &Context<'_>) -> (Measurement, WrappedPhase) {
+    fn measure(
+        &self,
+        frame: &RgbImage,
+        ctx: &Context<'_>,
+        _: &mut Scratch,
+    ) -> (Measurement, WrappedPhase) {
         let map = self.field(frame, &ctx.calib.depth.model);
         measure::measure(&map, self.geometry().2, self.carrier(), ctx)
     }
@@ -176,8 +195,13 @@ impl FtpPath for FixedFtp {
     fn carrier(&self) -> Carrier {
         FixedFtp::carrier(self)
     }
-    fn measure(&self, frame: &RgbImage, ctx: &Context<'_>) -> (Measurement, WrappedPhase) {
-        let field = self.phase(frame);
+    fn measure(
+        &self,
+        frame: &RgbImage,
+        ctx: &Context<'_>,
+        scratch: &mut Scratch,
+    ) -> (Measurement, WrappedPhase) {
+        let field = self.phase(frame, &mut scratch.fixed);
         measure::measure(&field, self.geometry().2, self.carrier(), ctx)
     }
 }
@@ -274,7 +298,7 @@ impl Analyzer {
     /// The frame's force-side result and its colour sums per block (for calibrating
     /// colour → temperature; no model needed).
     pub fn colour_sums(&self, frame: &RgbImage) -> Result<(Measurement, Vec<Sums>), PipelineError> {
-        self.run(frame, |d, wrapped| {
+        self.run(frame, &mut Scratch::default(), |d, wrapped| {
             let (s, _) = self.thermo.sums(
                 frame,
                 |y, r, row| wrapped.frame_row(y, r, row),
@@ -290,10 +314,11 @@ impl Analyzer {
     fn run<R>(
         &self,
         frame: &RgbImage,
+        scratch: &mut Scratch,
         then: impl FnOnce(Measurement, &WrappedPhase) -> R,
     ) -> Result<R, PipelineError> {
         self.check_size(frame)?;
-        let (d, wrapped) = self.path.measure(frame, &self.context());
+        let (d, wrapped) = self.path.measure(frame, &self.context(), scratch);
         Ok(then(d, &wrapped))
     }
 
@@ -323,9 +348,19 @@ impl Analyzer {
         }
     }
 
-    /// Analyses one frame.
+    /// Analyses one frame (with a scratch of its own: a stream of frames is better served
+    /// by [`Analyzer::analyze_with`]).
     pub fn analyze(&self, frame: &RgbImage) -> Result<Measurement, PipelineError> {
-        self.run(frame, |d, wrapped| {
+        self.analyze_with(frame, &mut Scratch::default())
+    }
+
+    /// Analyses one frame, working in the caller's `scratch` (kept from frame to frame).
+    pub fn analyze_with(
+        &self,
+        frame: &RgbImage,
+        scratch: &mut Scratch,
+    ) -> Result<Measurement, PipelineError> {
+        self.run(frame, scratch, |d, wrapped| {
             with_temperature(d, frame, &self.thermo, |y, r, row| {
                 wrapped.frame_row(y, r, row)
             })

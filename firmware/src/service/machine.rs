@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use image::RgbImage;
 use vistaf_hardware::led::{LedConfig, LedRing};
 use vistaf_hardware::source::SourceFormat;
-use vistaf_pipeline::{Analyzer, AnalyzerOptions, PipelineError};
+use vistaf_pipeline::{Analyzer, AnalyzerOptions, PipelineError, Scratch};
 use vistaf_protocol::msg::truncated;
 use vistaf_protocol::{
     schema_hash, Command, DeviceError, DeviceMsg, ErrorCode, FirmwareVersion, Flag, Hello, HostMsg,
@@ -73,6 +73,8 @@ pub struct Service<'a, C: Clock> {
     last_status: Option<Instant>,
     camera_lost: bool,
     seq: u32,
+    /// The pipeline's buffers, kept from frame to frame.
+    scratch: Scratch,
 }
 
 impl<C: Clock> std::fmt::Debug for Service<'_, C> {
@@ -111,6 +113,7 @@ impl<'a, C: Clock> Service<'a, C> {
             last_status: Some(now),
             camera_lost: false,
             seq: 0,
+            scratch: Scratch::default(),
         }
     }
 
@@ -294,7 +297,7 @@ impl<'a, C: Clock> Service<'a, C> {
         };
         let mm_per_px = analyzer.mm_per_px();
         let t0 = self.clock.now();
-        let Ok(mut d) = analyzer.analyze(img) else {
+        let Ok(mut d) = analyzer.analyze_with(img, &mut self.scratch) else {
             self.counters.bad += 1;
             return out;
         };

@@ -65,9 +65,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         calib.temperature = None;
     }
     let a = Analyzer::new(&reference, calib, imp, opts)?;
+    // As the service runs it: one scratch for the stream of frames.
+    let mut scratch = vistaf_pipeline::Scratch::default();
     let mut peak = 0.0;
     for _ in 0..n {
-        peak += a.analyze(&frame)?.peak_depth_mm;
+        peak += a.analyze_with(&frame, &mut scratch)?.peak_depth_mm;
     }
     println!("{imp:?}: {n} frames, mean peak {:.3} mm", peak / n as f32);
     Ok(())

@@ -112,8 +112,8 @@ fn main() -> Result<()> {
         let on = front.contains(&i);
         let _ = writeln!(
             csv,
-            "{},{:.3},{},{:.4},{:.4},{},{},{}",
-            r.config.name,
+            "\"{}\",{:.3},{},{:.4},{:.4},{},{},{}",
+            r.config.name.replace('"', "'"),
             r.ms,
             r.instructions.map_or(String::new(), |v| v.to_string()),
             r.depth_error,

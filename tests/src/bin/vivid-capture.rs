@@ -65,32 +65,19 @@ mod vivid {
         ))
     }
 
-    pub fn main() {
-        let mut r = Report { failed: false };
-        let nodes = list_nodes();
-        r.check(
-            "list",
-            nodes
-                .iter()
-                .any(|n| n.name.contains("vivid") && n.captures_video)
-                .then(|| {
-                    format!(
-                        "{} nodes: {:?}",
-                        nodes.len(),
-                        nodes
-                            .iter()
-                            .map(|n| n.path.display().to_string())
-                            .collect::<Vec<_>>()
-                    )
-                })
-                .ok_or_else(|| format!("no vivid capture node among {nodes:?}")),
-        );
-        let req = |w, h, formats: Vec<PixelFormat>| CaptureRequest {
+    /// A capture request for the checks.
+    fn req(w: u32, h: u32, formats: Vec<PixelFormat>) -> CaptureRequest {
+        CaptureRequest {
             width: w,
             height: h,
             fps: 30,
             formats,
-        };
+        }
+    }
+
+    pub fn main() {
+        let mut r = Report { failed: false };
+        r.check("list", list());
         let path = Selector::Path("/dev/video0".into());
         for (w, h) in [(320, 240), (640, 480)] {
             let name = format!("yuyv-{w}x{h}");
@@ -103,99 +90,120 @@ mod vivid {
                 Err(e) => r.check(&name, Err(e.to_string())),
             }
         }
-        match Camera::open(
+        r.check("by-name-mjpeg-preferred", by_name_mjpeg_preferred());
+        r.check("pipeline", pipeline(&path));
+        r.check("unbind-rebind", rebind());
+        println!("VIVID-RESULT {}", if r.failed { "FAIL" } else { "PASS" });
+    }
+
+    /// The node listing names vivid's capture node.
+    fn list() -> Result<String, String> {
+        let nodes = list_nodes();
+        nodes
+            .iter()
+            .any(|n| n.name.contains("vivid") && n.captures_video)
+            .then(|| {
+                format!(
+                    "{} nodes: {:?}",
+                    nodes.len(),
+                    nodes
+                        .iter()
+                        .map(|n| n.path.display().to_string())
+                        .collect::<Vec<_>>()
+                )
+            })
+            .ok_or_else(|| format!("no vivid capture node among {nodes:?}"))
+    }
+
+    /// Opened by driver name, MJPEG asked for first: says what it chose.
+    fn by_name_mjpeg_preferred() -> Result<String, String> {
+        let cam = Camera::open(
             &Selector::Name("vivid".into()),
             &req(640, 480, vec![PixelFormat::Mjpeg, PixelFormat::Yuyv]),
+        )
+        .map_err(|e| e.to_string())?;
+        let f = cam.format();
+        Ok(format!(
+            "opened {}, negotiated {:?} {}×{} (MJPEG offered: {})",
+            cam.name(),
+            f.pixel,
+            f.width,
+            f.height,
+            f.pixel == PixelFormat::Mjpeg
+        ))
+    }
+
+    /// The pipeline on vivid's pattern, which has no grating: a clear refusal or a
+    /// low-contrast flag on every frame.
+    fn pipeline(path: &Selector) -> Result<String, String> {
+        let mut cam = Camera::open(path, &req(640, 480, vec![PixelFormat::Yuyv]))
+            .map_err(|e| e.to_string())?;
+        let mut frame = || -> Result<image::RgbImage, String> {
+            cam.next_frame()
+                .map_err(|e| e.to_string())?
+                .ok_or("stream ended")?
+                .into_rgb()
+                .map_err(|e| e.to_string())
+        };
+        let reference = frame()?;
+        let opts = AnalyzerOptions {
+            force_calibration: true,
+            ..Default::default()
+        };
+        match Analyzer::new(
+            &reference,
+            Calibration::default_sim(),
+            Implementation::Fixed,
+            opts,
         ) {
-            Ok(cam) => {
-                let f = cam.format();
-                r.check(
-                    "by-name-mjpeg-preferred",
-                    Ok(format!(
-                        "opened {}, negotiated {:?} {}×{} (MJPEG offered: {})",
-                        cam.name(),
-                        f.pixel,
-                        f.width,
-                        f.height,
-                        f.pixel == PixelFormat::Mjpeg
-                    )),
-                );
+            Err(e) => Ok(format!("refused with a clear error: {e}")),
+            Ok(a) => {
+                let mut flagged = 0;
+                for _ in 0..5 {
+                    let d = a.analyze(&frame()?).map_err(|e| e.to_string())?;
+                    flagged += usize::from(d.flags.contains(Flag::LowContrast));
+                }
+                if flagged == 5 {
+                    Ok("5 of 5 frames flagged low_contrast".into())
+                } else {
+                    Err(format!("only {flagged} of 5 frames flagged low_contrast"))
+                }
             }
-            Err(e) => r.check("by-name-mjpeg-preferred", Err(e.to_string())),
         }
-        // The pipeline on vivid's pattern: no grating.
-        let pipeline = (|| -> Result<String, String> {
-            let mut cam = Camera::open(&path, &req(640, 480, vec![PixelFormat::Yuyv]))
-                .map_err(|e| e.to_string())?;
-            let mut frame = || -> Result<image::RgbImage, String> {
-                cam.next_frame()
-                    .map_err(|e| e.to_string())?
-                    .ok_or("stream ended")?
-                    .into_rgb()
-                    .map_err(|e| e.to_string())
-            };
-            let reference = frame()?;
-            match Analyzer::new(
-                &reference,
-                Calibration::default_sim(),
-                Implementation::Fixed,
-                AnalyzerOptions {
-                    force_calibration: true,
-                    ..Default::default()
-                },
-            ) {
-                Err(e) => Ok(format!("refused with a clear error: {e}")),
-                Ok(a) => {
-                    let mut flagged = 0;
-                    for _ in 0..5 {
-                        let d = a.analyze(&frame()?).map_err(|e| e.to_string())?;
-                        flagged += usize::from(d.flags.contains(Flag::LowContrast));
-                    }
-                    if flagged == 5 {
-                        Ok("5 of 5 frames flagged low_contrast".into())
-                    } else {
-                        Err(format!("only {flagged} of 5 frames flagged low_contrast"))
-                    }
-                }
+    }
+
+    /// Unbinds and rebinds the driver under a running, reconnecting source.
+    fn rebind() -> Result<String, String> {
+        let open = || {
+            Camera::open(
+                &Selector::Name("vivid".into()),
+                &req(320, 240, vec![PixelFormat::Yuyv]),
+            )
+        };
+        let mut src = Reconnect::new(open).map_err(|e| e.to_string())?;
+        src.min_backoff = Duration::from_millis(50);
+        src.max_backoff = Duration::from_millis(400);
+        for _ in 0..3 {
+            src.next_frame().map_err(|e| e.to_string())?;
+        }
+        let drv = "/sys/bus/platform/drivers/vivid";
+        std::fs::write(format!("{drv}/unbind"), "vivid.0").map_err(|e| format!("unbind: {e}"))?;
+        let lost = match src.next_frame() {
+            Err(e) if e.is_transient() => e.to_string(),
+            other => return Err(format!("no error while unbound: {other:?}")),
+        };
+        std::fs::write(format!("{drv}/bind"), "vivid.0").map_err(|e| format!("bind: {e}"))?;
+        let deadline = Instant::now() + Duration::from_secs(20);
+        loop {
+            match src.next_frame() {
+                Ok(Some(_)) => break,
+                _ if Instant::now() > deadline => return Err("no frame after rebinding".into()),
+                _ => {}
             }
-        })();
-        r.check("pipeline", pipeline);
-        // Unbind and rebind the driver under a running, reconnecting source.
-        let rebind = (|| -> Result<String, String> {
-            let open = || {
-                Camera::open(
-                    &Selector::Name("vivid".into()),
-                    &req(320, 240, vec![PixelFormat::Yuyv]),
-                )
-            };
-            let mut src = Reconnect::new(open).map_err(|e| e.to_string())?;
-            src.min_backoff = Duration::from_millis(50);
-            src.max_backoff = Duration::from_millis(400);
-            for _ in 0..3 {
-                src.next_frame().map_err(|e| e.to_string())?;
-            }
-            let drv = "/sys/bus/platform/drivers/vivid";
-            std::fs::write(format!("{drv}/unbind"), "vivid.0")
-                .map_err(|e| format!("unbind: {e}"))?;
-            let lost = match src.next_frame() {
-                Err(e) if e.is_transient() => e.to_string(),
-                other => return Err(format!("no error while unbound: {other:?}")),
-            };
-            std::fs::write(format!("{drv}/bind"), "vivid.0").map_err(|e| format!("bind: {e}"))?;
-            let deadline = Instant::now() + Duration::from_secs(20);
-            loop {
-                match src.next_frame() {
-                    Ok(Some(_)) => break,
-                    _ if Instant::now() > deadline => return Err("no frame after rebinding".into()),
-                    _ => {}
-                }
-            }
-            Ok(format!(
-                "while unbound: \"{lost}\"; resumed after {} reopen(s)",
-                src.reopened
-            ))
-        })();
-        r.check("unbind-rebind", rebind);
-        println!("VIVID-RESULT {}", if r.failed { "FAIL" } else { "PASS" });
+        }
+        Ok(format!(
+            "while unbound: \"{lost}\"; resumed after {} reopen(s)",
+            src.reopened
+        ))
     }
 }

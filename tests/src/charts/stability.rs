@@ -149,80 +149,106 @@ fn depth_point(b: &Bench, x: f32, s: &SkinState, seed: u64) -> Point {
                 / depth_tolerance_mm(truth.peak_depth_mm),
             flagged: shape_flagged(&d),
         },
-        None => Point {
-            x,
-            error: f32::INFINITY,
-            flagged: true,
-        },
+        None => refused(x),
     }
 }
 
 /// Frames per axis value.
 pub const SEEDS: u64 = 3;
 
-/// Every sweep; `progress(done, total)` after each axis value.
-pub fn sweeps(mut progress: impl FnMut(usize, usize)) -> Vec<Sweep> {
-    let mut out = Vec::new();
-    let Some(b) = Bench::new(small_unit()) else {
-        return out;
-    };
-    let axes = 8;
-    let mut done = 0;
-    let mut step = |out: &mut Vec<Sweep>, s: Sweep| {
-        done += 1;
-        progress(done, axes);
-        out.push(s);
-    };
-    let seeds = |k: usize| (0..SEEDS).map(move |i| 1000 * k as u64 + i);
+/// The seeds of axis value `k`: [`SEEDS`] of them, disjoint across values.
+fn seeds(k: usize) -> impl Iterator<Item = u64> {
+    (0..SEEDS).map(move |i| 1000 * k as u64 + i)
+}
 
-    // 1. Indentation depth, past the carrier band.
+/// A frame that could not be analysed at all: an error, not a number.
+fn refused(x: f32) -> Point {
+    Point {
+        x,
+        error: f32::INFINITY,
+        flagged: true,
+    }
+}
+
+/// Every sweep; `progress(done, total)` after each axis.
+pub fn sweeps(mut progress: impl FnMut(usize, usize)) -> Vec<Sweep> {
+    let Some(b) = Bench::new(small_unit()) else {
+        return Vec::new();
+    };
+    let axes: [&dyn Fn() -> Vec<Sweep>; 6] = [
+        &|| vec![depth_sweep(&b)],
+        &|| vec![steepness_sweep(&b)],
+        &|| optics_sweeps(&b),
+        &|| vec![misregistration_sweep(&b)],
+        &|| vec![temperature_sweep(&b)],
+        &|| vec![period_sweep()],
+    ];
+    let total = 8;
+    let mut out = Vec::new();
+    for axis in axes {
+        for s in axis() {
+            out.push(s);
+            progress(out.len(), total);
+        }
+    }
+    out
+}
+
+/// Indentation depth, past the carrier band.
+fn depth_sweep(b: &Bench) -> Sweep {
     let depths = [
         0.1f32, 0.3, 0.6, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0,
     ];
     let mut pts = Vec::new();
     for (k, &d) in depths.iter().enumerate() {
         for seed in seeds(k) {
-            pts.push(depth_point(&b, d, &press(&b.unit, SPHERE_R_MM, d), seed));
+            pts.push(depth_point(b, d, &press(&b.unit, SPHERE_R_MM, d), seed));
         }
     }
-    step(
-        &mut out,
-        Sweep {
-            name: "depth",
-            envelope: (0.1, 2.5),
-            axis: "indentation depth, 10 mm sphere (mm)",
-            error: "peak depth error / (3 % + 0.02 mm)",
-            points: pts,
-        },
-    );
+    Sweep {
+        name: "depth",
+        envelope: (0.1, 2.5),
+        axis: "indentation depth, 10 mm sphere (mm)",
+        error: "peak depth error / (3 % + 0.02 mm)",
+        points: pts,
+    }
+}
 
-    // 2. Steepness: sharper spheres at 1 mm.
+/// Steepness: sharper spheres at 1 mm.
+fn steepness_sweep(b: &Bench) -> Sweep {
     let radii = [10.0f32, 6.0, 4.0, 3.0, 2.0, 1.5, 1.0, 0.7, 0.5];
     let mut pts = Vec::new();
     for (k, &r) in radii.iter().enumerate() {
         for seed in seeds(k + 20) {
-            pts.push(depth_point(&b, 1.0 / r, &press(&b.unit, r, 1.0), seed));
+            pts.push(depth_point(b, 1.0 / r, &press(&b.unit, r, 1.0), seed));
         }
     }
-    step(
-        &mut out,
-        Sweep {
-            name: "steepness",
-            envelope: (0.0, 0.2),
-            axis: "curvature of a sphere pressed 1 mm (1/radius, 1/mm)",
-            error: "peak depth error / (3 % + 0.02 mm)",
-            points: pts,
-        },
-    );
+    Sweep {
+        name: "steepness",
+        envelope: (0.0, 0.2),
+        axis: "curvature of a sphere pressed 1 mm (1/radius, 1/mm)",
+        error: "peak depth error / (3 % + 0.02 mm)",
+        points: pts,
+    }
+}
 
-    // 3. Sensor noise, 4. fringe contrast, 6. over-exposure: a 1 mm press.
-    for (k, (name, axis, envelope, values, set)) in [
+/// Sensor noise, fringe contrast and over-exposure: a 1 mm press each.
+fn optics_sweeps(b: &Bench) -> Vec<Sweep> {
+    /// Name, axis label, envelope, values, and how a value sets the frame's optics.
+    type Axis = (
+        &'static str,
+        &'static str,
+        (f32, f32),
+        Vec<f32>,
+        fn(&mut SkinState, f32),
+    );
+    let axes: [Axis; 3] = [
         (
             "noise",
             "sensor noise (× the unit's)",
-            (1.0f32, 8.0f32),
-            vec![1.0f32, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0, 16.0],
-            (|s: &mut SkinState, v: f32| s.noise_scale = v) as fn(&mut SkinState, f32),
+            (1.0, 8.0),
+            vec![1.0, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0, 16.0],
+            |s, v| s.noise_scale = v,
         ),
         (
             "contrast",
@@ -238,31 +264,30 @@ pub fn sweeps(mut progress: impl FnMut(usize, usize)) -> Vec<Sweep> {
             vec![1.0, 1.2, 1.4, 1.6, 1.8, 2.0, 2.5, 3.0],
             |s, v| s.exposure_scale = v,
         ),
-    ]
-    .into_iter()
-    .enumerate()
-    {
+    ];
+    let mut out = Vec::new();
+    for (k, (name, axis, envelope, values, set)) in axes.into_iter().enumerate() {
         let mut pts = Vec::new();
         for (j, &v) in values.iter().enumerate() {
             for seed in seeds(100 * (k + 3) + j) {
                 let mut s = press(&b.unit, SPHERE_R_MM, 1.0);
                 set(&mut s, v);
-                pts.push(depth_point(&b, v, &s, seed));
+                pts.push(depth_point(b, v, &s, seed));
             }
         }
-        step(
-            &mut out,
-            Sweep {
-                name,
-                envelope,
-                axis,
-                error: "peak depth error / (3 % + 0.02 mm)",
-                points: pts,
-            },
-        );
+        out.push(Sweep {
+            name,
+            envelope,
+            axis,
+            error: "peak depth error / (3 % + 0.02 mm)",
+            points: pts,
+        });
     }
+    out
+}
 
-    // 5. Misregistration: the skin shifted against the camera, no contact.
+/// Misregistration: the skin shifted against the camera, no contact.
+fn misregistration_sweep(b: &Bench) -> Sweep {
     let shifts = [0.0f32, 0.5, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0];
     let mut pts = Vec::new();
     for (k, &sh) in shifts.iter().enumerate() {
@@ -276,26 +301,21 @@ pub fn sweeps(mut progress: impl FnMut(usize, usize)) -> Vec<Sweep> {
                     error: (d.peak_depth_mm / 0.02).max(d.force_n / 0.05),
                     flagged: shape_flagged(&d),
                 },
-                None => Point {
-                    x: sh,
-                    error: f32::INFINITY,
-                    flagged: true,
-                },
+                None => refused(sh),
             });
         }
     }
-    step(
-        &mut out,
-        Sweep {
-            name: "misregistration",
-            envelope: (0.0, 6.4),
-            axis: "skin shift against the camera, no contact (px; period 16 px)",
-            error: "max(depth / 0.02 mm, force / 0.05 N)",
-            points: pts,
-        },
-    );
+    Sweep {
+        name: "misregistration",
+        envelope: (0.0, 6.4),
+        axis: "skin shift against the camera, no contact (px; period 16 px)",
+        error: "max(depth / 0.02 mm, force / 0.05 N)",
+        points: pts,
+    }
+}
 
-    // 7. Temperature beyond the calibrated range (15–47.5 °C).
+/// Temperature beyond the calibrated range (15–47.5 °C).
+fn temperature_sweep(b: &Bench) -> Sweep {
     let temps = [
         5.0f32, 10.0, 13.0, 15.0, 20.0, 27.0, 35.0, 45.0, 50.0, 55.0, 60.0, 65.0,
     ];
@@ -303,38 +323,31 @@ pub fn sweeps(mut progress: impl FnMut(usize, usize)) -> Vec<Sweep> {
     for (k, &t) in temps.iter().enumerate() {
         for seed in seeds(800 + k) {
             let (d, _) = b.run(&SkinState::idle(t), seed);
-            pts.push(
-                match d
-                    .as_ref()
-                    .and_then(|d| d.temperature.as_ref().map(|x| (d, x)))
-                {
-                    Some((d, temp)) => Point {
-                        x: t,
-                        error: (temp.mean_c - t).abs() / temperature_tolerance_c(t),
-                        flagged: d.flags.contains(Flag::TemperatureOutOfRange),
-                    },
-                    None => Point {
-                        x: t,
-                        error: f32::INFINITY,
-                        flagged: true,
-                    },
+            let read = d
+                .as_ref()
+                .and_then(|d| d.temperature.as_ref().map(|x| (d, x)));
+            pts.push(match read {
+                Some((d, temp)) => Point {
+                    x: t,
+                    error: (temp.mean_c - t).abs() / temperature_tolerance_c(t),
+                    flagged: d.flags.contains(Flag::TemperatureOutOfRange),
                 },
-            );
+                None => refused(t),
+            });
         }
     }
-    step(
-        &mut out,
-        Sweep {
-            name: "temperature",
-            envelope: (15.0, 47.5),
-            axis: "uniform skin temperature (°C; calibrated 15–47.5)",
-            error: "mean temperature error / tolerance (0.3 °C in 22–32, else 1 °C)",
-            points: pts,
-        },
-    );
+    Sweep {
+        name: "temperature",
+        envelope: (15.0, 47.5),
+        axis: "uniform skin temperature (°C; calibrated 15–47.5)",
+        error: "mean temperature error / tolerance (0.3 °C in 22–32, else 1 °C)",
+        points: pts,
+    }
+}
 
-    // 8. Grating period down to Nyquist: units of ever finer stripes, each with its own
-    // reference and the shipped calibration forced onto it.
+/// Grating period down to Nyquist: units of ever finer stripes, each with its own
+/// reference and the shipped calibration forced onto it.
+fn period_sweep() -> Sweep {
     let periods = [16.0f32, 12.0, 9.0, 7.0, 6.0, 5.0, 4.0, 3.0, 2.5];
     let mut pts = Vec::new();
     for (k, &p) in periods.iter().enumerate() {
@@ -346,24 +359,15 @@ pub fn sweeps(mut progress: impl FnMut(usize, usize)) -> Vec<Sweep> {
         for seed in seeds(900 + k) {
             pts.push(match &bench {
                 Some(bb) => depth_point(bb, p, &press(&bb.unit, SPHERE_R_MM, 1.0), seed),
-                // Refused (no usable grating): an error, not a number.
-                None => Point {
-                    x: p,
-                    error: f32::INFINITY,
-                    flagged: true,
-                },
+                None => refused(p),
             });
         }
     }
-    step(
-        &mut out,
-        Sweep {
-            name: "period",
-            envelope: (5.0, 30.0),
-            axis: "grating period in the image (px)",
-            error: "peak depth error / (3 % + 0.02 mm), 1 mm press",
-            points: pts,
-        },
-    );
-    out
+    Sweep {
+        name: "period",
+        envelope: (5.0, 30.0),
+        axis: "grating period in the image (px)",
+        error: "peak depth error / (3 % + 0.02 mm), 1 mm press",
+        points: pts,
+    }
 }

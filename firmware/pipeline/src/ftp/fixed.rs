@@ -34,7 +34,7 @@ use super::band::box_lengths;
 use super::carrier::{self, Carrier};
 use crate::calibration::Calibration;
 use crate::fixed_point::{atan2_units, atan_table, UNITS_PER_RAD};
-use crate::image_ops::gray_down_q8;
+use crate::image_ops::{gray_down_q8, gray_down_q8_into};
 use crate::phase::{PhaseMap, GRID};
 
 /// `arg(z · conj z_ref)` in phase units, `z` and `z_ref` as (re, im): the product in 64
@@ -56,8 +56,8 @@ struct Sampled {
 /// Mixes a `w × h` Q8 luminance image down by the carrier (`mix`: Q15 cos, sin per pixel,
 /// shifted down by `sh` bits after the product) and low-passes it with the centred triangle
 /// of length `2·l − 1` each way (`lx` along rows, `ly` along columns; a length of 1 is the
-/// identity), returning every `step`-th sample each way (row-major, `w.div_ceil(step)`
-/// across).
+/// identity), writing every `step`-th sample each way into `out` (row-major,
+/// `w.div_ceil(step)` across) and working in `buf`.
 ///
 /// The triangles are cascaded-integrator-comb filters, streamed one input row at a time:
 /// per column two running integrators, `I₂` of the last `2·ly + 1` rows kept in a ring, and
@@ -73,32 +73,32 @@ struct Sampled {
 fn demodulate(
     gray: &[u16],
     (w, h): (usize, usize),
-    mix: &Mix,
-    sh: u32,
+    (mix, sh): (&Mix, u32),
     (lx, ly): (usize, usize),
     step: usize,
-) -> Sampled {
+    buf: &mut Demod,
+    out: &mut Sampled,
+) {
     let step = step.max(1);
     let (ow, oh) = (w.div_ceil(step), h.div_ceil(step));
-    let mut out = Sampled {
-        re: Vec::with_capacity(ow * oh),
-        im: Vec::with_capacity(ow * oh),
-    };
+    out.re.clear();
+    out.im.clear();
+    out.re.reserve(ow * oh);
+    out.im.reserve(ow * oh);
     let ring_n = 2 * ly + 1;
-    // Per plane (re, im): the columns' I₁ and I₂, and I₂ of the last rows.
-    let mut i1 = [vec![0i32; w], vec![0i32; w]];
-    let mut i2 = [vec![0i32; w], vec![0i32; w]];
-    let mut ring = [vec![0i32; ring_n * w], vec![0i32; ring_n * w]];
-    // The column combs of the sampled rows, two rows at a time (their re and im: the four
-    // lanes of the row pass).
-    let mut cols = [
-        [vec![0i32; w], vec![0i32; w]],
-        [vec![0i32; w], vec![0i32; w]],
-    ];
+    buf.prepare(w, ring_n, lx);
+    // Per plane (re, im): the columns' I₁ and I₂, and I₂ of the last rows; the column
+    // combs of the sampled rows, two rows at a time (their re and im: the four lanes of
+    // the row pass).
+    let Demod {
+        i1,
+        i2,
+        ring,
+        cols,
+        work,
+        comb,
+    } = buf;
     let mut pending = 0;
-    // work[j] = the rows' I₂ at sample j − (lx + 1), four lanes; zero for j ≤ lx.
-    let mut work = vec![[0i32; 4]; w + 2 * lx];
-    let mut comb = Vec::with_capacity(ow);
     for k in 0..h + ly - 1 {
         let slot = (k % ring_n) * w;
         for p in 0..2 {
@@ -158,14 +158,62 @@ fn demodulate(
         }
         pending += 1;
         if pending == 2 {
-            along_rows(&cols, 2, &mut work, &mut comb, (lx, step), &mut out);
+            along_rows(cols, 2, work, comb, (lx, step), out);
             pending = 0;
         }
     }
     if pending == 1 {
-        along_rows(&cols, 1, &mut work, &mut comb, (lx, step), &mut out);
+        along_rows(cols, 1, work, comb, (lx, step), out);
     }
-    out
+}
+
+/// The demodulator's working buffers, kept from frame to frame in a [`Scratch`].
+#[derive(Debug, Clone, Default)]
+struct Demod {
+    /// Per plane (re, im): the columns' integrators I₁ and I₂.
+    i1: [Vec<i32>; 2],
+    i2: [Vec<i32>; 2],
+    /// Per plane: I₂ of the last `2·ly + 1` rows.
+    ring: [Vec<i32>; 2],
+    /// The column combs of two sampled rows, per plane.
+    cols: [[Vec<i32>; 2]; 2],
+    /// `work[j]` = the rows' I₂ at sample j − (lx + 1), four lanes; zero for j ≤ lx.
+    work: Vec<[i32; 4]>,
+    /// The row combs at the sampled columns.
+    comb: Vec<[i32; 4]>,
+}
+
+impl Demod {
+    /// Sized for rows of `w` samples, a ring of `ring_n` rows and a row filter of length
+    /// `lx`: the integrators and the row pass's lead-in zeroed; the ring and the combs are
+    /// written before they are read.
+    fn prepare(&mut self, w: usize, ring_n: usize, lx: usize) {
+        let zeroed = |v: &mut Vec<i32>, n: usize| {
+            v.clear();
+            v.resize(n, 0);
+        };
+        for p in 0..2 {
+            zeroed(&mut self.i1[p], w);
+            zeroed(&mut self.i2[p], w);
+            self.ring[p].resize(ring_n * w, 0);
+            for row in &mut self.cols {
+                row[p].resize(w, 0);
+            }
+        }
+        self.work.resize(w + 2 * lx, [0; 4]);
+        self.work[..=lx].fill([0; 4]);
+        self.comb.clear();
+    }
+}
+
+/// What the device path keeps from frame to frame: the luminance image, the demodulator's
+/// buffers and the frame's analytic signal. One per stream of frames, owned by the caller
+/// (as RustFFT's scratch is), so a frame allocates none of them.
+#[derive(Debug, Clone, Default)]
+pub struct Scratch {
+    gray: Vec<u16>,
+    demod: Demod,
+    frame: Sampled,
 }
 
 /// The triangle along the rows of the first `rows` (1 or 2) column-comb rows in `cols`,
@@ -383,28 +431,46 @@ impl FixedFtp {
     /// The analytic signal of a Q8 luminance image every `step` working pixels each way, in
     /// luminance Q8 units times the filters' gain over `2^shift`.
     fn analytic(&self, gray: &[u16], step: usize) -> Sampled {
+        let mut out = Sampled::default();
+        self.analytic_into(gray, step, &mut Demod::default(), &mut out);
+        out
+    }
+
+    /// [`FixedFtp::analytic`] into `out`, with the demodulator's buffers in `buf`.
+    fn analytic_into(&self, gray: &[u16], step: usize, buf: &mut Demod, out: &mut Sampled) {
         demodulate(
             gray,
             (self.w, self.h),
-            &self.mix,
-            15 + self.shift,
+            (&self.mix, 15 + self.shift),
             (self.lx, self.ly),
             step,
-        )
+            buf,
+            out,
+        );
     }
 
     /// The frame's analytic signal on the coarse grid ([`GRID`]): the only samples the
-    /// measurement reads (it upsamples the contact window's phase from them).
-    pub fn phase(&self, frame: &RgbImage) -> FixedField<'_> {
-        let (gray, w, h, saturated) = gray_down_q8(frame, self.factor);
+    /// measurement reads (it upsamples the contact window's phase from them), computed in
+    /// the caller's `scratch`.
+    ///
+    /// # Panics
+    /// If `frame` is not the reference's size (checked by the caller, [`crate::Analyzer`]).
+    pub fn phase<'a>(&'a self, frame: &RgbImage, scratch: &'a mut Scratch) -> FixedField<'a> {
+        let Scratch {
+            gray,
+            demod,
+            frame: sampled,
+        } = scratch;
+        let (w, h, saturated) = gray_down_q8_into(frame, self.factor, gray);
         assert_eq!(
             (w, h),
             (self.w, self.h),
             "frame size differs from the reference"
         );
+        self.analytic_into(gray, GRID, demod, sampled);
         FixedField {
             ftp: self,
-            frame: self.analytic(&gray, GRID),
+            frame: sampled,
             saturated_fraction: saturated,
         }
     }
@@ -433,7 +499,7 @@ impl FixedFtp {
 #[derive(Debug)]
 pub struct FixedField<'a> {
     ftp: &'a FixedFtp,
-    frame: Sampled,
+    frame: &'a Sampled,
     /// Fraction of the sampled input pixels with a saturated channel.
     pub saturated_fraction: f32,
 }
@@ -450,7 +516,7 @@ impl PhaseMap for FixedField<'_> {
     }
     /// [`PhaseMap::wrapped`] of every sample in one loop over the four planes.
     fn wrapped_all(&self) -> Vec<i32> {
-        let (f, r, table) = (&self.frame, &self.ftp.reference, self.ftp.atan);
+        let (f, r, table) = (self.frame, &self.ftp.reference, self.ftp.atan);
         // The frame's and the reference's planes are sampled on the same coarse grid.
         debug_assert!(f.re.len() == r.re.len() && f.im.len() == r.im.len());
         f.re.iter()
@@ -466,7 +532,7 @@ impl PhaseMap for FixedField<'_> {
         self.ftp.amp_ref[k]
     }
     fn amp_frame_all(&self) -> Vec<u32> {
-        let f = &self.frame;
+        let f = self.frame;
         f.re.iter().zip(&f.im).map(|(&a, &b)| amp(a, b)).collect()
     }
     fn amp_ref_all(&self) -> std::borrow::Cow<'_, [u32]> {
@@ -504,7 +570,8 @@ mod tests {
         let reference = stripes(0.0, 0.0);
         let working = carrier::working(&reference, None).expect("carrier");
         let ftp = FixedFtp::new(&reference, &working, &Calibration::default_sim());
-        let field = ftp.phase(&stripes(0.7, 3.0));
+        let mut scratch = Scratch::default();
+        let field = ftp.phase(&stripes(0.7, 3.0), &mut scratch);
         let all = field.wrapped_all();
         let (w, h) = field.size();
         assert_eq!(all.len(), w.div_ceil(GRID) * h.div_ceil(GRID));
@@ -609,11 +676,27 @@ mod tests {
                     .collect(),
             ],
         };
-        for (lx, ly, step) in [(5, 4, 1), (5, 4, 2), (7, 1, 2), (3, 6, 3)] {
+        // One set of buffers for every configuration, dirtied in between: each call must
+        // leave nothing of the last in its result.
+        let (mut buf, mut got) = (Demod::default(), Sampled::default());
+        for (lx, ly, step) in [(5, 4, 1), (5, 4, 2), (7, 1, 2), (3, 6, 3), (5, 4, 1)] {
             let sh = 15 + headroom_shift(lx, ly);
-            let got = demodulate(&gray, (w, h), &mix, sh, (lx, ly), step);
+            for v in buf.i1.iter_mut().chain(&mut buf.i2).chain(&mut buf.ring) {
+                v.fill(0x5a5a_5a5a);
+            }
+            buf.work.fill([-7; 4]);
+            demodulate(
+                &gray,
+                (w, h),
+                (&mix, sh),
+                (lx, ly),
+                step,
+                &mut buf,
+                &mut got,
+            );
             let (ow, oh) = (w.div_ceil(step), h.div_ceil(step));
             assert_eq!((got.re.len(), got.im.len()), (ow * oh, ow * oh));
+            let got = got.clone();
             for (plane, sign, c) in [(&got.re, 1, 0), (&got.im, -1, 1)] {
                 let mixed: Vec<i64> = gray
                     .iter()
@@ -652,7 +735,20 @@ mod tests {
         let one = Mix {
             planes: [vec![32_767i16; w * h], vec![0; w * h]],
         };
-        let z = demodulate(&flat, (w, h), &one, 15, (l, 1), 1);
+        let demod = |g: &[u16]| {
+            let mut z = Sampled::default();
+            demodulate(
+                g,
+                (w, h),
+                (&one, 15),
+                (l, 1),
+                1,
+                &mut Demod::default(),
+                &mut z,
+            );
+            z
+        };
+        let z = demod(&flat);
         for x in l..w - l {
             assert!((z.re[w + x] - 4000 * gain).abs() <= gain, "x={x}");
         }
@@ -662,7 +758,7 @@ mod tests {
                 (30_000.0 + 20_000.0 * (std::f64::consts::TAU * (i % w) as f64 / 8.0).cos()) as u16
             })
             .collect();
-        let z = demodulate(&wave, (w, h), &one, 15, (l, 1), 1);
+        let z = demod(&wave);
         for x in l..w - l {
             assert!((z.re[w + x] - 30_000 * gain).abs() <= 2 * gain, "x={x}");
         }

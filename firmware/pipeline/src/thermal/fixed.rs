@@ -243,8 +243,7 @@ impl CurveQ {
     /// blended by likelihood. Whitened values in Q12 (2⁻¹² σ); distances clamped at 4096 σ
     /// (far outside any calibrated colour): squares and dot products stay below 2⁵⁰, and
     /// only the projection's product takes 128 bits (a multiplication, no division).
-    /// Fixed-size feature vectors and one pass over the knots: about 17 instructions per
-    /// knot on x86-64.
+    /// Fixed-size feature vectors and one pass over the knots.
     fn eval(&self, x: [i64; FEATURES]) -> i64 {
         let CurveQ {
             knots,

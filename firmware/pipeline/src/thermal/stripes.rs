@@ -610,8 +610,8 @@ fn local_phases(t0: u16, gx: i32, gy: i32, f: usize, mut row: impl FnMut(usize, 
 /// indentation squeezes the stripes by a ratio ρ, the band narrows so its edge stays as far
 /// from the stripe's edge in pixels as [`KEEP_UNITS`] keeps it on flat skin: the optics'
 /// blur, fixed in pixels, would otherwise mix the neighbouring stripes' colour into a
-/// squeezed stripe's kept pixels (unit 54, 20 px period on a 320×240 camera, read a 38 °C
-/// contact +0.87 °C through its black stripes). Where they are stretched it stays at
+/// squeezed stripe's kept pixels (a coarse grating on a small camera read a heated
+/// contact high through its black stripes). Where they are stretched it stays at
 /// [`KEEP_UNITS`], the calibration's band. Never below 1/64 turn.
 fn keep_units(gx: i32, gy: i32, carrier: [i32; 2]) -> i32 {
     const QUARTER: i64 = 16_384;
