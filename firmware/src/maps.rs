@@ -86,7 +86,15 @@ pub fn temperature_png(t: &vistaf_pipeline::thermal::Temperature, path: &Path) -
 /// `depth_mm` in the JSON output), at least 0.1 mm.
 pub fn depth_png(d: &Measurement, path: &Path) -> Result<()> {
     let v: Vec<f32> = d.depth_um.iter().map(|&u| u as f32 / 1000.0).collect();
-    map_png(&v, d.w, d.h, 0.0, d.peak_depth_mm.max(0.1), d.factor, path)
+    map_png(
+        &v,
+        d.width_px,
+        d.height_px,
+        0.0,
+        d.peak_depth_mm.max(0.1),
+        d.factor,
+        path,
+    )
 }
 
 /// A map received over the wire as PNG (cells in µm or 0.01 °C; [`vistaf_protocol::msg::MAP_NO_DATA`]

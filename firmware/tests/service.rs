@@ -8,14 +8,12 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use vistaf_firmware::service::{
-    CameraEvent, EdgeCounters, ManualClock, ReferencePolicy, Service, Settings,
-};
+use vistaf_firmware::service::{CameraEvent, ManualClock, ReferencePolicy, Service, Settings};
 use vistaf_hardware::frame::Frame;
-use vistaf_hardware::led::{LedConfig, MemoryLedRing};
+use vistaf_hardware::led::MemoryLedRing;
 use vistaf_hardware::source::SourceFormat;
 use vistaf_hardware::PixelFormat;
-use vistaf_pipeline::{Calibration, Implementation};
+use vistaf_pipeline::Calibration;
 use vistaf_protocol::{Command, DeviceMsg, ErrorCode, Flag, HostMsg, MapKind, RunState, Summary};
 use vistaf_sim::contact::{Contact, Indenter};
 use vistaf_sim::scene::{center_mm, states, ROOM_C, SPHERE_R_MM};
@@ -35,13 +33,37 @@ fn unit() -> SensorUnit {
 fn settings(reference: ReferencePolicy) -> Settings {
     Settings {
         serial: "VSK-TEST".into(),
-        calibration: Calibration::default_sim(),
         force_calibration: true,
-        pipeline: Implementation::Fixed,
-        frames: None,
-        max_rate_hz: 0,
-        led: LedConfig::default(),
         reference,
+        ..Settings::new(Calibration::default_sim())
+    }
+}
+
+/// What a service under test runs with: its settings, LED ring and clock.
+struct Rig {
+    settings: Settings,
+    led: MemoryLedRing,
+    clock: ManualClock,
+}
+
+impl Rig {
+    fn new(settings: Settings) -> Rig {
+        Rig {
+            settings,
+            led: MemoryLedRing::default(),
+            clock: ManualClock::new(),
+        }
+    }
+
+    /// A service on the rig, and a simulated camera on its clock.
+    fn start(&mut self) -> (Service<'_, &ManualClock>, Camera<'_>) {
+        let Rig {
+            settings,
+            led,
+            clock,
+        } = self;
+        let svc = Service::new(settings, format(), led, Arc::default(), &*clock);
+        (svc, Camera::new(clock))
     }
 }
 
@@ -69,6 +91,11 @@ impl<'c> Camera<'c> {
             clock,
             seq: 0,
         }
+    }
+
+    /// Time passes without a frame.
+    fn wait(&self, d: Duration) {
+        self.clock.advance(d);
     }
 
     fn frame(&mut self, s: &SkinState) -> Frame {
@@ -127,16 +154,10 @@ fn feed<C: vistaf_firmware::service::Clock>(
 
 #[test]
 fn the_reference_waits_for_a_stable_image_then_summaries_follow() {
-    let (clock, set, edge) = (
-        ManualClock::new(),
-        settings(Default::default()),
-        Arc::default(),
-    );
-    let mut led = MemoryLedRing::default();
-    let mut svc = Service::new(&set, format(), &mut led, edge, &clock);
+    let mut rig = Rig::new(settings(Default::default()));
+    let (mut svc, mut cam) = rig.start();
     let hello = svc.start();
     assert!(matches!(&hello[..], [DeviceMsg::Hello(h)] if h.serial == "VSK-TEST"));
-    let mut cam = Camera::new(&clock);
     let idle = SkinState::idle(ROOM_C);
     // The first frame has nothing to compare with; the second is as still as the first.
     assert!(svc.on_frame(cam.frame(&idle)).unwrap().is_empty());
@@ -151,24 +172,19 @@ fn the_reference_waits_for_a_stable_image_then_summaries_follow() {
     assert!((depth_mm - 1.0).abs() < 0.05, "{depth_mm}");
     assert_eq!(svc.counters().processed, 2);
     assert_eq!(svc.counters().references, 1);
-    drop(svc);
-    assert!(led.is_lit(), "the ring is lit at start");
+    drop((svc, cam));
+    assert!(rig.led.is_lit(), "the ring is lit at start");
 }
 
 #[test]
 fn a_status_goes_out_once_a_second() {
-    let (clock, set, edge) = (
-        ManualClock::new(),
-        settings(Default::default()),
-        Arc::default(),
-    );
-    let mut led = MemoryLedRing::default();
-    let mut svc = Service::new(&set, format(), &mut led, edge, &clock);
+    let mut rig = Rig::new(settings(Default::default()));
+    let (mut svc, cam) = rig.start();
     svc.start();
     assert!(svc.on_tick().is_none());
-    clock.advance(Duration::from_millis(999));
+    cam.wait(Duration::from_millis(999));
     assert!(svc.on_tick().is_none());
-    clock.advance(Duration::from_millis(1));
+    cam.wait(Duration::from_millis(1));
     match svc.on_tick() {
         Some(DeviceMsg::Status(s)) => {
             assert_eq!(s.state, RunState::Referencing);
@@ -176,22 +192,16 @@ fn a_status_goes_out_once_a_second() {
         }
         other => panic!("{other:?}"),
     }
-    clock.advance(Duration::from_millis(500));
+    cam.wait(Duration::from_millis(500));
     assert!(svc.on_tick().is_none());
-    clock.advance(Duration::from_millis(500));
+    cam.wait(Duration::from_millis(500));
     assert!(svc.on_tick().is_some());
 }
 
 #[test]
 fn summaries_follow_the_rate_limit() {
-    let (clock, set, edge) = (
-        ManualClock::new(),
-        settings(Default::default()),
-        Arc::default(),
-    );
-    let mut led = MemoryLedRing::default();
-    let mut svc = Service::new(&set, format(), &mut led, edge, &clock);
-    let mut cam = Camera::new(&clock);
+    let mut rig = Rig::new(settings(Default::default()));
+    let (mut svc, mut cam) = rig.start();
     let idle = vec![SkinState::idle(ROOM_C); 2];
     feed(&mut svc, &mut cam, &idle);
     assert_eq!(
@@ -214,14 +224,11 @@ fn creeping() -> Vec<SkinState> {
 
 #[test]
 fn a_drifting_reference_is_flagged_stale_when_renewing_is_off() {
-    let clock = ManualClock::new();
-    let set = settings(ReferencePolicy {
+    let mut rig = Rig::new(settings(ReferencePolicy {
         auto_after_s: 0.0,
         ..Default::default()
-    });
-    let mut led = MemoryLedRing::default();
-    let mut svc = Service::new(&set, format(), &mut led, Arc::default(), &clock);
-    let mut cam = Camera::new(&clock);
+    }));
+    let (mut svc, mut cam) = rig.start();
     let out = feed(&mut svc, &mut cam, &creeping());
     assert_eq!(svc.counters().references, 1);
     let flags: Vec<bool> = summaries(&out)
@@ -238,14 +245,11 @@ fn a_drifting_reference_is_flagged_stale_when_renewing_is_off() {
 
 #[test]
 fn a_drifting_reference_is_renewed_after_a_quiet_spell() {
-    let clock = ManualClock::new();
-    let set = settings(ReferencePolicy {
+    let mut rig = Rig::new(settings(ReferencePolicy {
         auto_after_s: 0.5,
         ..Default::default()
-    });
-    let mut led = MemoryLedRing::default();
-    let mut svc = Service::new(&set, format(), &mut led, Arc::default(), &clock);
-    let mut cam = Camera::new(&clock);
+    }));
+    let (mut svc, mut cam) = rig.start();
     let out = feed(&mut svc, &mut cam, &creeping());
     assert!(svc.counters().references >= 2, "{:?}", svc.counters());
     let states = states_of(&out);
@@ -272,14 +276,11 @@ fn a_drifting_reference_is_renewed_after_a_quiet_spell() {
 /// them the image's brightness: that is the reading, not a drifting reference.
 #[test]
 fn a_warming_skin_is_not_a_drifting_reference() {
-    let clock = ManualClock::new();
-    let set = settings(ReferencePolicy {
+    let mut rig = Rig::new(settings(ReferencePolicy {
         auto_after_s: 0.0,
         ..Default::default()
-    });
-    let mut led = MemoryLedRing::default();
-    let mut svc = Service::new(&set, format(), &mut led, Arc::default(), &clock);
-    let mut cam = Camera::new(&clock);
+    }));
+    let (mut svc, mut cam) = rig.start();
     let mut scene = vec![SkinState::idle(ROOM_C); 4];
     scene.extend((0..24).map(|i| SkinState::idle(ROOM_C + 12.0 * i as f32 / 23.0)));
     let s = summaries(&feed(&mut svc, &mut cam, &scene));
@@ -294,14 +295,8 @@ fn a_warming_skin_is_not_a_drifting_reference() {
 
 #[test]
 fn a_lost_camera_is_reported_and_the_state_follows() {
-    let (clock, set, edge) = (
-        ManualClock::new(),
-        settings(Default::default()),
-        Arc::default(),
-    );
-    let mut led = MemoryLedRing::default();
-    let mut svc = Service::new(&set, format(), &mut led, edge, &clock);
-    let mut cam = Camera::new(&clock);
+    let mut rig = Rig::new(settings(Default::default()));
+    let (mut svc, mut cam) = rig.start();
     feed(&mut svc, &mut cam, &vec![SkinState::idle(ROOM_C); 2]);
     match svc.on_camera(CameraEvent::Lost("/dev/video9: unplugged".into())) {
         Some(DeviceMsg::Error(e)) => {
@@ -323,14 +318,8 @@ fn a_lost_camera_is_reported_and_the_state_follows() {
 
 #[test]
 fn maps_come_with_the_next_frame() {
-    let (clock, set, edge) = (
-        ManualClock::new(),
-        settings(Default::default()),
-        Arc::default(),
-    );
-    let mut led = MemoryLedRing::default();
-    let mut svc = Service::new(&set, format(), &mut led, edge, &clock);
-    let mut cam = Camera::new(&clock);
+    let mut rig = Rig::new(settings(Default::default()));
+    let (mut svc, mut cam) = rig.start();
     feed(&mut svc, &mut cam, &vec![SkinState::idle(ROOM_C); 3]);
     for kind in [MapKind::Depth, MapKind::Temperature] {
         assert_eq!(
@@ -362,14 +351,8 @@ fn maps_come_with_the_next_frame() {
 
 #[test]
 fn stop_silences_summaries_until_start() {
-    let (clock, set, edge) = (
-        ManualClock::new(),
-        settings(Default::default()),
-        Arc::default(),
-    );
-    let mut led = MemoryLedRing::default();
-    let mut svc = Service::new(&set, format(), &mut led, edge, &clock);
-    let mut cam = Camera::new(&clock);
+    let mut rig = Rig::new(settings(Default::default()));
+    let (mut svc, mut cam) = rig.start();
     let idle = vec![SkinState::idle(ROOM_C); 3];
     assert_eq!(summaries(&feed(&mut svc, &mut cam, &idle)).len(), 1);
     assert_eq!(svc.on_command(HostMsg::Stop), DeviceMsg::Ack(Command::Stop));
@@ -385,14 +368,8 @@ fn stop_silences_summaries_until_start() {
 
 #[test]
 fn a_frame_of_the_wrong_size_is_counted_and_skipped() {
-    let (clock, set, edge) = (
-        ManualClock::new(),
-        settings(Default::default()),
-        Arc::default(),
-    );
-    let mut led = MemoryLedRing::default();
-    let mut svc = Service::new(&set, format(), &mut led, edge, &clock);
-    let mut cam = Camera::new(&clock);
+    let mut rig = Rig::new(settings(Default::default()));
+    let (mut svc, mut cam) = rig.start();
     feed(&mut svc, &mut cam, &vec![SkinState::idle(ROOM_C); 2]);
     let mut small = cam.frame(&SkinState::idle(ROOM_C));
     small.width /= 2;
@@ -408,14 +385,8 @@ fn a_frame_of_the_wrong_size_is_counted_and_skipped() {
 
 #[test]
 fn a_new_reference_is_taken_when_the_host_asks() {
-    let (clock, set, edge) = (
-        ManualClock::new(),
-        settings(Default::default()),
-        Arc::default(),
-    );
-    let mut led = MemoryLedRing::default();
-    let mut svc = Service::new(&set, format(), &mut led, edge, &clock);
-    let mut cam = Camera::new(&clock);
+    let mut rig = Rig::new(settings(Default::default()));
+    let (mut svc, mut cam) = rig.start();
     let idle = vec![SkinState::idle(ROOM_C); 3];
     feed(&mut svc, &mut cam, &idle);
     assert_eq!(
@@ -434,14 +405,11 @@ fn a_new_reference_is_taken_when_the_host_asks() {
 
 #[test]
 fn the_frame_limit_ends_the_run() {
-    let clock = ManualClock::new();
-    let set = Settings {
+    let mut rig = Rig::new(Settings {
         frames: Some(3),
         ..settings(Default::default())
-    };
-    let mut led = MemoryLedRing::default();
-    let mut svc = Service::new(&set, format(), &mut led, Arc::default(), &clock);
-    let mut cam = Camera::new(&clock);
+    });
+    let (mut svc, mut cam) = rig.start();
     feed(&mut svc, &mut cam, &vec![SkinState::idle(ROOM_C); 4]);
     assert!(!svc.done());
     feed(&mut svc, &mut cam, &[SkinState::idle(ROOM_C)]);
@@ -450,20 +418,17 @@ fn the_frame_limit_ends_the_run() {
         DeviceMsg::Status(s) => assert_eq!((s.state, s.frames_processed), (RunState::Stopped, 3)),
         other => panic!("{other:?}"),
     }
-    drop(svc);
-    assert!(!led.is_lit(), "the ring is off at the end");
+    drop((svc, cam));
+    assert!(!rig.led.is_lit(), "the ring is off at the end");
 }
 
 #[test]
 fn a_long_serial_is_cut_on_a_character_boundary() {
-    let clock = ManualClock::new();
-    let set = Settings {
+    let mut rig = Rig::new(Settings {
         serial: "Ä".repeat(13),
         ..settings(Default::default())
-    };
-    let mut led = MemoryLedRing::default();
-    let edge = Arc::new(EdgeCounters::default());
-    let svc = Service::new(&set, format(), &mut led, edge, &clock);
+    });
+    let (svc, _) = rig.start();
     match svc.hello() {
         DeviceMsg::Hello(h) => assert_eq!(h.serial.as_str(), "Ä".repeat(12)),
         other => panic!("{other:?}"),

@@ -83,7 +83,7 @@ fn depth_map_follows_the_truth_map_where_it_is_deep() {
     let last = set.len() - 1;
     let truth = truth_depth_mm(&set, last).unwrap();
     let d = &replay("press-sphere", Implementation::Fixed)[last];
-    let (w, f) = (d.w, d.factor);
+    let (w, f) = (d.width_px, d.factor);
     let full_w = set.size().0 as usize;
     let peak = truth.iter().copied().fold(0.0f32, f32::max);
     let mut worst = 0.0f32;

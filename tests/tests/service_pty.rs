@@ -10,12 +10,11 @@ use std::time::{Duration, Instant};
 
 use serialport::{SerialPort, TTYPort};
 use vistaf_firmware::service::{run, Settings};
-use vistaf_hardware::led::{LedConfig, MemoryLedRing};
+use vistaf_hardware::led::MemoryLedRing;
 use vistaf_hardware::source::FrameSource;
 use vistaf_host::client::{Client, Next};
 use vistaf_host::link::{Link, LinkSpec};
 use vistaf_pipeline::calibration::Calibration;
-use vistaf_pipeline::Implementation;
 use vistaf_protocol::{DeviceMsg, MapKind};
 use vistaf_sim::contact::{Contact, Indenter};
 use vistaf_sim::scene::{center_mm, ROOM_C, SPHERE_R_MM};
@@ -88,13 +87,8 @@ fn summaries_cross_a_pty_in_order_and_match_the_scene() {
     let reader = master.try_clone_native().unwrap();
     let settings = Settings {
         serial: "VSK-TEST".into(),
-        calibration: Calibration::default_sim(),
         force_calibration: true,
-        pipeline: Implementation::Fixed,
-        frames: None,
-        max_rate_hz: 0,
-        led: LedConfig::default(),
-        reference: Default::default(),
+        ..Settings::new(Calibration::default_sim())
     };
     let stop = Arc::new(AtomicBool::new(false));
     let device_stop = stop.clone();

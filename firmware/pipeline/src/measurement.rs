@@ -9,9 +9,9 @@ use crate::thermal::Temperature;
 #[derive(Clone, PartialEq)]
 pub struct Measurement {
     /// Working width, pixels.
-    pub w: usize,
+    pub width_px: usize,
     /// Working height, pixels.
-    pub h: usize,
+    pub height_px: usize,
     /// Input pixels per working pixel (each axis).
     pub factor: usize,
     /// Depth per working pixel, µm (0 where there is no deformation).
@@ -43,7 +43,7 @@ pub struct Measurement {
     /// Contact tiles processed.
     pub tiles: usize,
     /// The contact window `[x0, y0, x1, y1)`, working pixels: `depth_um` is zero outside it.
-    pub window: Option<[usize; 4]>,
+    pub window_px: Option<[usize; 4]>,
     /// Temperatures, when the calibration has a colour → temperature model.
     pub temperature: Option<Temperature>,
 }
@@ -54,7 +54,7 @@ impl std::fmt::Debug for Measurement {
         f.debug_struct("Measurement")
             .field(
                 "map",
-                &format_args!("{}×{} (÷{})", self.w, self.h, self.factor),
+                &format_args!("{}×{} (÷{})", self.width_px, self.height_px, self.factor),
             )
             .field("contact", &self.contact)
             .field("peak_depth_mm", &self.peak_depth_mm)

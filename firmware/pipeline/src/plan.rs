@@ -118,15 +118,15 @@ fn with_temperature(
     const _: () = assert!(region::NONE == 0 && region::CONTACT == 1 && region::CORE == 2);
     let (half, core) = (half.max(1), core.max(1));
     // Over the contact window only (clipped to the map): depth is zero outside it.
-    let window = d.window.filter(|_| d.contact).map(|[x0, y0, x1, y1]| {
-        let (x1, y1) = (x1.min(d.w), y1.min(d.h));
+    let window = d.window_px.filter(|_| d.contact).map(|[x0, y0, x1, y1]| {
+        let (x1, y1) = (x1.min(d.width_px), y1.min(d.height_px));
         [x0.min(x1), y0.min(y1), x1, y1]
     });
     let mut codes = Vec::new();
     if let Some([x0, y0, x1, y1]) = window {
         codes.reserve((x1 - x0) * (y1 - y0));
         for y in y0..y1 {
-            let row = &d.depth_um[y * d.w + x0..y * d.w + x1];
+            let row = &d.depth_um[y * d.width_px + x0..y * d.width_px + x1];
             codes.extend(
                 row.iter()
                     .map(|&u| u8::from(u >= half) + u8::from(u >= core)),

@@ -20,15 +20,15 @@ fn compare(unit: SensorUnit, states: &[SkinState], calib: &Calibration) -> f32 {
         let (img, truth) = r.render(s, 50 + k as u64);
         let a = float.analyze(&img).unwrap();
         let b = fixed.analyze(&img).unwrap();
-        assert_eq!((a.w, a.h), (b.w, b.h));
+        assert_eq!((a.width_px, a.height_px), (b.width_px, b.height_px));
         let peak = a.peak_depth_mm.max(b.peak_depth_mm).max(0.05) * 1000.0;
         // Compare away from the image border, where the FFT's periodic edges and the box
         // filter's replicated edges legitimately differ.
         let m = 12;
         let (mut diff, mut edge) = (0.0f32, 0.0f32);
-        for y in m..a.h - m {
-            for x in m..a.w - m {
-                let i = y * a.w + x;
+        for y in m..a.height_px - m {
+            for x in m..a.width_px - m {
+                let i = y * a.width_px + x;
                 let d = (a.depth_um[i] - b.depth_um[i]).abs() as f32;
                 if a.depth_um[i] > 0 && b.depth_um[i] > 0 {
                     diff = diff.max(d);

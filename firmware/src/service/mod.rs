@@ -62,6 +62,23 @@ pub struct Settings {
     pub reference: ReferencePolicy,
 }
 
+impl Settings {
+    /// The reference build's settings with `calibration`: the device path, a summary per
+    /// frame, no frame limit, the default LED ring and reference policy, serial `VSK-SIM`.
+    pub fn new(calibration: Calibration) -> Settings {
+        Settings {
+            serial: "VSK-SIM".into(),
+            calibration,
+            force_calibration: false,
+            pipeline: Implementation::Fixed,
+            frames: None,
+            max_rate_hz: 0,
+            led: LedConfig::default(),
+            reference: ReferencePolicy::default(),
+        }
+    }
+}
+
 /// Counters at the end of a run.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Counters {

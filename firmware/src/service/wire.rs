@@ -81,19 +81,22 @@ pub fn temperature_tile(d: &Measurement, seq: u32) -> Option<Map> {
 
 /// A depth map tile of at most [`MAP_MAX_CELLS`] cells (block maxima of the working map).
 pub fn depth_tile(d: &Measurement, seq: u32, mm_per_px: f32) -> Map {
-    let step = ((d.w * d.h) as f32 / MAP_MAX_CELLS as f32)
+    let step = ((d.width_px * d.height_px) as f32 / MAP_MAX_CELLS as f32)
         .sqrt()
         .ceil()
         .max(1.0) as usize;
-    let (tw, th) = (d.w.div_ceil(step).min(255), d.h.div_ceil(step).min(255));
+    let (tw, th) = (
+        d.width_px.div_ceil(step).min(255),
+        d.height_px.div_ceil(step).min(255),
+    );
     let mut cells = heapless::Vec::new();
     'rows: for ty in 0..th {
         for tx in 0..tw {
             let mut m = i32::MIN;
             let mut any = false;
-            for y in ty * step..((ty + 1) * step).min(d.h) {
-                for x in tx * step..((tx + 1) * step).min(d.w) {
-                    let i = y * d.w + x;
+            for y in ty * step..((ty + 1) * step).min(d.height_px) {
+                for x in tx * step..((tx + 1) * step).min(d.width_px) {
+                    let i = y * d.width_px + x;
                     any |= d.reliable[i];
                     m = m.max(d.depth_um[i]);
                 }

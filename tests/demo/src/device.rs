@@ -9,10 +9,10 @@ use std::time::Duration;
 use anyhow::{Context, Result};
 use vistaf_firmware::service::{run as serve, Counters, Settings};
 use vistaf_firmware::source_spec::{open, OpenOptions, SourceSpec};
-use vistaf_hardware::led::{LedConfig, MemoryLedRing};
+use vistaf_hardware::led::MemoryLedRing;
 use vistaf_host::client::Client;
 use vistaf_host::link::{Link, DEFAULT_BAUD};
-use vistaf_pipeline::{Calibration, Implementation};
+use vistaf_pipeline::Calibration;
 
 /// Frames per second the simulated camera delivers.
 pub const FPS: f32 = 30.0;
@@ -34,13 +34,8 @@ impl SimulatedSkin {
         let calibration = Calibration::default_sim();
         let settings = Settings {
             serial: "VSK-SIM-DEMO".into(),
-            calibration: calibration.clone(),
-            force_calibration: false,
-            pipeline: Implementation::Fixed,
             frames: Some(frames as u64),
-            max_rate_hz: 0,
-            led: LedConfig::default(),
-            reference: Default::default(),
+            ..Settings::new(calibration.clone())
         };
         let source = open(
             &SourceSpec::Sim("demo".into()),

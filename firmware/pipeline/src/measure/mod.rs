@@ -293,8 +293,8 @@ impl FrameResult {
     /// The result with this depth map, before any contact's fields are filled in.
     fn measurement(&self, reliable: Vec<bool>, depth_um: Vec<i32>) -> Measurement {
         Measurement {
-            w: self.grid.w,
-            h: self.grid.h,
+            width_px: self.grid.w,
+            height_px: self.grid.h,
             factor: self.factor,
             depth_um,
             reliable,
@@ -310,7 +310,7 @@ impl FrameResult {
             offset_rad: self.offset_rad,
             floor_um: 0,
             tiles: 0,
-            window: None,
+            window_px: None,
             temperature: None,
         }
     }
@@ -336,7 +336,7 @@ impl FrameResult {
             force_n: c.force_n,
             tiles,
             floor_um: c.threshold_um,
-            window: Some([x0, y0, x0 + cols, y0 + bh.min(h - y0)]),
+            window_px: Some([x0, y0, x0 + cols, y0 + bh.min(h - y0)]),
             flags,
             ..self.measurement(reliable, depth_um)
         }
