@@ -31,6 +31,7 @@ enum Cmd {
 }
 
 fn main() {
+    exit_on_any_panic();
     let cli = Cli::parse();
     let result: Result<()> = match &cli.command {
         Cmd::Simulate(a) => cmd::simulate::run(a),
@@ -45,4 +46,15 @@ fn main() {
         eprintln!("vistaf-skin: {e:#}");
         std::process::exit(1);
     }
+}
+
+/// A panic in any thread (the capture or the link reader) ends the service with a non-zero
+/// status, after the usual message, so systemd restarts it instead of leaving it running
+/// without that thread.
+fn exit_on_any_panic() {
+    let report = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        report(info);
+        std::process::exit(101);
+    }));
 }

@@ -146,7 +146,7 @@ fn feed<C: vistaf_firmware::service::Clock>(
 ) -> Vec<DeviceMsg> {
     let mut out = Vec::new();
     for s in scene {
-        out.extend(svc.on_frame(cam.frame(s)).unwrap());
+        out.extend(svc.on_frame(cam.frame(s)));
         out.extend(svc.on_tick());
     }
     out
@@ -160,8 +160,8 @@ fn the_reference_waits_for_a_stable_image_then_summaries_follow() {
     assert!(matches!(&hello[..], [DeviceMsg::Hello(h)] if h.serial == "VSK-TEST"));
     let idle = SkinState::idle(ROOM_C);
     // The first frame has nothing to compare with; the second is as still as the first.
-    assert!(svc.on_frame(cam.frame(&idle)).unwrap().is_empty());
-    let taken = svc.on_frame(cam.frame(&idle)).unwrap();
+    assert!(svc.on_frame(cam.frame(&idle)).is_empty());
+    let taken = svc.on_frame(cam.frame(&idle));
     assert_eq!(states_of(&taken), [RunState::Streaming]);
     let out = feed(&mut svc, &mut cam, &[idle.clone(), press(1.0)]);
     let s = summaries(&out);
@@ -375,10 +375,10 @@ fn a_frame_of_the_wrong_size_is_counted_and_skipped() {
     small.width /= 2;
     small.height /= 2;
     small.data.truncate(small.data.len() / 4);
-    assert!(svc.on_frame(small).unwrap().is_empty());
+    assert!(svc.on_frame(small).is_empty());
     let mut torn = cam.frame(&SkinState::idle(ROOM_C));
     torn.data.truncate(100);
-    assert!(svc.on_frame(torn).unwrap().is_empty());
+    assert!(svc.on_frame(torn).is_empty());
     assert_eq!(svc.counters().bad, 2);
     assert_eq!(svc.counters().processed, 0);
 }
@@ -433,4 +433,43 @@ fn a_long_serial_is_cut_on_a_character_boundary() {
         DeviceMsg::Hello(h) => assert_eq!(h.serial.as_str(), "Ä".repeat(12)),
         other => panic!("{other:?}"),
     }
+}
+
+/// A camera that shows no grating at first (a lens cap, the light off): the service says so
+/// and keeps trying, once a second, until it can take a reference; it never exits.
+#[test]
+fn a_reference_without_a_grating_is_reported_and_retried() {
+    let mut rig = Rig::new(settings(Default::default()));
+    let (mut svc, mut cam) = rig.start();
+    let blank = SkinState {
+        contrast_scale: 0.0,
+        ..SkinState::idle(ROOM_C)
+    };
+    // Two seconds of a blank skin at 30 frames/s.
+    let out = feed(&mut svc, &mut cam, &vec![blank; 60]);
+    let reports: Vec<_> = out
+        .iter()
+        .filter_map(|m| match m {
+            DeviceMsg::Error(e) if e.code == ErrorCode::Reference => Some(e.detail.clone()),
+            _ => None,
+        })
+        .collect();
+    assert!(
+        (2..=3).contains(&reports.len()),
+        "once a second: {reports:?}"
+    );
+    assert!(reports[0].contains("no grating"), "{}", reports[0]);
+    assert!(states_of(&out).iter().all(|s| *s == RunState::Referencing));
+    // The grating appears: the next try takes the reference, and frames are measured.
+    let out = feed(&mut svc, &mut cam, &vec![SkinState::idle(ROOM_C); 40]);
+    assert!(states_of(&out).contains(&RunState::Streaming));
+    assert!(!summaries(&out).is_empty());
+    let c = svc.counters();
+    assert_eq!(c.references, 1);
+    assert_eq!(c.reference_failures as usize, reports.len());
+    assert_eq!(
+        c.referencing + c.processed,
+        100,
+        "every frame is accounted for: {c:?}"
+    );
 }

@@ -4,6 +4,24 @@ use std::time::Duration;
 
 use image::RgbImage;
 
+/// Most pixels a frame may have (4096 × 4096: a 4K camera fits). Sizes are checked from
+/// a file's or a JPEG's header against it before anything is decoded, so a small file that
+/// declares an enormous image is refused with its size named instead of exhausting memory.
+pub const MAX_FRAME_PX: u64 = 4096 * 4096;
+
+/// Whether `width × height` is a frame size this software accepts.
+pub fn size_ok(width: u32, height: u32) -> bool {
+    width > 0 && height > 0 && u64::from(width) * u64::from(height) <= MAX_FRAME_PX
+}
+
+/// Why a size is refused, in words.
+pub fn size_refused(width: u32, height: u32) -> String {
+    format!(
+        "{width}×{height} px: a frame has 1 to {} pixels ({}×{} at most)",
+        MAX_FRAME_PX, 4096, 4096
+    )
+}
+
 /// Pixel layout of a captured frame.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum PixelFormat {
@@ -152,14 +170,29 @@ impl Frame {
                 RgbImage::from_raw(w, h, rgb).ok_or_else(wrong_len)?
             }
             PixelFormat::Mjpeg => {
-                let decoded =
-                    image::load_from_memory_with_format(&self.data, image::ImageFormat::Jpeg)
-                        .map_err(|e| FrameError::Decode {
-                            seq: self.seq,
-                            format: self.format,
-                            detail: e.to_string(),
-                        })?
-                        .to_rgb8();
+                let decode_err = |e: image::ImageError| FrameError::Decode {
+                    seq: self.seq,
+                    format: self.format,
+                    detail: e.to_string(),
+                };
+                let reader = || {
+                    image::ImageReader::with_format(
+                        std::io::Cursor::new(&self.data),
+                        image::ImageFormat::Jpeg,
+                    )
+                };
+                // The header's size first: nothing larger than the frame is decoded.
+                let (hw, hh) = reader().into_dimensions().map_err(decode_err)?;
+                if (hw, hh) != (w, h) {
+                    return Err(FrameError::WrongSize {
+                        seq: self.seq,
+                        width: w,
+                        height: h,
+                        got_w: hw,
+                        got_h: hh,
+                    });
+                }
+                let decoded = reader().decode().map_err(decode_err)?.to_rgb8();
                 if decoded.dimensions() != (w, h) {
                     return Err(FrameError::WrongSize {
                         seq: self.seq,

@@ -29,6 +29,15 @@ pub const FORMAT: &str = "vistaf-frames/1";
 /// Name of the manifest inside a set.
 pub const MANIFEST: &str = "set.json";
 
+/// Largest grating period a manifest may state, mm.
+pub const MAX_GRATING_PERIOD_MM: f64 = 100.0;
+/// Latest frame time a manifest may state, ms (11.6 days: a recording, not a clock value).
+pub const MAX_T_MS: f64 = 1e9;
+/// Deepest label a manifest may state, mm.
+pub const MAX_DEPTH_MM: f64 = 100.0;
+/// Largest force label a manifest may state, N.
+pub const MAX_FORCE_N: f64 = 10_000.0;
+
 /// One frame of a set and its optional labels.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct FrameEntry {
@@ -202,13 +211,13 @@ fn check_name(manifest: &Path, key: &str, name: &str) -> Result<(), FrameSetErro
     Ok(())
 }
 
-impl FrameSet {
-    /// Opens and validates the set in `dir`.
-    pub fn open(dir: &Path) -> Result<FrameSet, FrameSetError> {
-        let mpath = dir.join(MANIFEST);
-        let text = fs::read_to_string(&mpath).map_err(io_err(&mpath))?;
+impl Manifest {
+    /// Parses and checks a manifest's text (`mpath` names it in errors): its format, its
+    /// file names and its values; the images it names are the set's to check.
+    pub fn parse(text: &str, mpath: &Path) -> Result<Manifest, FrameSetError> {
+        let mpath = mpath.to_path_buf();
         let manifest: Manifest =
-            serde_json::from_str(&text).map_err(|e| FrameSetError::Manifest {
+            serde_json::from_str(text).map_err(|e| FrameSetError::Manifest {
                 path: mpath.clone(),
                 line: e.line(),
                 column: e.column(),
@@ -223,27 +232,47 @@ impl FrameSet {
         let invalid = |key: String, value: f64, why| FrameSetError::InvalidValue {
             path: mpath.clone(),
             key,
-            value: value.to_string(),
+            // Compact for the very large and very small (1e300, not 301 digits).
+            value: if value != 0.0 && !(1e-4..1e6).contains(&value.abs()) {
+                format!("{value:e}")
+            } else {
+                value.to_string()
+            },
             why,
         };
         let p = manifest.grating_period_mm;
-        if !(p.is_finite() && p > 0.0) {
+        if !(p.is_finite() && p > 0.0 && p <= MAX_GRATING_PERIOD_MM) {
             return Err(invalid(
                 "grating_period_mm".into(),
                 p,
-                "must be a positive length in mm",
+                "must be a grating period in mm, above 0 and at most 100",
             ));
         }
         check_name(&mpath, "reference", &manifest.reference)?;
         for (i, f) in manifest.frames.iter().enumerate() {
             check_name(&mpath, &format!("frames[{i}].file"), &f.file)?;
-            for (key, v, why) in [
-                ("t_ms", f.t_ms, "must not be negative"),
-                ("depth_mm", f.depth_mm, "must not be negative"),
-                ("force_n", f.force_n, "must not be negative"),
+            for (key, v, max, why) in [
+                (
+                    "t_ms",
+                    f.t_ms,
+                    MAX_T_MS,
+                    "a time of 0 to 10⁹ ms (11.6 days)",
+                ),
+                (
+                    "depth_mm",
+                    f.depth_mm,
+                    MAX_DEPTH_MM,
+                    "a depth of 0 to 100 mm",
+                ),
+                (
+                    "force_n",
+                    f.force_n,
+                    MAX_FORCE_N,
+                    "a force of 0 to 10 000 N",
+                ),
             ] {
                 if let Some(v) = v {
-                    if v < 0.0 {
+                    if !(v.is_finite() && (0.0..=max).contains(&v)) {
                         return Err(invalid(format!("frames[{i}].{key}"), v, why));
                     }
                 }
@@ -258,6 +287,16 @@ impl FrameSet {
                 }
             }
         }
+        Ok(manifest)
+    }
+}
+
+impl FrameSet {
+    /// Opens and validates the set in `dir`.
+    pub fn open(dir: &Path) -> Result<FrameSet, FrameSetError> {
+        let mpath = dir.join(MANIFEST);
+        let text = fs::read_to_string(&mpath).map_err(io_err(&mpath))?;
+        let manifest = Manifest::parse(&text, &mpath)?;
         let canon_dir = dir.canonicalize().map_err(io_err(dir))?;
         let mut set = FrameSet {
             dir: dir.to_path_buf(),
@@ -308,6 +347,12 @@ impl FrameSet {
             path: path.clone(),
             detail: e.to_string(),
         })?;
+        if !crate::frame::size_ok(w, h) {
+            return Err(FrameSetError::Image {
+                path,
+                detail: crate::frame::size_refused(w, h),
+            });
+        }
         if let Some((ww, wh)) = want {
             if (w, h) != (ww, wh) {
                 return Err(FrameSetError::SizeMismatch {
@@ -377,11 +422,28 @@ impl FrameSet {
 }
 
 /// Decodes an 8-bit RGB, RGBA (alpha ignored) or grey PNG to RGB.
+///
+/// The header's size is checked first ([`crate::frame::MAX_FRAME_PX`]): nothing larger is
+/// decoded.
 pub fn load_png_rgb(path: &Path) -> Result<RgbImage, FrameSetError> {
-    let img = image::open(path).map_err(|e| FrameSetError::Image {
+    let image_err = |e: image::ImageError| FrameSetError::Image {
         path: path.to_path_buf(),
         detail: e.to_string(),
-    })?;
+    };
+    let reader = || -> Result<_, FrameSetError> {
+        image::ImageReader::open(path)
+            .map_err(io_err(path))?
+            .with_guessed_format()
+            .map_err(io_err(path))
+    };
+    let (w, h) = reader()?.into_dimensions().map_err(image_err)?;
+    if !crate::frame::size_ok(w, h) {
+        return Err(FrameSetError::Image {
+            path: path.to_path_buf(),
+            detail: crate::frame::size_refused(w, h),
+        });
+    }
+    let img = reader()?.decode().map_err(image_err)?;
     use image::DynamicImage as D;
     match img {
         D::ImageRgb8(i) => Ok(i),

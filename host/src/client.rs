@@ -130,7 +130,10 @@ impl Client {
         };
         let at = SystemTime::now();
         let (queue, mismatch) = (&mut self.queue, &mut self.mismatch);
+        // Nothing after a mismatching Hello is trusted: what follows it in the same read is
+        // dropped, so the messages handed out are exactly those before it.
         self.decoder.push(&buf[..n], |r| match r {
+            Ok(_) if mismatch.is_some() => {}
             Ok(msg) => queue.push_back(Received { msg, at }),
             Err(FrameError::ProtocolMismatch {
                 protocol_version,

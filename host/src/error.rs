@@ -84,6 +84,16 @@ pub enum HostError {
         /// The cause.
         cause: io::Error,
     },
+    /// A lost link did not come back.
+    #[error("{link}: lost ({last}) and not back within {after:?}; gave up")]
+    GaveUp {
+        /// The link.
+        link: String,
+        /// How long reconnecting was tried.
+        after: Duration,
+        /// Why the link was lost, or why the last attempt failed.
+        last: String,
+    },
     /// The device refused a command.
     #[error("{link}: device error {:?}: {}", .error.code, .error.detail)]
     Device {

@@ -9,6 +9,7 @@ use clap::{Parser, Subcommand};
 use vistaf_host::client::{describe, Client, Next, DEFAULT_TIMEOUT};
 use vistaf_host::link::{Link, LinkSpec};
 use vistaf_host::monitor::Monitor;
+use vistaf_host::multi::Reopen;
 use vistaf_host::record::{message_json, Recorder};
 use vistaf_host::stream::{Limits, Readout};
 use vistaf_host::HostError;
@@ -93,11 +94,26 @@ struct RunArgs {
     #[arg(long)]
     frames: Option<u64>,
     /// Stop after this many seconds.
-    #[arg(long)]
+    #[arg(long, value_parser = seconds)]
     duration_s: Option<f64>,
     /// Skip the Hello handshake on serial links (for devices that do not answer GetInfo).
     #[arg(long)]
     no_handshake: bool,
+    /// When a serial link goes away (a cable pulled, the board's USB gadget
+    /// re-enumerating), keep trying to open it again for this many seconds before giving up
+    /// with an error (0: give up at once).
+    #[arg(long, default_value_t = 30.0, value_parser = seconds)]
+    reconnect_s: f64,
+}
+
+/// A duration for `--duration-s`: finite, not negative, at most a year.
+fn seconds(s: &str) -> Result<f64, String> {
+    let v: f64 = s.parse().map_err(|_| format!("{s:?} is not a number"))?;
+    if v.is_finite() && (0.0..=3.2e7).contains(&v) {
+        Ok(v)
+    } else {
+        Err(format!("{v}: seconds from 0 to a year (3.2e7)"))
+    }
 }
 
 fn main() {
@@ -219,28 +235,51 @@ fn decode(file: &str) -> Result<()> {
 
 /// Reads the links until `run` says stop, recording to `rec`, with a live readout when
 /// `live`.
+///
+/// A serial link that goes away is opened again (and greeted) for `--reconnect-s`; one
+/// that does not come back, or ends with reconnecting off, is an error.
 fn stream(ports: &[String], run: &RunArgs, rec: Option<Recorder>, live: bool) -> Result<()> {
-    let mut clients = Vec::new();
+    let mut links = Vec::new();
     for p in ports {
+        let serial = matches!(p.parse::<LinkSpec>()?, LinkSpec::Serial { .. });
         let mut c = open_client(p)?;
-        if !run.no_handshake && matches!(p.parse::<LinkSpec>()?, LinkSpec::Serial { .. }) {
+        if serial && !run.no_handshake {
             greet(&mut c, p)?;
         }
-        clients.push(c);
+        let reopen = serial.then(|| reopen(p, run));
+        links.push((c, reopen));
     }
+    let clients = links.len();
     let limits = Limits {
         summaries: run.frames,
-        duration: run.duration_s.map(|s| Duration::from_secs_f64(s.max(0.0))),
+        duration: run.duration_s.map(Duration::from_secs_f64),
     };
     let mut readout = Readout {
         recorder: rec,
-        monitor: Monitor::new(clients.len(), live),
+        monitor: Monitor::new(clients, live),
     };
-    let outcome = vistaf_host::stream::stream(clients, &limits, &mut readout)?;
+    let outcome = vistaf_host::stream::stream_with(links, &limits, &mut readout)?;
     readout.finish(&outcome);
     match outcome.failure {
         Some(e) => Err(e.into()),
         None => Ok(()),
+    }
+}
+
+/// How a serial link `port` is opened again after it went away: greeted as at the start.
+fn reopen(port: &str, run: &RunArgs) -> Reopen {
+    let (port, handshake) = (port.to_string(), !run.no_handshake);
+    Reopen {
+        open: Box::new(move || {
+            let mut c = Client::new(Link::open(&port.parse::<LinkSpec>()?)?);
+            if handshake {
+                c.handshake(DEFAULT_TIMEOUT)?;
+            }
+            Ok(c)
+        }),
+        give_up_after: Duration::from_secs_f64(run.reconnect_s),
+        min_backoff: Duration::from_millis(250),
+        max_backoff: Duration::from_secs(4),
     }
 }
 

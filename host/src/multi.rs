@@ -1,10 +1,14 @@
 //! Several skins at once: one reader thread per link, merged into one event stream in
 //! arrival order, with per-device sequence-gap and dropped-frame accounting.
+//!
+//! A link given a [`Reopen`] survives going away (a USB gadget re-enumerating, a cable
+//! pulled and put back): its reader says it is lost, tries to open it again with back-off,
+//! and says when it is back; only when it does not come back in time does it fail.
 
 use std::thread::JoinHandle;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
-use crossbeam_channel::{Receiver, RecvTimeoutError};
+use crossbeam_channel::{Receiver, RecvTimeoutError, Sender};
 use vistaf_protocol::{DeviceMsg, DropCounts};
 
 use crate::client::{Client, Next, Received};
@@ -36,6 +40,51 @@ pub enum Event {
         /// Why.
         error: HostError,
     },
+    /// Device `device`'s link went away; its reader is trying to open it again.
+    Lost {
+        /// Which device.
+        device: usize,
+        /// Why it went away.
+        why: String,
+    },
+    /// Device `device`'s link is open again.
+    Reconnected {
+        /// Which device.
+        device: usize,
+    },
+}
+
+impl Event {
+    /// The device the event is about.
+    pub fn device(&self) -> usize {
+        match self {
+            Event::Message { device, .. }
+            | Event::Ended { device }
+            | Event::Failed { device, .. }
+            | Event::Lost { device, .. }
+            | Event::Reconnected { device } => *device,
+        }
+    }
+}
+
+/// How a lost link is opened again.
+pub struct Reopen {
+    /// Opens the link (and shakes hands, if the caller wants that) once more.
+    pub open: Box<dyn FnMut() -> Result<Client, HostError> + Send>,
+    /// How long to keep trying before giving up.
+    pub give_up_after: Duration,
+    /// Wait before the first attempt, doubled after each failed one up to `max_backoff`.
+    pub min_backoff: Duration,
+    /// See `min_backoff`.
+    pub max_backoff: Duration,
+}
+
+impl std::fmt::Debug for Reopen {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Reopen")
+            .field("give_up_after", &self.give_up_after)
+            .finish_non_exhaustive()
+    }
 }
 
 /// Per-device counters kept by the [`MultiReader`].
@@ -45,8 +94,10 @@ pub struct DeviceStats {
     pub name: String,
     /// Summary sequence accounting.
     pub seq: SeqTracker,
-    /// Frames the decoder dropped on this link.
+    /// Frames the decoder dropped on this link (over every connection).
     pub drops: DropCounts,
+    /// Times the link was lost and came back.
+    pub reconnects: u64,
     /// Whether the stream has ended or failed.
     pub finished: bool,
 }
@@ -59,29 +110,131 @@ pub struct MultiReader {
     threads: Vec<JoinHandle<()>>,
 }
 
+/// One link's reader: its client, how to reopen it, and the drops of the connections
+/// before this one.
+struct LinkReader {
+    device: usize,
+    client: Client,
+    reopen: Option<Reopen>,
+    earlier_drops: DropCounts,
+}
+
+impl LinkReader {
+    fn drops(&self) -> DropCounts {
+        self.earlier_drops.plus(self.client.drops())
+    }
+
+    /// Reads until the link ends for good, sending every event.
+    fn run(mut self, tx: &Sender<(Event, DropCounts)>) {
+        let device = self.device;
+        loop {
+            let lost = match self.client.next(None) {
+                Ok(Next::Message(received)) => {
+                    if tx
+                        .send((Event::Message { device, received }, self.drops()))
+                        .is_err()
+                    {
+                        return;
+                    }
+                    continue;
+                }
+                Ok(Next::End | Next::Timeout) => Event::Ended { device },
+                Err(error) => Event::Failed { device, error },
+            };
+            if self.reopen.is_none() {
+                let _ = tx.send((lost, self.drops()));
+                return;
+            }
+            let why = match &lost {
+                Event::Failed { error, .. } => error.to_string(),
+                _ => "the stream ended".to_string(),
+            };
+            if tx
+                .send((
+                    Event::Lost {
+                        device,
+                        why: why.clone(),
+                    },
+                    self.drops(),
+                ))
+                .is_err()
+            {
+                return;
+            }
+            match self.reconnect(why) {
+                Ok(client) => {
+                    self.earlier_drops = self.drops();
+                    self.client = client;
+                    if tx
+                        .send((Event::Reconnected { device }, self.drops()))
+                        .is_err()
+                    {
+                        return;
+                    }
+                }
+                Err(error) => {
+                    let _ = tx.send((Event::Failed { device, error }, self.drops()));
+                    return;
+                }
+            }
+        }
+    }
+
+    /// Opens the link again with back-off, until [`Reopen::give_up_after`].
+    fn reconnect(&mut self, mut last: String) -> Result<Client, HostError> {
+        let link = self.client.name().to_string();
+        let Some(r) = self.reopen.as_mut() else {
+            return Err(HostError::GaveUp {
+                link,
+                after: Duration::ZERO,
+                last,
+            });
+        };
+        let started = Instant::now();
+        let mut wait = r.min_backoff;
+        loop {
+            std::thread::sleep(wait);
+            match (r.open)() {
+                Ok(c) => return Ok(c),
+                Err(e) => last = e.to_string(),
+            }
+            if started.elapsed() >= r.give_up_after {
+                return Err(HostError::GaveUp {
+                    link,
+                    after: r.give_up_after,
+                    last,
+                });
+            }
+            wait = (wait * 2).clamp(r.min_backoff, r.max_backoff);
+        }
+    }
+}
+
 impl MultiReader {
     /// Starts one reader thread per client.
     pub fn spawn(clients: Vec<Client>) -> MultiReader {
+        MultiReader::spawn_with(clients.into_iter().map(|c| (c, None)).collect())
+    }
+
+    /// Starts one reader thread per client; a client given a [`Reopen`] is opened again
+    /// when its link goes away.
+    pub fn spawn_with(links: Vec<(Client, Option<Reopen>)>) -> MultiReader {
         let (tx, rx) = crossbeam_channel::bounded(1024);
         let mut stats = Vec::new();
         let mut threads = Vec::new();
-        for (device, mut client) in clients.into_iter().enumerate() {
+        for (device, (client, reopen)) in links.into_iter().enumerate() {
             stats.push(DeviceStats {
                 name: client.name().to_string(),
                 ..Default::default()
             });
             let tx = tx.clone();
-            threads.push(std::thread::spawn(move || loop {
-                let event = match client.next(None) {
-                    Ok(Next::Message(received)) => Event::Message { device, received },
-                    Ok(Next::End | Next::Timeout) => Event::Ended { device },
-                    Err(error) => Event::Failed { device, error },
-                };
-                let last = !matches!(event, Event::Message { .. });
-                if tx.send((event, client.drops())).is_err() || last {
-                    return;
-                }
-            }));
+            let reader = LinkReader {
+                device,
+                client,
+                reopen,
+                earlier_drops: DropCounts::default(),
+            };
+            threads.push(std::thread::spawn(move || reader.run(&tx)));
         }
         MultiReader { rx, stats, threads }
     }
@@ -93,12 +246,7 @@ impl MultiReader {
         }
         match self.rx.recv_timeout(timeout) {
             Ok((event, drops)) => {
-                let device = match &event {
-                    Event::Message { device, .. }
-                    | Event::Ended { device }
-                    | Event::Failed { device, .. } => *device,
-                };
-                if let Some(s) = self.stats.get_mut(device) {
+                if let Some(s) = self.stats.get_mut(event.device()) {
                     s.drops = drops;
                     match &event {
                         Event::Message { received, .. } => {
@@ -106,7 +254,9 @@ impl MultiReader {
                                 s.seq.observe(sum.seq);
                             }
                         }
-                        _ => s.finished = true,
+                        Event::Lost { .. } => {}
+                        Event::Reconnected { .. } => s.reconnects += 1,
+                        Event::Ended { .. } | Event::Failed { .. } => s.finished = true,
                     }
                 }
                 Some(event)
@@ -134,5 +284,111 @@ impl MultiReader {
         for t in self.threads {
             let _ = t.join();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::link::Link;
+    use vistaf_protocol::frame::DEVICE_FRAME_MAX;
+    use vistaf_protocol::{encode, Summary};
+
+    /// A captured stream of summaries `seqs`, as a link that ends after it.
+    fn stream_of(seqs: std::ops::Range<u32>) -> Client {
+        let mut bytes = Vec::new();
+        let mut buf = [0u8; DEVICE_FRAME_MAX];
+        for seq in seqs {
+            let n = encode(
+                &DeviceMsg::Summary(Summary {
+                    seq,
+                    ..Default::default()
+                }),
+                &mut buf,
+            )
+            .unwrap();
+            bytes.extend_from_slice(&buf[..n]);
+        }
+        Client::new(Link::read_only(
+            "serial:/dev/ttyFAKE@921600".into(),
+            std::io::Cursor::new(bytes),
+        ))
+    }
+
+    fn drain(r: &mut MultiReader) -> Vec<Event> {
+        let mut out = Vec::new();
+        while let Some(e) = r.recv(Duration::from_secs(5)) {
+            out.push(e);
+        }
+        out
+    }
+
+    fn kinds(events: &[Event]) -> Vec<&'static str> {
+        events
+            .iter()
+            .map(|e| match e {
+                Event::Message { .. } => "message",
+                Event::Ended { .. } => "ended",
+                Event::Failed { .. } => "failed",
+                Event::Lost { .. } => "lost",
+                Event::Reconnected { .. } => "reconnected",
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_link_that_comes_back_is_read_on() {
+        let mut second = Some(stream_of(3..5));
+        let reopen = Reopen {
+            // Refused once (the port not there yet), then back.
+            open: Box::new({
+                let mut tries = 0;
+                move || {
+                    tries += 1;
+                    match (tries, second.take()) {
+                        (1, s) => {
+                            second = s;
+                            Err(HostError::ReadOnly { link: "x".into() })
+                        }
+                        (_, Some(c)) => Ok(c),
+                        (_, None) => Err(HostError::ReadOnly { link: "x".into() }),
+                    }
+                }
+            }),
+            give_up_after: Duration::from_millis(50),
+            min_backoff: Duration::ZERO,
+            max_backoff: Duration::from_millis(1),
+        };
+        let mut r = MultiReader::spawn_with(vec![(stream_of(0..3), Some(reopen))]);
+        let events = drain(&mut r);
+        assert_eq!(
+            kinds(&events),
+            [
+                "message",
+                "message",
+                "message",
+                "lost",
+                "reconnected",
+                "message",
+                "message",
+                "lost",
+                "failed"
+            ]
+        );
+        assert!(matches!(
+            events.last(),
+            Some(Event::Failed {
+                error: HostError::GaveUp { .. },
+                ..
+            })
+        ));
+        let s = &r.stats()[0];
+        assert_eq!((s.seq.received, s.seq.missing, s.reconnects), (5, 0, 1));
+    }
+
+    #[test]
+    fn without_reopen_a_link_ends_once() {
+        let mut r = MultiReader::spawn(vec![stream_of(0..2)]);
+        assert_eq!(kinds(&drain(&mut r)), ["message", "message", "ended"]);
     }
 }

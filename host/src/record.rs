@@ -2,7 +2,7 @@
 //! run loses at most the line being written.
 
 use std::fs::File;
-use std::io::{BufWriter, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::{SystemTime, UNIX_EPOCH};
 
@@ -167,12 +167,31 @@ pub fn message_json(device: &str, received: &Received) -> Value {
     }
 }
 
-/// Writes messages to a file, one flushed line each.
+/// Where a recorder's lines go: a file it can cut back to a length.
+pub trait RecordFile: Write + Send + std::fmt::Debug {
+    /// Cuts the file to `len` bytes and continues writing there.
+    fn cut_to(&mut self, len: u64) -> std::io::Result<()>;
+}
+
+impl RecordFile for File {
+    fn cut_to(&mut self, len: u64) -> std::io::Result<()> {
+        use std::io::{Seek, SeekFrom};
+        self.set_len(len)?;
+        self.seek(SeekFrom::Start(len)).map(|_| ())
+    }
+}
+
+/// Writes messages to a file, one whole line at a time: each line goes out in one write
+/// and is flushed, and a write that fails (a full disk) is cut back off the file, so the
+/// file always ends with a complete line and a killed run loses at most the line being
+/// written.
 #[derive(Debug)]
 pub struct Recorder {
     path: PathBuf,
     format: Format,
-    out: BufWriter<File>,
+    out: Box<dyn RecordFile>,
+    /// Bytes of complete lines in the file.
+    whole: u64,
     lines: u64,
 }
 
@@ -186,10 +205,20 @@ impl Recorder {
             path: path.display().to_string(),
             cause,
         })?;
+        Recorder::to(path, format, Box::new(file))
+    }
+
+    /// A recorder writing `format` into `out` (named `path` in messages).
+    pub fn to(
+        path: &Path,
+        format: Format,
+        out: Box<dyn RecordFile>,
+    ) -> Result<Recorder, HostError> {
         let mut rec = Recorder {
             path: path.to_path_buf(),
             format,
-            out: BufWriter::new(file),
+            out,
+            whole: 0,
             lines: 0,
         };
         if format == Format::Csv {
@@ -199,12 +228,23 @@ impl Recorder {
     }
 
     fn line(&mut self, text: &str) -> Result<(), HostError> {
-        writeln!(self.out, "{text}")
-            .and_then(|()| self.out.flush())
-            .map_err(|cause| HostError::Record {
-                path: self.path.display().to_string(),
-                cause,
-            })
+        let mut bytes = Vec::with_capacity(text.len() + 1);
+        bytes.extend_from_slice(text.as_bytes());
+        bytes.push(b'\n');
+        match self.out.write_all(&bytes).and_then(|()| self.out.flush()) {
+            Ok(()) => {
+                self.whole += bytes.len() as u64;
+                Ok(())
+            }
+            Err(cause) => {
+                // What part of the line reached the file is cut off again.
+                let _ = self.out.cut_to(self.whole);
+                Err(HostError::Record {
+                    path: self.path.display().to_string(),
+                    cause,
+                })
+            }
+        }
     }
 
     /// Records one message. CSV keeps summaries only; JSON lines keep everything.
@@ -264,5 +304,69 @@ mod tests {
         assert_eq!(cols[15], "phase_slope");
         assert!(Recorder::create(&dir.join("r.txt")).is_err());
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// A disk that fills up after `room` bytes: a write takes what fits, then fails.
+    #[derive(Debug, Clone, Default)]
+    struct Filling {
+        bytes: std::sync::Arc<std::sync::Mutex<Vec<u8>>>,
+        room: usize,
+    }
+
+    impl Write for Filling {
+        fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+            let mut bytes = self.bytes.lock().unwrap();
+            let n = b.len().min(self.room - bytes.len());
+            if n == 0 {
+                return Err(std::io::Error::from(std::io::ErrorKind::StorageFull));
+            }
+            bytes.extend_from_slice(&b[..n]);
+            Ok(n)
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    impl RecordFile for Filling {
+        fn cut_to(&mut self, len: u64) -> std::io::Result<()> {
+            self.bytes.lock().unwrap().truncate(len as usize);
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn a_full_disk_leaves_only_whole_lines() {
+        for format in [Format::Csv, Format::JsonLines] {
+            let disk = Filling {
+                room: 700,
+                ..Default::default()
+            };
+            let mut rec = Recorder::to(Path::new("r"), format, Box::new(disk.clone())).unwrap();
+            let mut failed = None;
+            for seq in 0..100 {
+                let r = Received {
+                    msg: DeviceMsg::Summary(Summary {
+                        seq,
+                        ..Default::default()
+                    }),
+                    at: SystemTime::now(),
+                };
+                if let Err(e) = rec.record("a", &r) {
+                    failed = Some((seq, e));
+                    break;
+                }
+            }
+            let (seq, e) = failed.expect("the disk fills up");
+            assert!(e.to_string().starts_with("writing r: "), "{e}");
+            let text = String::from_utf8(disk.bytes.lock().unwrap().clone()).unwrap();
+            assert!(
+                text.ends_with('\n'),
+                "{format:?}: torn last line in {text:?}"
+            );
+            let header = usize::from(format == Format::Csv);
+            assert_eq!(text.lines().count(), header + seq as usize, "{format:?}");
+            assert_eq!(rec.lines(), u64::from(seq));
+        }
     }
 }

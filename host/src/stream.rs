@@ -12,7 +12,7 @@ use vistaf_protocol::DeviceMsg;
 use crate::client::{Client, Received};
 use crate::error::HostError;
 use crate::monitor::Monitor;
-use crate::multi::{DeviceStats, Event, MultiReader};
+use crate::multi::{DeviceStats, Event, MultiReader, Reopen};
 use crate::record::Recorder;
 
 /// How often a consumer is ticked while no message arrives.
@@ -45,6 +45,14 @@ pub trait Consumer {
     fn failed(&mut self, device: usize, stats: &[DeviceStats], error: &HostError) {
         let _ = (device, stats, error);
     }
+    /// Link `device` went away and is being opened again ([`crate::multi::Reopen`]).
+    fn lost(&mut self, device: usize, stats: &[DeviceStats], why: &str) {
+        let _ = (device, stats, why);
+    }
+    /// Link `device` is back.
+    fn reconnected(&mut self, device: usize, stats: &[DeviceStats]) {
+        let _ = (device, stats);
+    }
     /// Called after every event and at least every [`TICK`] while nothing arrives.
     fn tick(&mut self, stats: &[DeviceStats]) {
         let _ = stats;
@@ -68,7 +76,21 @@ pub fn stream(
     limits: &Limits,
     consumer: &mut dyn Consumer,
 ) -> Result<Outcome, HostError> {
-    let mut reader = MultiReader::spawn(clients);
+    stream_with(
+        clients.into_iter().map(|c| (c, None)).collect(),
+        limits,
+        consumer,
+    )
+}
+
+/// [`stream`] over links of which those given a [`Reopen`] are opened again when they go
+/// away.
+pub fn stream_with(
+    links: Vec<(Client, Option<Reopen>)>,
+    limits: &Limits,
+    consumer: &mut dyn Consumer,
+) -> Result<Outcome, HostError> {
+    let mut reader = MultiReader::spawn_with(links);
     let deadline = limits.duration.map(|d| Instant::now() + d);
     let mut summaries = 0u64;
     let mut failure = None;
@@ -97,6 +119,8 @@ pub fn stream(
                 consumer.failed(device, reader.stats(), &error);
                 failure.get_or_insert(error);
             }
+            Event::Lost { device, why } => consumer.lost(device, reader.stats(), &why),
+            Event::Reconnected { device } => consumer.reconnected(device, reader.stats()),
         }
         consumer.tick(reader.stats());
     }
@@ -151,6 +175,14 @@ impl Consumer for Readout {
 
     fn failed(&mut self, device: usize, stats: &[DeviceStats], error: &HostError) {
         eprintln!("{}: {error}", name_of(stats, device));
+    }
+
+    fn lost(&mut self, device: usize, stats: &[DeviceStats], why: &str) {
+        eprintln!("{}: lost ({why}); reconnecting", name_of(stats, device));
+    }
+
+    fn reconnected(&mut self, device: usize, stats: &[DeviceStats]) {
+        eprintln!("{}: back", name_of(stats, device));
     }
 
     fn tick(&mut self, stats: &[DeviceStats]) {

@@ -65,7 +65,8 @@ fn two_skins_over_ptys_with_garbage() {
                 }
             }
             Some(Event::Failed { error, .. }) => panic!("link failed: {error}"),
-            Some(Event::Ended { .. }) | None => {}
+            Some(Event::Lost { why, .. }) => panic!("link lost: {why}"),
+            Some(Event::Ended { .. } | Event::Reconnected { .. }) | None => {}
         }
     }
     for (i, s) in streams.iter().enumerate() {

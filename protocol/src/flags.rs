@@ -36,11 +36,14 @@ pub enum Flag {
     StaleReference = 6,
     /// The indentation is deeper than the calibration covers (reported extrapolated).
     DepthOutOfRange = 7,
+    /// The force is beyond what the calibration covers (reported saturated at the edge of
+    /// the calibrated range's margin).
+    ForceOutOfRange = 8,
 }
 
 impl Flag {
     /// Every flag, in bit order.
-    pub const ALL: [Flag; 8] = [
+    pub const ALL: [Flag; 9] = [
         Flag::LowContrast,
         Flag::PhaseSlope,
         Flag::UnwrapFailure,
@@ -49,6 +52,7 @@ impl Flag {
         Flag::TemperatureOutOfRange,
         Flag::StaleReference,
         Flag::DepthOutOfRange,
+        Flag::ForceOutOfRange,
     ];
 
     /// The flag's bit in [`QualityFlags`].
@@ -67,6 +71,7 @@ impl Flag {
             Flag::TemperatureOutOfRange => "temperature_out_of_range",
             Flag::StaleReference => "stale_reference",
             Flag::DepthOutOfRange => "depth_out_of_range",
+            Flag::ForceOutOfRange => "force_out_of_range",
         }
     }
 
@@ -147,7 +152,7 @@ mod tests {
     #[test]
     fn iter_skips_unknown_bits_and_reports_them() {
         let flags = QualityFlags(Flag::PhaseSlope.bit() | 0x8000);
-        let listed: heapless::Vec<Flag, 8> = flags.iter().collect();
+        let listed: heapless::Vec<Flag, 9> = flags.iter().collect();
         assert_eq!(listed.as_slice(), &[Flag::PhaseSlope]);
         assert_eq!(flags.unknown_bits(), 0x8000);
         assert!(!flags.is_empty());

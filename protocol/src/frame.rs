@@ -136,6 +136,18 @@ pub struct DropCounts {
 }
 
 impl DropCounts {
+    /// These counts and `other`'s, reason by reason (a link's over several connections).
+    #[must_use]
+    pub fn plus(self, other: DropCounts) -> DropCounts {
+        DropCounts {
+            overflow: self.overflow.saturating_add(other.overflow),
+            cobs: self.cobs.saturating_add(other.cobs),
+            too_short: self.too_short.saturating_add(other.too_short),
+            crc: self.crc.saturating_add(other.crc),
+            decode: self.decode.saturating_add(other.decode),
+        }
+    }
+
     /// All dropped frames.
     pub fn total(&self) -> u64 {
         self.overflow + self.cobs + self.too_short + self.crc + self.decode
@@ -171,13 +183,13 @@ pub type DeviceDecoder = Decoder<DeviceMsg, DEVICE_FRAME_MAX>;
 /// Decodes what a host sends.
 pub type HostDecoder = Decoder<HostMsg, HOST_FRAME_MAX>;
 
-impl<T: DeserializeOwned, const N: usize> Default for Decoder<T, N> {
+impl<T: WireMessage, const N: usize> Default for Decoder<T, N> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<T: DeserializeOwned, const N: usize> Decoder<T, N> {
+impl<T: WireMessage, const N: usize> Decoder<T, N> {
     /// An empty decoder.
     pub const fn new() -> Self {
         Decoder {
@@ -267,8 +279,35 @@ impl<T: DeserializeOwned, const N: usize> Decoder<T, N> {
     }
 }
 
+/// A message the decoders accept: it decodes, and then says whether its fields agree with
+/// each other (a `Map` whose cells do not fill its size decodes, but is not a map).
+pub trait WireMessage: DeserializeOwned {
+    /// Whether the decoded message is whole and consistent.
+    fn is_valid(&self) -> bool;
+}
+
+impl WireMessage for crate::msg::DeviceMsg {
+    fn is_valid(&self) -> bool {
+        match self {
+            crate::msg::DeviceMsg::Map(m) => m.is_consistent(),
+            _ => true,
+        }
+    }
+}
+
+impl WireMessage for crate::msg::HostMsg {
+    fn is_valid(&self) -> bool {
+        true
+    }
+}
+
 /// Decodes one frame body (the bytes between two delimiters), in place.
-pub fn decode_body<T: DeserializeOwned>(body: &mut [u8]) -> Result<T, FrameError> {
+///
+/// A body that does not decode but starts like a `Hello` of another protocol version or
+/// schema is [`FrameError::ProtocolMismatch`]; one of this version that does not decode
+/// (a malformed `Hello`, say) is a plain [`FrameError::Decode`], as is a message that
+/// decodes but is not consistent ([`WireMessage::is_valid`]).
+pub fn decode_body<T: WireMessage>(body: &mut [u8]) -> Result<T, FrameError> {
     let n = cobs::decode_in_place(body).map_err(|_| FrameError::Cobs)?;
     let decoded = body.get(..n).ok_or(FrameError::Cobs)?;
     if n <= CRC_LEN {
@@ -281,13 +320,18 @@ pub fn decode_body<T: DeserializeOwned>(body: &mut [u8]) -> Result<T, FrameError
         return Err(FrameError::Crc);
     }
     match postcard::take_from_bytes::<T>(payload) {
-        Ok((msg, [])) => Ok(msg),
-        _ => match schema::peek_hello(payload) {
-            Some((protocol_version, schema_hash)) => Err(FrameError::ProtocolMismatch {
-                protocol_version,
-                schema_hash,
-            }),
-            None => Err(FrameError::Decode),
+        Ok((msg, [])) if msg.is_valid() => Ok(msg),
+        Ok(_) => Err(FrameError::Decode),
+        Err(_) => match schema::peek_hello(payload) {
+            Some((protocol_version, schema_hash))
+                if !schema::is_compatible(protocol_version, schema_hash) =>
+            {
+                Err(FrameError::ProtocolMismatch {
+                    protocol_version,
+                    schema_hash,
+                })
+            }
+            _ => Err(FrameError::Decode),
         },
     }
 }

@@ -213,6 +213,9 @@ pub enum ErrorCode {
     LedFault,
     /// Anything else; see the detail text.
     Internal,
+    /// No reference could be taken (no grating in view, or the calibration does not fit);
+    /// the device keeps trying with the next stable frames.
+    Reference,
 }
 
 /// An error report from the device.

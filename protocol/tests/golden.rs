@@ -174,7 +174,7 @@ fn every_golden_file_has_a_sample() {
 /// bump `PROTOCOL_VERSION` and update the constant below together with the golden files.
 #[test]
 fn schema_hash_is_pinned() {
-    assert_eq!(PROTOCOL_VERSION, 1);
+    assert_eq!(PROTOCOL_VERSION, 2);
     assert_eq!(
         schema_hash(),
         PINNED_SCHEMA_HASH,
@@ -183,32 +183,68 @@ fn schema_hash_is_pinned() {
     );
 }
 
-const PINNED_SCHEMA_HASH: u64 = 0x8253_7711_2ea3_cea1;
+const PINNED_SCHEMA_HASH: u64 = 0xb983_5650_e841_ea3d;
 
 #[test]
 fn a_hello_of_another_version_is_named_not_misread() {
-    // A future Hello: version 2, a different hash, and a field this build does not know.
+    // A future Hello: version 3, a different hash, and a field this build does not know.
     let mut payload = Vec::new();
-    payload.extend(postcard::to_stdvec(&(0u32, 2u16, 0x1111_2222_3333_4444u64)).unwrap());
+    payload.extend(postcard::to_stdvec(&(0u32, 3u16, 0x1111_2222_3333_4444u64)).unwrap());
     payload.extend([0xff, 0xff, 0xff, 0xff, 0xff, 0xff]);
-    let mut body = payload.clone();
-    body.extend(frame::CRC32.checksum(&payload).to_le_bytes());
-    let mut wire = vec![0u8];
-    wire.extend(cobs_encode(&body));
-    wire.push(0);
-
-    let mut dec = DeviceDecoder::new();
-    let mut got = Vec::new();
-    dec.push(&wire, |r| got.push(r));
+    let got = decoded(&payload);
     assert_eq!(
         got,
         vec![Err(FrameError::ProtocolMismatch {
-            protocol_version: 2,
+            protocol_version: 3,
             schema_hash: 0x1111_2222_3333_4444
         })]
     );
     let text = got[0].clone().unwrap_err().to_string();
-    assert!(text.contains("v2") && text.contains("v1"), "{text}");
+    assert!(text.contains("v3") && text.contains("v2"), "{text}");
+}
+
+/// A Hello of this very version and schema that does not decode (a serial that is not
+/// UTF-8) is a malformed frame, not a version mismatch.
+#[test]
+fn a_malformed_hello_of_this_version_is_a_bad_frame() {
+    let mut payload = Vec::new();
+    payload.extend(postcard::to_stdvec(&(0u32, PROTOCOL_VERSION, schema_hash())).unwrap());
+    payload.extend([0x00, 0x00, 0x00, 0x02, 0xff, 0xfe]);
+    assert_eq!(decoded(&payload), vec![Err(FrameError::Decode)]);
+}
+
+/// A map whose cells do not fill its size decodes, but is dropped as not a map.
+#[test]
+fn a_map_whose_cells_do_not_fill_it_is_dropped() {
+    let mut m = Map {
+        seq: 1,
+        kind: MapKind::Depth,
+        width: 3,
+        height: 2,
+        cell_pitch_centi_mm: 100,
+        cells: heapless::Vec::new(),
+    };
+    for v in 0..5 {
+        m.cells.push(v).unwrap();
+    }
+    let payload = postcard::to_stdvec(&DeviceMsg::Map(m.clone())).unwrap();
+    assert_eq!(decoded(&payload), vec![Err(FrameError::Decode)]);
+    m.cells.push(5).unwrap();
+    let payload = postcard::to_stdvec(&DeviceMsg::Map(m.clone())).unwrap();
+    assert_eq!(decoded(&payload), vec![Ok(DeviceMsg::Map(m))]);
+}
+
+/// What a device decoder makes of one frame carrying `payload`.
+fn decoded(payload: &[u8]) -> Vec<Result<DeviceMsg, FrameError>> {
+    let mut body = payload.to_vec();
+    body.extend(frame::CRC32.checksum(payload).to_le_bytes());
+    let mut wire = vec![0u8];
+    wire.extend(cobs_encode(&body));
+    wire.push(0);
+    let mut dec = DeviceDecoder::new();
+    let mut got = Vec::new();
+    dec.push(&wire, |r| got.push(r));
+    got
 }
 
 fn cobs_encode(data: &[u8]) -> Vec<u8> {

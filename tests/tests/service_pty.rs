@@ -148,12 +148,20 @@ fn summaries_cross_a_pty_in_order_and_match_the_scene() {
     );
     // The last summaries press beyond the calibration: flagged.
     let (inside, outside) = summaries.split_at(summaries.len() - beyond);
+    // Depth beyond the calibration; force too once it passes its calibrated range,
+    // reported saturated at the range's edge.
+    use vistaf_protocol::Flag;
+    let force_limit_mn = {
+        let r = Calibration::default_sim().force.unwrap().range.unwrap();
+        (1.1 * r.output[1] * 1000.0).round() as u32
+    };
     for s in outside {
-        assert_eq!(
-            s.flags.iter().collect::<Vec<_>>(),
-            vec![vistaf_protocol::Flag::DepthOutOfRange],
-            "{s:?}"
-        );
+        let flags: Vec<Flag> = s.flags.iter().collect();
+        let beyond_force = s.flags.contains(Flag::ForceOutOfRange);
+        assert!(flags.contains(&Flag::DepthOutOfRange), "{s:?}");
+        assert_eq!(flags.len(), 1 + usize::from(beyond_force), "{s:?}");
+        assert_eq!(beyond_force, s.force_mn >= force_limit_mn, "{s:?}");
+        assert!(s.force_mn <= force_limit_mn, "{s:?}");
     }
     assert!(
         inside.iter().all(|s| s.flags.is_empty()),

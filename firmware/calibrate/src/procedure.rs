@@ -16,7 +16,7 @@
 use sha2::{Digest, Sha256};
 use vistaf_hardware::frameset::FrameSet;
 use vistaf_pipeline::calibration::{
-    Calibration, DepthModel, Fitted, ForceFeature, ForceModel, SetRecord, ShapeSignature,
+    Calibration, DepthModel, FitRange, Fitted, ForceFeature, ForceModel, SetRecord, ShapeSignature,
     UnitGeometry, FORMAT,
 };
 use vistaf_pipeline::ftp::carrier;
@@ -267,6 +267,7 @@ fn identity(unit: &UnitGeometry, sign: f64) -> Calibration {
             in_sample_rmse: 0.0,
             n: 0,
             candidates: vec![],
+            range: None,
         },
         force: None,
         shape: None,
@@ -382,6 +383,7 @@ fn depth_model<O: Observer>(
         in_sample_rmse: chosen.in_sample_rmse,
         n: samples.len(),
         candidates,
+        range: FitRange::of(samples.iter().map(|s| (s.u, s.y))),
     })
 }
 
@@ -431,13 +433,17 @@ fn force_model<O: Observer>(
             (f, s)
         })
         .collect();
-    let force = fit_force(&feats, |_, _| {}).map(|(m, chosen, candidates)| Fitted {
-        equation: m.equation(),
-        model: m,
-        cv_rmse: chosen.cv_rmse,
-        in_sample_rmse: chosen.in_sample_rmse,
-        n: force_frames.len(),
-        candidates,
+    let force = fit_force(&feats, |_, _| {}).map(|(m, chosen, candidates)| {
+        let used = feats.iter().find(|(f, _)| *f == m.feature).map(|(_, s)| s);
+        Fitted {
+            equation: m.equation(),
+            range: used.and_then(|s| FitRange::of(s.iter().map(|s| (s.u, s.y)))),
+            model: m,
+            cv_rmse: chosen.cv_rmse,
+            in_sample_rmse: chosen.in_sample_rmse,
+            n: force_frames.len(),
+            candidates,
+        }
     });
     if force.is_none() {
         run.obs.note(

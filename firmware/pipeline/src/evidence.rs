@@ -33,4 +33,33 @@ pub struct Fitted<M> {
     pub n: usize,
     /// Every candidate's scores.
     pub candidates: Vec<CandidateScore>,
+    /// The inputs and labels the model was fitted on (absent in files written before it
+    /// was recorded).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub range: Option<FitRange>,
+}
+
+/// The span of a fit's inputs and labels: what the model has seen.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct FitRange {
+    /// Smallest and largest input (phase, rad; or the force model's feature).
+    pub input: [f64; 2],
+    /// Smallest and largest label (depth, mm; or force, N).
+    pub output: [f64; 2],
+}
+
+impl FitRange {
+    /// The span of `(input, label)` pairs; `None` for none.
+    pub fn of(pairs: impl Iterator<Item = (f64, f64)>) -> Option<FitRange> {
+        let mut r: Option<FitRange> = None;
+        for (u, y) in pairs {
+            let g = r.get_or_insert(FitRange {
+                input: [u, u],
+                output: [y, y],
+            });
+            g.input = [g.input[0].min(u), g.input[1].max(u)];
+            g.output = [g.output[0].min(y), g.output[1].max(y)];
+        }
+        r
+    }
 }

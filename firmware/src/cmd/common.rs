@@ -29,3 +29,15 @@ impl PipelineArgs {
         })
     }
 }
+
+/// A rate for `--fps`: finite and above zero (as the configuration file requires).
+pub fn positive_rate(s: &str) -> Result<f32, String> {
+    let v: f32 = s.parse().map_err(|_| format!("{s:?} is not a number"))?;
+    if v.is_finite() && v > 0.0 && v <= 10_000.0 {
+        Ok(v)
+    } else {
+        Err(format!(
+            "{v}: a rate above 0 and at most 10 000 frames per second"
+        ))
+    }
+}

@@ -42,7 +42,7 @@ pub struct Args {
     #[arg(long)]
     pub pipeline: Option<Implementation>,
     /// Pace sets and simulated scenes at this rate (frames per second).
-    #[arg(long)]
+    #[arg(long, value_parser = super::common::positive_rate)]
     pub fps: Option<f32>,
     /// Simulated unit (sim: sources).
     #[arg(long, default_value_t = 0)]

@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use image::RgbImage;
 use vistaf_hardware::led::{LedConfig, LedRing};
 use vistaf_hardware::source::SourceFormat;
-use vistaf_pipeline::{Analyzer, AnalyzerOptions, PipelineError, Scratch};
+use vistaf_pipeline::{Analyzer, AnalyzerOptions, Scratch};
 use vistaf_protocol::msg::truncated;
 use vistaf_protocol::{
     schema_hash, Command, DeviceError, DeviceMsg, ErrorCode, FirmwareVersion, Flag, Hello, HostMsg,
@@ -24,6 +24,8 @@ use super::{Counters, Settings};
 
 /// How often a `Status` goes out.
 pub const STATUS_INTERVAL: Duration = Duration::from_secs(1);
+/// How long after a reference that could not be used the next attempt is made.
+pub const REFERENCE_RETRY: Duration = Duration::from_secs(1);
 
 /// Counts kept by the threads at the edge (capture, link reader), read into `Status`.
 #[derive(Debug, Default)]
@@ -75,6 +77,8 @@ pub struct Service<'a, C: Clock> {
     seq: u32,
     /// The pipeline's buffers, kept from frame to frame.
     scratch: Scratch,
+    /// Before this, no reference is attempted (the last attempt failed).
+    reference_retry_at: Option<Instant>,
 }
 
 impl<C: Clock> std::fmt::Debug for Service<'_, C> {
@@ -114,6 +118,7 @@ impl<'a, C: Clock> Service<'a, C> {
             camera_lost: false,
             seq: 0,
             scratch: Scratch::default(),
+            reference_retry_at: None,
         }
     }
 
@@ -251,42 +256,52 @@ impl<'a, C: Clock> Service<'a, C> {
 
     /// A frame from the source: a reference when the keeper needs one, else a summary (at
     /// the rate asked for) and the maps asked for. A frame of the wrong size or one that
-    /// cannot be decoded is counted and skipped; a reference without a usable grating is an
-    /// error (the service cannot measure anything).
-    pub fn on_frame(
-        &mut self,
-        frame: vistaf_hardware::Frame,
-    ) -> Result<Vec<DeviceMsg>, PipelineError> {
+    /// cannot be decoded is counted and skipped.
+    pub fn on_frame(&mut self, frame: vistaf_hardware::Frame) -> Vec<DeviceMsg> {
         let capture_us = u64::try_from(frame.timestamp.as_micros()).unwrap_or(u64::MAX);
         let img: RgbImage = match frame.into_rgb() {
             Ok(i) if i.dimensions() == (self.format.width, self.format.height) => i,
             _ => {
                 self.counters.bad += 1;
-                return Ok(Vec::new());
+                return Vec::new();
             }
         };
         if self.keeper.analyzer().is_none() {
+            self.counters.referencing += 1;
             return self.take_reference(&img);
         }
-        Ok(self.measure(&img, capture_us))
+        self.measure(&img, capture_us)
     }
 
     /// Offers the frame to the reference keeper; a reference taken is announced by a
-    /// `Status`.
-    fn take_reference(&mut self, img: &RgbImage) -> Result<Vec<DeviceMsg>, PipelineError> {
+    /// `Status`. A reference that cannot be used (no grating in view: a lens cap, the light
+    /// off; a calibration for another unit) is reported, and tried again from the frames
+    /// after [`REFERENCE_RETRY`]: the service waits for a usable image instead of exiting.
+    fn take_reference(&mut self, img: &RgbImage) -> Vec<DeviceMsg> {
+        let now = self.clock.now();
+        if self.reference_retry_at.is_some_and(|t| now < t) {
+            return Vec::new();
+        }
         let opts = AnalyzerOptions {
             force_calibration: self.settings.force_calibration,
             ..Default::default()
         };
         let (calibration, pipeline) = (&self.settings.calibration, self.settings.pipeline);
-        let taken = self.keeper.offer(img, self.clock.now(), |r| {
+        let offered = self.keeper.offer(img, now, |r| {
             Analyzer::new(r, calibration.clone(), pipeline, opts)
-        })?;
-        Ok(if taken {
-            vec![self.status(RunState::Streaming)]
-        } else {
-            Vec::new()
-        })
+        });
+        match offered {
+            Ok(true) => {
+                self.reference_retry_at = None;
+                vec![self.status(RunState::Streaming)]
+            }
+            Ok(false) => Vec::new(),
+            Err(e) => {
+                self.counters.reference_failures += 1;
+                self.reference_retry_at = Some(now + REFERENCE_RETRY);
+                vec![error(ErrorCode::Reference, &e.to_string())]
+            }
+        }
     }
 
     /// Measures a frame against the reference and says what it found.

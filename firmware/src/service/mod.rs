@@ -29,6 +29,7 @@ pub mod clock;
 pub mod machine;
 pub mod reference;
 pub mod runner;
+pub mod systemd;
 pub mod wire;
 
 pub use clock::{Clock, ManualClock, SystemClock};
@@ -100,4 +101,10 @@ pub struct Counters {
     pub camera_restarts: u32,
     /// Summaries flagged `stale_reference`.
     pub stale: u32,
+    /// Frames spent taking a reference (waiting for a stable image, or for the retry of
+    /// one that could not be used).
+    pub referencing: u32,
+    /// References that could not be used (no grating in view, a calibration for another
+    /// unit), each reported and retried.
+    pub reference_failures: u32,
 }

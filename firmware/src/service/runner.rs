@@ -16,6 +16,7 @@ use vistaf_protocol::{encode, DeviceMsg, HostDecoder, HostMsg};
 
 use super::clock::SystemClock;
 use super::machine::{CameraEvent, EdgeCounters, Service};
+use super::systemd::Systemd;
 use super::{Counters, Settings};
 
 /// How long the loop waits for a frame before it looks at commands and time again.
@@ -228,15 +229,14 @@ pub fn run(
     let edge = Edge::start(source, commands, &stop);
     let mut service = Service::new(settings, format, led, edge.counters.clone(), SystemClock);
     tx.send_all(service.start());
-    let result = serve(&mut service, &edge, &mut tx, &stop);
+    let mut systemd = Systemd::from_env();
+    systemd.ready();
+    serve(&mut service, &edge, &mut tx, &stop, &mut systemd);
+    systemd.stopping();
     stop.store(true, Ordering::Relaxed);
-    let failure = match edge.capture.join() {
-        Ok(failure) => failure,
-        Err(_) => Some("the capture thread panicked".into()),
-    };
+    let failure = stop_capture(edge.capture);
     tx.send(&service.finish());
     let counters = service.counters();
-    result?;
     if let Some(e) = failure {
         anyhow::bail!("source failed: {e}");
     }
@@ -251,15 +251,43 @@ pub fn run(
     })
 }
 
+/// How long the capture thread has to stop after the service did: a source blocked in a
+/// read (a camera that froze, a replay pacing a frame far in the future) is left behind.
+const CAPTURE_STOP_GRACE: Duration = Duration::from_secs(2);
+
+/// Waits for the capture thread to stop (up to [`CAPTURE_STOP_GRACE`]); its failure, if it
+/// failed, and a panic counts as one.
+fn stop_capture(capture: JoinHandle<Option<String>>) -> Option<String> {
+    let deadline = std::time::Instant::now() + CAPTURE_STOP_GRACE;
+    while !capture.is_finished() {
+        if std::time::Instant::now() >= deadline {
+            eprintln!(
+                "vistaf-skin: the camera did not stop within {CAPTURE_STOP_GRACE:?}; leaving it"
+            );
+            return None;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    match capture.join() {
+        Ok(failure) => failure,
+        Err(_) => Some("the capture thread panicked".into()),
+    }
+}
+
 /// The loop: commands first (they never wait for a frame), then camera events, the
 /// `Status` when due, and the next frame.
+///
+/// Every turn tells systemd the loop is alive: one that hangs (in the pipeline, on the
+/// link) stops the pets and is restarted.
 fn serve<W: Write>(
     service: &mut Service<'_, SystemClock>,
     edge: &Edge,
     tx: &mut Tx<W>,
     stop: &AtomicBool,
-) -> Result<(), vistaf_pipeline::PipelineError> {
+    systemd: &mut Systemd,
+) {
     while !stop.load(Ordering::Relaxed) && !service.done() {
+        systemd.alive(std::time::Instant::now());
         for cmd in edge.commands.try_iter() {
             tx.send(&service.on_command(cmd));
         }
@@ -277,9 +305,8 @@ fn serve<W: Write>(
             }
             Err(RecvTimeoutError::Disconnected) => break,
         };
-        tx.send_all(service.on_frame(frame)?);
+        tx.send_all(service.on_frame(frame));
     }
-    Ok(())
 }
 
 #[cfg(test)]

@@ -164,9 +164,13 @@ fn non_positive_period() {
     edit_manifest(&d, |v| v["grating_period_mm"] = 0.0.into());
     let e = refused(&d);
     assert!(
-        e.contains("grating_period_mm") && e.contains("positive"),
+        e.contains("grating_period_mm") && e.contains("above 0"),
         "{e}"
     );
+    let d = valid("period-huge");
+    edit_manifest(&d, |v| v["grating_period_mm"] = 1e300.into());
+    let e = refused(&d);
+    assert!(e.contains("grating_period_mm = 1e300"), "{e}");
 }
 
 #[test]
@@ -175,9 +179,16 @@ fn negative_label() {
     edit_manifest(&d, |v| v["frames"][1]["force_n"] = (-1.0).into());
     let e = refused(&d);
     assert!(
-        e.contains("frames[1].force_n") && e.contains("negative"),
+        e.contains("frames[1].force_n") && e.contains("0 to 10 000 N"),
         "{e}"
     );
+    // Absurdly large labels and times are refused as surely as negative ones.
+    for (key, v) in [("force_n", 1e300), ("depth_mm", 1e300), ("t_ms", 1e15)] {
+        let d = valid(&format!("huge-{key}"));
+        edit_manifest(&d, |m| m["frames"][1][key] = v.into());
+        let e = refused(&d);
+        assert!(e.contains(&format!("frames[1].{key} = {v:e}")), "{e}");
+    }
 }
 
 #[test]

@@ -1,7 +1,8 @@
 //! Features of a depth map (peak, area, volume, centre), force from them, and the phase
 //! slope the flags judge.
 
-use crate::calibration::{Calibration, ForceFeature};
+use super::FORCE_RANGE_SLACK;
+use crate::calibration::{Calibration, ForceFeature, MAX_FORCE_N};
 
 /// Features of a depth map.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -82,6 +83,26 @@ pub fn summarize(
 }
 
 /// Force from the calibration's model.
+/// The force the calibration's model gives for a contact's features, N, bounded by what the
+/// calibration covers: beyond [`FORCE_RANGE_SLACK`] times its largest force label (or
+/// [`MAX_FORCE_N`] for a file that does not record it) the force is saturated there and
+/// `true` says so. Never NaN or infinite.
+pub fn bounded_force(calib: &Calibration, f: &Features, integrated_phase: f32) -> (f32, bool) {
+    let limit = calib
+        .force
+        .as_ref()
+        .and_then(|fm| fm.range)
+        .map_or(MAX_FORCE_N, |r| FORCE_RANGE_SLACK * r.output[1]) as f32;
+    let force = force_of(calib, f, integrated_phase);
+    if force.is_nan() || force > limit {
+        (limit, true)
+    } else {
+        (force, false)
+    }
+}
+
+/// The force the calibration's model gives for a contact's features, N (unbounded: see
+/// [`bounded_force`]).
 pub fn force_of(calib: &Calibration, f: &Features, integrated_phase: f32) -> f32 {
     let Some(fm) = &calib.force else { return 0.0 };
     let u = match fm.model.feature {

@@ -19,7 +19,7 @@ mod register;
 mod window;
 
 pub use coarse::{contact_tiles, local_noise_units};
-pub use features::{force_of, summarize, Features};
+pub use features::{bounded_force, force_of, summarize, Features};
 pub use window::upsample2;
 
 use coarse::{median, read_coarse, Coarse, Margin, NOISE_STEP};
@@ -60,6 +60,8 @@ pub const LOW_CONTRAST_RATIO: f32 = 0.32;
 pub const NOISY_RAD: f32 = 0.024;
 /// Depth beyond the deepest calibrated indentation by this factor is flagged.
 pub const DEPTH_RANGE_SLACK: f64 = 1.1;
+/// Force beyond the largest calibrated force by this factor is flagged, and saturated there.
+pub const FORCE_RANGE_SLACK: f64 = 1.1;
 /// Phase-slope flag: local phase slope (98th percentile over the deformed pixels) above
 /// this fraction of the band half-width (the steepness sweep of `docs/performance.md`, and
 /// unseen units with coarse gratings, read within tolerance below it).
@@ -422,8 +424,11 @@ impl<M: PhaseMap> Found<'_, M> {
             amp_medians: self.amp_medians,
             unwrap: (unreached, residues),
         };
-        let flags = limits.flags(&feats, carrier, ctx);
-        let force_n = force_of(ctx.calib, &feats, integrated_rad_mm2);
+        let mut flags = limits.flags(&feats, carrier, ctx);
+        let (force_n, beyond) = bounded_force(ctx.calib, &feats, integrated_rad_mm2);
+        if beyond {
+            flags.insert(Flag::ForceOutOfRange);
+        }
         Some(ContactResult {
             feats,
             flags,

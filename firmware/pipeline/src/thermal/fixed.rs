@@ -22,6 +22,9 @@ use super::stripes::Sums;
 
 const ONE: i64 = 1 << 16;
 
+/// The widest temperature a population's estimate takes, Q16 °C (±1000 °C).
+const T_LIMIT_Q16: i128 = 1000 << 16;
+
 /// Largest whitened distance the curve evaluation represents, Q12 (4096 σ).
 const WHITE_MAX: f64 = (1 << 24) as f64;
 
@@ -230,7 +233,9 @@ impl Pop {
                     }
                     acc += term * i128::from(*c);
                 }
-                (acc >> 16) as i64
+                // Far outside any calibrated colour a polynomial runs off: the reading is
+                // kept within ±1000 °C (flagged out of range), so no later product overflows.
+                (acc >> 16).clamp(-T_LIMIT_Q16, T_LIMIT_Q16) as i64
             }
             Eval::Curve(c) => c.eval(x),
         }

@@ -13,6 +13,25 @@ use serde::{Deserialize, Serialize};
 
 use super::lab::Invariants;
 
+/// Largest magnitude of a colour feature or an invariant a model may hold (CIELAB runs
+/// to about ±130).
+pub const FEATURE_LIMIT: f64 = 1e3;
+/// Largest magnitude of a polynomial coefficient, °C.
+pub const COEF_LIMIT_C: f64 = 1e4;
+/// Largest magnitude of a temperature a model may hold, °C.
+pub const TEMPERATURE_LIMIT_C: f64 = 250.0;
+
+/// Whether `v` is finite and within ±`limit`.
+fn within(v: f64, limit: f64) -> bool {
+    v.is_finite() && v.abs() <= limit
+}
+
+/// Whether `s` can be a feature's scale (its block-to-block noise or spread): positive,
+/// finite, and neither vanishing nor larger than any feature.
+fn plausible_scale(s: f64) -> bool {
+    s.is_finite() && (1e-4..=FEATURE_LIMIT).contains(&s)
+}
+
 /// Exponents of every monomial of total degree ≤ `degree` in `n` variables, by degree and
 /// then lexicographically (the constant first).
 pub fn monomials(n: usize, degree: u32) -> Vec<Vec<u32>> {
@@ -79,16 +98,18 @@ impl Polynomial {
             .sum()
     }
 
-    /// Whether the stored shapes agree with each other.
+    /// Whether the stored shapes agree with each other and every number is one a colour
+    /// model can have (features in CIELAB units, coefficients in °C).
     pub fn is_consistent(&self) -> bool {
         let n = self.features.len();
         n > 0
             && self.mean.len() == n
             && self.std.len() == n
-            && self.std.iter().all(|s| s.is_finite() && *s > 0.0)
+            && self.std.iter().all(|s| plausible_scale(*s))
             && self.degree <= 4
             && self.coef.len() == monomials(n, self.degree).len()
-            && self.coef.iter().chain(&self.mean).all(|v| v.is_finite())
+            && self.mean.iter().all(|v| within(*v, FEATURE_LIMIT))
+            && self.coef.iter().all(|v| within(*v, COEF_LIMIT_C))
     }
 
     /// The equation as text, in the standardised features `z_name = (name − μ)/σ`.
@@ -202,19 +223,21 @@ impl Curve {
         }
     }
 
-    /// Whether the stored shapes agree with each other.
+    /// Whether the stored shapes agree with each other and every number is one a colour
+    /// curve can have.
     pub fn is_consistent(&self) -> bool {
         let n = self.features.len();
         n > 0
             && self.scale.len() == n
-            && self.scale.iter().all(|s| s.is_finite() && *s > 0.0)
+            && self.scale.iter().all(|s| plausible_scale(*s))
             && self.t_c.len() >= 2
             && self.t_c.windows(2).all(|w| w[1] > w[0])
+            && self.t_c.iter().all(|t| within(*t, TEMPERATURE_LIMIT_C))
             && self.knots.len() == self.t_c.len()
             && self
                 .knots
                 .iter()
-                .all(|k| k.len() == n && k.iter().all(|v| v.is_finite()))
+                .all(|k| k.len() == n && k.iter().all(|v| within(*v, FEATURE_LIMIT)))
     }
 
     /// The model as text.
@@ -359,9 +382,14 @@ impl VarianceTable {
 
     /// Whether the table is usable.
     pub fn is_consistent(&self) -> bool {
-        self.step_c > 0.0
-            && self.t0_c.is_finite()
-            && self.var_c2.iter().all(|v| v.is_finite() && *v > 0.0)
+        self.step_c >= 1e-3
+            && self.step_c <= 100.0
+            && within(self.t0_c, TEMPERATURE_LIMIT_C)
+            && self.var_c2.len() <= 100_000
+            && self
+                .var_c2
+                .iter()
+                .all(|v| v.is_finite() && *v > 0.0 && *v <= Self::UNKNOWN_C2)
     }
 }
 
@@ -534,7 +562,7 @@ impl TemperatureModel {
             && self.range_c[0] < self.range_c[1]
             && [self.domain.r, self.domain.g, self.domain.q]
                 .iter()
-                .all(|r| r[0].is_finite() && r[1].is_finite() && r[0] < r[1])
+                .all(|r| within(r[0], FEATURE_LIMIT) && within(r[1], FEATURE_LIMIT) && r[0] < r[1])
     }
 }
 

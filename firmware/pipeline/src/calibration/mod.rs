@@ -10,14 +10,17 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-pub use crate::evidence::{CandidateScore, Fitted};
+pub use crate::evidence::{CandidateScore, FitRange, Fitted};
+
+mod validate;
+pub use validate::{Invalid, MAX_DEPTH_MM, MAX_FORCE_N};
 
 /// The format tag of calibration files.
 pub const FORMAT: &str = "vistaf-calibration/2";
 
 /// The calibration shipped for the simulated reference unit (`vistaf-skin simulate
 /// --calibration-kit` then `vistaf-skin calibrate`; see `docs/calibration.md`).
-pub const DEFAULT_JSON: &str = include_str!("../calibration/default.json");
+pub const DEFAULT_JSON: &str = include_str!("../../calibration/default.json");
 
 /// Phase → depth, applied per pixel to `x = phase_sign · Δφ` (rad, ≥ 0 under indentation).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -299,6 +302,16 @@ pub enum CalibrationError {
         /// The parser's message.
         detail: String,
     },
+    /// A value that breaks a rule a usable calibration keeps.
+    #[error("{path}: key `{key}`: {why}")]
+    Invalid {
+        /// The file.
+        path: String,
+        /// The key's JSON path.
+        key: String,
+        /// What is wrong.
+        why: String,
+    },
     /// Another format version.
     #[error("{path}: calibration format {found:?}, this build reads {FORMAT:?}; recalibrate with this version")]
     Version {
@@ -345,50 +358,28 @@ impl Calibration {
                 path: path.into(),
                 detail: e.to_string(),
             })?;
-        c.validate().map_err(|detail| CalibrationError::Malformed {
+        c.check().map_err(|e| CalibrationError::Invalid {
             path: path.into(),
-            detail,
+            key: e.key,
+            why: e.why,
         })?;
         Ok(c)
     }
 
-    fn validate(&self) -> Result<(), String> {
-        if !(self.phase_sign == 1.0 || self.phase_sign == -1.0) {
-            return Err(format!(
-                "phase_sign must be 1 or -1, not {}",
-                self.phase_sign
-            ));
-        }
-        if !(self.unit.period_px > 0.0 && self.unit.grating_period_mm > 0.0) {
-            return Err("unit.period_px and unit.grating_period_mm must be positive".into());
-        }
-        if let DepthModel::Monotone { x_rad, d_mm } = &self.depth.model {
-            let ok = x_rad.len() == d_mm.len()
-                && x_rad.windows(2).all(|p| p[1] > p[0])
-                && d_mm.windows(2).all(|p| p[1] >= p[0])
-                && x_rad.iter().chain(d_mm).all(|v| v.is_finite());
-            if !ok {
-                return Err(
-                    "depth.model: monotone knots must be finite, equally many, increasing".into(),
-                );
-            }
-        }
-        if let Some(t) = &self.temperature {
-            if !t.is_consistent() {
-                return Err("temperature: models must have 2 (coloured) and 3 (black) \
-                            finite standardised features, matching coefficient counts, \
-                            positive variances and a non-empty range and domain"
-                    .into());
-            }
-        }
-        Ok(())
+    /// Checks every rule a usable calibration keeps (see the `validate` module); the
+    /// first one broken names its key.
+    pub fn check(&self) -> Result<(), Invalid> {
+        validate::check(self)
     }
 
     /// The deepest indentation the calibration saw, mm (from the indenter's shape
-    /// signature, else the monotone depth model's last knot).
+    /// signature, else the depth fit's labels, else the monotone depth model's last knot).
     pub fn calibrated_depth_mm(&self) -> Option<f64> {
         if let Some(d) = self.shape.as_ref().and_then(|s| s.depth_mm.last()) {
             return Some(*d);
+        }
+        if let Some(r) = &self.depth.range {
+            return Some(r.output[1]);
         }
         match &self.depth.model {
             DepthModel::Monotone { d_mm, .. } => d_mm.last().copied(),
@@ -444,13 +435,29 @@ impl Calibration {
     }
 
     /// Writes the calibration as pretty JSON.
+    ///
+    /// A calibration that breaks a rule is refused, not written; the file appears whole or
+    /// not at all (written beside it, then renamed over it).
     pub fn save(&self, path: &Path) -> Result<(), CalibrationError> {
         let p = path.display().to_string();
+        self.check().map_err(|e| CalibrationError::Invalid {
+            path: p.clone(),
+            key: e.key,
+            why: e.why,
+        })?;
         let text = serde_json::to_string_pretty(self).map_err(|e| CalibrationError::Malformed {
             path: p.clone(),
             detail: e.to_string(),
         })?;
-        std::fs::write(path, text + "\n").map_err(|cause| CalibrationError::Io { path: p, cause })
+        let mut part = path.as_os_str().to_owned();
+        part.push(".part");
+        let part = std::path::PathBuf::from(part);
+        std::fs::write(&part, text + "\n")
+            .and_then(|()| std::fs::rename(&part, path))
+            .map_err(|cause| {
+                let _ = std::fs::remove_file(&part);
+                CalibrationError::Io { path: p, cause }
+            })
     }
 }
 
@@ -494,6 +501,85 @@ mod tests {
         let m = &models[3];
         assert!((m.depth_mm(0.75) - 0.5).abs() < 1e-12);
         assert!((m.depth_mm(3.0) - 2.5).abs() < 1e-12);
+    }
+
+    /// Files that would crash the service or make it lie are refused, naming the key.
+    #[test]
+    fn hostile_values_are_refused_naming_the_key() {
+        let refusal = |edit: &dyn Fn(&mut serde_json::Value)| {
+            let mut v: serde_json::Value = serde_json::from_str(DEFAULT_JSON).unwrap();
+            edit(&mut v);
+            Calibration::from_json(&v.to_string(), "c.json")
+                .unwrap_err()
+                .to_string()
+        };
+        type Edit<'a> = &'a dyn Fn(&mut serde_json::Value);
+        let cases: [(&str, Edit<'_>); 9] = [
+            ("`shape`", &|v| {
+                v["shape"]["area_mm2"] = serde_json::json!([1.0])
+            }),
+            (
+                "`force.model.form.",
+                &|v| {
+                    v["force"]["model"]["form"] =
+                        serde_json::json!({"kind": "power_law", "a": 1e308, "b": 1e308})
+                },
+            ),
+            ("`force.model`", &|v| {
+                v["force"]["model"]["form"] = serde_json::json!({"kind": "hertz", "c": 1e6})
+            }),
+            (
+                "`depth.model.k_mm_per_rad`",
+                &|v| {
+                    v["depth"]["model"] =
+                        serde_json::json!({"kind": "linear", "k_mm_per_rad": -5.0})
+                },
+            ),
+            (
+                "`depth.model`",
+                &|v| {
+                    v["depth"]["model"] =
+                        serde_json::json!({"kind": "linear", "k_mm_per_rad": 1e308})
+                },
+            ),
+            (
+                "`depth.model`",
+                &|v| {
+                    v["depth"]["model"] =
+                        serde_json::json!({"kind": "monotone", "x_rad": [], "d_mm": []})
+                },
+            ),
+            ("`unit.grating_period_mm`", &|v| {
+                v["unit"]["grating_period_mm"] = 1e300.into()
+            }),
+            ("`force.range.output`", &|v| {
+                v["force"]["range"]["output"] = serde_json::json!([5.0, 1.0])
+            }),
+            ("`temperature`", &|v| {
+                v["temperature"]["black"]["variance"]["var_c2"][0] = 1e300.into()
+            }),
+        ];
+        for (key, edit) in cases {
+            let e = refusal(edit);
+            assert!(e.contains("c.json") && e.contains(key), "{key}: {e}");
+        }
+    }
+
+    /// Writing refuses what loading would refuse, and leaves no file behind.
+    #[test]
+    fn an_unusable_calibration_is_not_written() {
+        let mut c = Calibration::default_sim();
+        c.unit.grating_period_mm = 1e300;
+        let path = std::env::temp_dir().join(format!("vistaf-cal-{}.json", std::process::id()));
+        let e = c.save(&path).unwrap_err().to_string();
+        assert!(e.contains("unit.grating_period_mm"), "{e}");
+        assert!(!path.exists());
+        Calibration::default_sim().save(&path).unwrap();
+        assert_eq!(
+            Calibration::load(&path).unwrap(),
+            Calibration::default_sim()
+        );
+        std::fs::remove_file(&path).unwrap();
     }
 
     #[test]
