@@ -99,7 +99,18 @@ pub fn depth_png(d: &Measurement, path: &Path) -> Result<()> {
 
 /// A map received over the wire as PNG (cells in µm or 0.01 °C; [`vistaf_protocol::msg::MAP_NO_DATA`]
 /// cells grey), scaled to its own range.
+///
+/// A map whose cells do not fill its size is refused (the decoders drop such maps; one
+/// built by hand may still be one).
 pub fn wire_map_png(m: &vistaf_protocol::Map, path: &Path) -> Result<()> {
+    if !m.is_consistent() {
+        anyhow::bail!(
+            "map {}×{} has {} cells: not drawn",
+            m.width,
+            m.height,
+            m.cells.len()
+        );
+    }
     let (w, h) = (usize::from(m.width), usize::from(m.height));
     let scale = match m.kind {
         vistaf_protocol::MapKind::Depth => 1000.0,
