@@ -2,24 +2,29 @@
 //!
 //! **Model.** The skin and its clear buffer are treated as a linear elastic half-space with
 //! an effective contact modulus `E*` per unit (it absorbs the stiffening of the finite
-//! layer thickness). Indentation depth `δ` is the approach of the indenter.
+//! layer thickness). Indentation depth `δ` is the approach of the indenter. For every
+//! indenter one pressure gives both the surface's displacement and the force (its sum).
 //!
 //! * **Sphere** of radius `R` (Hertz): contact radius `a = √(Rδ)`, force
 //!   `F = 4/3·E*·√R·δ^{3/2}`; inside the contact the surface follows the sphere,
 //!   `w = δ − r²/2R`; outside, `w = (a²/πR)·[(2 − r²/a²)·asin(a/r) + √(r²/a² − 1)]`.
-//! * **Flat punch** of any footprint (cylinder, letters E/P/F, a hex nut): uniform `w = δ`
-//!   under the footprint. Outside, the exact Boussinesq solution of a circular punch of the
-//!   same area, `w = δ·(2/π)·asin(a/(a + d))`, is applied to the distance `d` from the
-//!   footprint's edge, and `F = 2·E*·a·δ` with `a = √(area/π)`. Exact for a circle; for other
-//!   shapes it is an approximation whose fall-off is too slow next to thin strokes.
-//!   The sharp edge is rounded by a Gaussian of σ = 0.3 mm (the skin's thickness cannot bend
-//!   sharper), which keeps steep but finite slopes at punch edges, as on the real skin.
+//! * **Flat cylinder** of radius `a` (Boussinesq): `w = δ` under it, `w = δ·(2/π)·asin(a/r)`
+//!   outside, `F = 2·E*·a·δ`.
+//! * **Any other flat footprint** (letters, a hex nut): the half-space problem solved
+//!   numerically ([`crate::elastic`]): the pressure on a grid of cells such that the surface
+//!   sinks by `δ` under the footprint; the force is its sum, the displacement outside its
+//!   field.
+//!
+//!   Punch edges are rounded by a Gaussian of σ = [`EDGE_ROUNDING_MM`] (the skin's
+//!   thickness cannot bend sharper), which keeps steep but finite slopes at punch edges, as
+//!   on the real skin.
 //!
 //! * **Finite layer.** The skin is a thin layer on a clear buffer bonded to a rigid window,
 //!   not a half-space: far from the contact its surface returns to rest much faster than the
 //!   half-space's `1/r`. Outside the contact the half-space displacement is therefore
 //!   multiplied by `e^{−d/λ}`, `d` the distance from the contact edge and `λ` the unit's
-//!   layer decay length (a few mm, of the order of the buffer thickness).
+//!   layer decay length (a few mm, of the order of the buffer thickness). The force stays
+//!   the half-space's.
 //!
 //! Limits: no friction, no large-strain effects, no layer-thickness saturation beyond the
 //! effective modulus and the decay factor, no interaction between several contacts
@@ -27,6 +32,7 @@
 
 use std::f32::consts::PI;
 
+use crate::elastic::Punch;
 pub use crate::footprint::{Footprint, Mm};
 
 /// Rounding of punch edges by the skin, mm.
@@ -56,17 +62,12 @@ pub struct Contact {
 }
 
 impl Indenter {
-    /// Equivalent contact radius used by the punch model, mm.
-    fn punch_radius_mm(fp: &Footprint) -> f32 {
-        (fp.area_mm2() / PI).sqrt()
-    }
-
     /// Normal force at `depth_mm` for contact modulus `modulus_mpa`, N.
     pub fn force_n(&self, depth_mm: f32, modulus_mpa: f32) -> f32 {
         let d = depth_mm.max(0.0);
         match self {
             Indenter::Sphere { r_mm } => 4.0 / 3.0 * modulus_mpa * r_mm.sqrt() * d.powf(1.5),
-            Indenter::Punch(fp) => 2.0 * modulus_mpa * Self::punch_radius_mm(fp) * d,
+            Indenter::Punch(fp) => modulus_mpa * Punch::of(fp).stiffness() * d,
         }
     }
 
@@ -77,7 +78,7 @@ impl Indenter {
             Indenter::Sphere { r_mm } => {
                 (3.0 * f / (4.0 * modulus_mpa * r_mm.sqrt())).powf(2.0 / 3.0)
             }
-            Indenter::Punch(fp) => f / (2.0 * modulus_mpa * Self::punch_radius_mm(fp)),
+            Indenter::Punch(fp) => f / (modulus_mpa * Punch::of(fp).stiffness()),
         }
     }
 }
@@ -96,9 +97,9 @@ pub fn depth_field(
     depth.iter_mut().for_each(|d| *d = 0.0);
     for c in contacts.iter().filter(|c| c.depth_mm > 0.0) {
         let mut layer = vec![0.0f32; w * h];
-        let punch_a = match &c.indenter {
-            Indenter::Punch(fp) => Indenter::punch_radius_mm(fp),
-            Indenter::Sphere { .. } => 0.0,
+        let punch = match &c.indenter {
+            Indenter::Punch(fp) => Some(Punch::of(fp)),
+            Indenter::Sphere { .. } => None,
         };
         for y in 0..h {
             for x in 0..w {
@@ -114,10 +115,9 @@ pub fn depth_field(
                     }
                     Indenter::Punch(fp) => {
                         let d = fp.signed_distance(p);
-                        if d <= 0.0 {
-                            c.depth_mm
-                        } else {
-                            c.depth_mm * 2.0 / PI * (punch_a / (punch_a + d)).asin() * decay(d)
+                        match &punch {
+                            Some(punch) if d > 0.0 => c.depth_mm * punch.displacement(p) * decay(d),
+                            _ => c.depth_mm,
                         }
                     }
                 };

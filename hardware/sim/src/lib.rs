@@ -9,7 +9,8 @@
 //! * [`unit`]: what differs between manufactured units (period in pixels, tilt, phase
 //!   response, stiffness, optics, noise, pigment batch).
 //! * [`footprint`]: flat shapes on the skin (discs, letters, a hex nut).
-//! * [`contact`]: indenters and the elastic half-space model (Hertz for spheres).
+//! * [`contact`]: indenters and the elastic half-space model (Hertz for spheres,
+//!   Boussinesq for cylinders, [`elastic`]: any flat footprint solved numerically).
 //! * [`state`]: what the skin shows in one frame (contacts, temperature, optics).
 //! * [`thermal`]: temperature fields (heated contacts with lateral conduction, gradients).
 //! * [`render`]: the image formation model ([`plane`]: blurs on the pixel grid).
@@ -19,6 +20,7 @@
 //! Deterministic: the same unit seed, scene and noise seed give the same bytes.
 
 pub mod contact;
+pub mod elastic;
 pub mod footprint;
 pub mod plane;
 pub mod render;
