@@ -6,6 +6,7 @@
 //!
 //! The helpers here read a fixture's ground truth so tests can score the pipeline.
 
+pub mod accuracy;
 pub mod charts;
 
 use std::path::{Path, PathBuf};

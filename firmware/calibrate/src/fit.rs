@@ -361,7 +361,35 @@ pub fn fit_force(
         })?);
         progress(k + 1, features.len());
     }
-    choose(pool)
+    choose_force(pool)
+}
+
+/// The force model: among candidates within one standard error of the best CV RMSE, one on
+/// the elastic load when there is one (the feature that holds for indenters other than the
+/// calibration's, see [`ForceFeature::ElasticLoad`]: a kit of one sphere cannot tell the
+/// features apart, physics can; any monotone form of it keeps that), by the parsimony rule
+/// among those; else the parsimony rule among all.
+fn choose_force(
+    scored: Vec<(ForceModel, CandidateScore)>,
+) -> Option<(ForceModel, CandidateScore, Vec<CandidateScore>)> {
+    let (model, score, all) = choose(scored.clone())?;
+    let best = all
+        .iter()
+        .filter(|s| s.cv_rmse.is_finite())
+        .min_by(|a, b| a.cv_rmse.total_cmp(&b.cv_rmse))?;
+    let limit = best.cv_rmse + best.cv_se;
+    let elastic = scored
+        .into_iter()
+        .filter(|(m, s)| m.feature == ForceFeature::ElasticLoad && s.cv_rmse <= limit)
+        .min_by(|a, b| {
+            a.1.params
+                .cmp(&b.1.params)
+                .then(a.1.cv_rmse.total_cmp(&b.1.cv_rmse))
+        });
+    Some(match elastic {
+        Some((m, s)) => (m, s, all),
+        None => (model, score, all),
+    })
 }
 
 #[cfg(test)]
@@ -436,5 +464,32 @@ mod tests {
         // Two near-duplicate last setpoints do not make the extrapolation explode.
         let m = DepthModel::Monotone { x_rad: x, d_mm: d };
         assert!(m.depth_mm(4.0) < 4.0, "{}", m.depth_mm(4.0));
+    }
+
+    /// A one-sphere kit cannot tell a volume power law from the elastic load: when both fit
+    /// within a standard error, the elastic load is chosen; when it fits worse, it is not.
+    #[test]
+    fn the_elastic_load_wins_a_tie_and_only_a_tie() {
+        let volume = samples(|u| 3.0 * u.powf(0.8), 0.05);
+        let good = samples(|u| 2.0 * u, 0.05);
+        let chosen = fit_force(
+            &[
+                (ForceFeature::Volume, volume.clone()),
+                (ForceFeature::ElasticLoad, good),
+            ],
+            |_, _| {},
+        )
+        .unwrap();
+        assert_eq!(chosen.0.feature, ForceFeature::ElasticLoad);
+        let bad = samples(|u| 2.0 * u + (3.0 * u).sin(), 0.05);
+        let chosen = fit_force(
+            &[
+                (ForceFeature::Volume, volume),
+                (ForceFeature::ElasticLoad, bad),
+            ],
+            |_, _| {},
+        )
+        .unwrap();
+        assert_eq!(chosen.0.feature, ForceFeature::Volume);
     }
 }

@@ -2,7 +2,7 @@
 //!
 //! 1. The unit geometry (carrier period, orientation, image size) comes from the first
 //!    set's reference; every set must have the same image size.
-//! 2. The phase sign is the one under which the deepest `depth_mm`-labelled frame shows an
+//! 2. The phase sign is the one under which the `depth_mm`-labelled frames show the most
 //!    indentation.
 //! 3. Phase → depth: every frame with `depth_mm > 0` is analysed with an identity depth
 //!    model; its peak phase and its label form a sample, grouped by depth setpoint.
@@ -327,7 +327,10 @@ fn unit_geometry(first: &FrameSet) -> Result<UnitGeometry, CalibrateError> {
     })
 }
 
-/// The phase sign under which the deepest `depth_mm`-labelled frame shows an indentation.
+/// The phase sign under which the depth set's trusted frames show the most indentation.
+/// Every labelled depth counts, not only the deepest: on a unit whose deepest presses bend
+/// the stripes beyond the band those are flagged under the right sign, and the sign must
+/// not be decided by frames the fit will not trust.
 fn phase_sign<O: Observer>(
     run: &mut Run<'_, O>,
     unit: &UnitGeometry,
@@ -342,13 +345,14 @@ fn phase_sign<O: Observer>(
             "no frame is labelled with depth_mm > 0: phase → depth needs a depth set".into(),
         ));
     }
-    let mut peak_under = |sign: f64| -> Result<f32, CalibrateError> {
-        let r = run.analyze(&identity(unit, sign), Label::Depth, "phase sign", &|v| {
-            v == deepest
-        })?;
-        Ok(r.iter().map(|(_, d)| d.peak_depth_mm).fold(0.0, f32::max))
+    let mut indentation_under = |sign: f64| -> Result<f64, CalibrateError> {
+        let r = run.analyze(&identity(unit, sign), Label::Depth, "phase sign", &|_| true)?;
+        Ok(r.iter()
+            .filter(|(_, d)| d.contact)
+            .map(|(_, d)| f64::from(d.peak_depth_mm))
+            .sum())
     };
-    Ok(if peak_under(-1.0)? > peak_under(1.0)? {
+    Ok(if indentation_under(-1.0)? > indentation_under(1.0)? {
         -1.0
     } else {
         1.0
@@ -420,12 +424,12 @@ fn force_model<O: Observer>(
             let s = force_frames
                 .iter()
                 .map(|(y, d)| Sample {
-                    u: f64::from(match f {
-                        ForceFeature::Volume => d.volume_mm3,
-                        ForceFeature::IntegratedPhase => d.integrated_phase_rad_mm2,
-                        ForceFeature::ContactArea => d.contact_area_mm2,
-                        ForceFeature::PeakDepth => d.peak_depth_mm,
-                    }),
+                    u: f64::from(f.of(
+                        d.contact_area_mm2,
+                        d.peak_depth_mm,
+                        d.volume_mm3,
+                        d.integrated_phase_rad_mm2,
+                    )),
                     y: *y,
                     group: setpoint(*y),
                 })

@@ -8,6 +8,8 @@
 //!
 //! * [`unit`]: what differs between manufactured units (period in pixels, tilt, phase
 //!   response, stiffness, optics, noise, pigment batch).
+//! * [`imperfections`]: what a built skin shows beyond the ideal model (oblique light,
+//!   glare, white balance, mottle, grating wobble and distortion, JPEG).
 //! * [`footprint`]: flat shapes on the skin (discs, letters, a hex nut).
 //! * [`contact`]: indenters and the elastic half-space model (Hertz for spheres,
 //!   Boussinesq for cylinders, [`elastic`]: any flat footprint solved numerically).
@@ -22,6 +24,7 @@
 pub mod contact;
 pub mod elastic;
 pub mod footprint;
+pub mod imperfections;
 pub mod plane;
 pub mod render;
 pub mod rng;

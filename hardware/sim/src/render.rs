@@ -6,7 +6,10 @@
 //! temperature; the surface tilt of the indentation darkens it slightly (cross-talk); the
 //! camera-fixed illumination (vignetting, LED-ring reflections) and exposure scale it. The
 //! image is then blurred (optics), encoded to sRGB, and sensor noise is added in digital
-//! numbers before rounding. Everything is deterministic for a given noise seed.
+//! numbers before rounding. A unit's [`crate::imperfections::Imperfections`] add oblique
+//! light, glare, white balance, mottle, a wobbling and distorted grating and JPEG
+//! compression, each as its module documents. Everything is deterministic for a given noise
+//! seed.
 
 use image::RgbImage;
 
@@ -71,6 +74,8 @@ pub struct Renderer {
     lut: ColourLut,
     /// Vignetting × LED-ring reflections per pixel (exposure not included).
     illum: Vec<f32>,
+    /// Added glare radiance per pixel (empty without glare).
+    glare: Vec<[f32; 3]>,
     srgb: Vec<f32>,
     normals: Vec<f32>,
 }
@@ -95,6 +100,11 @@ impl Renderer {
         let (w, h) = (unit.width_px as usize, unit.height_px as usize);
         let (cx, cy) = (w as f32 / 2.0, h as f32 / 2.0);
         let corner2 = cx * cx + cy * cy;
+        let imp = &unit.imperfections;
+        let (vx, vy) = (
+            cx + imp.vignetting_offset.0 * w as f32,
+            cy + imp.vignetting_offset.1 * h as f32,
+        );
         let ring_r = 0.9 * cx.min(cy);
         let spot_s = 0.08 * cx.min(cy);
         let spots: Vec<(f32, f32)> = (0..12)
@@ -106,7 +116,7 @@ impl Renderer {
         let mut illum = vec![0.0f32; w * h];
         for y in 0..h {
             for x in 0..w {
-                let (dx, dy) = (x as f32 + 0.5 - cx, y as f32 + 0.5 - cy);
+                let (dx, dy) = (x as f32 + 0.5 - vx, y as f32 + 0.5 - vy);
                 let vig = 1.0 - unit.vignetting * (dx * dx + dy * dy) / corner2;
                 let hot: f32 = spots
                     .iter()
@@ -118,9 +128,17 @@ impl Renderer {
                 illum[y * w + x] = vig * (1.0 + unit.hotspot_gain * hot);
             }
         }
+        let glare = if imp.glare.is_empty() {
+            Vec::new()
+        } else {
+            (0..w * h)
+                .map(|i| imp.glare_at(((i % w) as f32 + 0.5, (i / w) as f32 + 0.5)))
+                .collect()
+        };
         Renderer {
             lut: ColourLut::new(&unit),
             illum,
+            glare,
             srgb: (0..=4096)
                 .map(|i| 255.0 * linear_to_srgb(i as f32 / 4096.0))
                 .collect(),
@@ -175,6 +193,12 @@ impl Renderer {
         let (lo, hi) = ((ks * (-1.0 - cd)).tanh(), (ks * (1.0 - cd)).tanh());
         let contrast = state.contrast_scale.clamp(0.0, 1.0);
         let gain = unit.exposure * state.exposure_scale;
+        let imp = &unit.imperfections;
+        let wb: [f32; 3] = std::array::from_fn(|k| imp.white_balance[k] * state.white_balance[k]);
+        let plain = wb == [1.0; 3] && self.glare.is_empty();
+        let centre = (w as f32 / 2.0, h as f32 / 2.0);
+        let half_diagonal = (centre.0 * centre.0 + centre.1 * centre.1).sqrt();
+        let light = (imp.oblique_dir_rad.cos(), imp.oblique_dir_rad.sin());
 
         let mut planes = [
             vec![0.0f32; w * h],
@@ -184,14 +208,23 @@ impl Renderer {
         for y in 0..h {
             for x in 0..w {
                 let i = y * w + x;
-                let xs = x as f32 + 0.5 + state.shift_px.0;
-                let ys = y as f32 + 0.5 + state.shift_px.1;
+                let (xd, yd) = imp.distort((x as f32 + 0.5, y as f32 + 0.5), centre, half_diagonal);
+                let xs = xd + state.shift_px.0;
+                let ys = yd + state.shift_px.1;
+                let skin_mm = (xs * mmpp, ys * mmpp);
                 let d = depth[i];
-                let theta = kf * (xs * ct + ys * st) + unit.phase0_rad + unit.phase_of_depth(d);
+                let mut theta = kf * (xs * ct + ys * st) + unit.phase0_rad + unit.phase_of_depth(d);
+                if imp.wobble_rad != 0.0 {
+                    theta += imp.wobble_at(skin_mm);
+                }
                 let mut wcol = ((ks * (theta.cos() - cd)).tanh() - lo) / (hi - lo);
                 wcol = 0.5 + (wcol - 0.5) * contrast;
                 let li = self.lut.index(temp[i]);
-                let (c, b) = (self.lut.coloured[li], self.lut.black[li]);
+                let (mut c, b) = (self.lut.coloured[li], self.lut.black[li]);
+                if imp.mottle != 0.0 {
+                    let m = imp.mottle_at(skin_mm);
+                    c = c.map(|v| v * m);
+                }
                 let shade = if d > 0.0 {
                     // Surface tilt from the depth gradient (central differences, mm/mm).
                     let gx = (depth[y * w + (x + 1).min(w - 1)]
@@ -201,13 +234,23 @@ impl Renderer {
                         - depth[y.saturating_sub(1) * w + x])
                         / (2.0 * mmpp);
                     let cos_tilt = 1.0 / (1.0 + gx * gx + gy * gy).sqrt();
-                    1.0 - unit.shading_gain * (1.0 - cos_tilt)
+                    // The surface height is −w, so its normal leans along ∇w: towards the
+                    // light by ∇w·l̂.
+                    let towards_light = gx * light.0 + gy * light.1;
+                    (1.0 - unit.shading_gain * (1.0 - cos_tilt))
+                        * (1.0 + imp.oblique_gain * towards_light).max(0.0)
                 } else {
                     1.0
                 };
                 let illum = gain * self.illum[i] * shade;
                 for k in 0..3 {
-                    planes[k][i] = (wcol * c[k] + (1.0 - wcol) * b[k]) * illum;
+                    let v = (wcol * c[k] + (1.0 - wcol) * b[k]) * illum;
+                    planes[k][i] = if plain {
+                        v
+                    } else {
+                        let glare = self.glare.get(i).map_or(0.0, |g| g[k]);
+                        (v + gain * glare) * wb[k]
+                    };
                 }
             }
         }
@@ -229,8 +272,25 @@ impl Renderer {
             }
         }
 
+        if let Some(q) = imp.jpeg_quality {
+            img = through_jpeg(img, q);
+        }
         let truth = truth_of(unit, state, depth, temp);
         (img, truth)
+    }
+}
+
+/// The image as a camera compressing at JPEG `quality` sends it (unchanged should the codec
+/// refuse it, which it does not for an RGB image in memory).
+fn through_jpeg(img: RgbImage, quality: u8) -> RgbImage {
+    let mut bytes = Vec::new();
+    let enc = image::codecs::jpeg::JpegEncoder::new_with_quality(&mut bytes, quality);
+    if img.write_with_encoder(enc).is_err() {
+        return img;
+    }
+    match image::load_from_memory_with_format(&bytes, image::ImageFormat::Jpeg) {
+        Ok(decoded) => decoded.to_rgb8(),
+        Err(_) => img,
     }
 }
 

@@ -1,5 +1,5 @@
 //! The state of the skin in one frame: what touches it, its temperature, and how the
-//! camera sees it (shift, exposure, contrast, noise).
+//! camera sees it (shift, exposure, contrast, noise, white balance).
 
 use crate::contact::Contact;
 use crate::thermal::TempField;
@@ -19,6 +19,8 @@ pub struct SkinState {
     pub contrast_scale: f32,
     /// Sensor noise relative to the unit's.
     pub noise_scale: f32,
+    /// White balance relative to the unit's, linear R, G, B (an auto white balance drifting).
+    pub white_balance: [f32; 3],
 }
 
 impl SkinState {
@@ -31,6 +33,7 @@ impl SkinState {
             exposure_scale: 1.0,
             contrast_scale: 1.0,
             noise_scale: 1.0,
+            white_balance: [1.0; 3],
         }
     }
 }

@@ -4,8 +4,11 @@
 //! period). [`SensorUnit::from_seed`] draws another plausible unit: grating period 8–24 px,
 //! tilt ±8°, duty cycle, stripe sharpness, phase response, stiffness, optics, noise and
 //! pigment batch all vary, because every real unit differs and the software must estimate
-//! them from its calibration kit rather than assume them.
+//! them from its calibration kit rather than assume them. [`SensorUnit::wide`] draws over
+//! wider ranges still and adds the [`Imperfections`] of a built skin, for judging the
+//! software on units it was never tuned on.
 
+use crate::imperfections::Imperfections;
 use crate::rng::Rng;
 
 /// Physical grating period of every vistaf skin, mm.
@@ -77,6 +80,8 @@ pub struct SensorUnit {
     /// Darkening of a surface tilted by the indentation (cross-talk), fraction per unit of
     /// (1 − cos tilt).
     pub shading_gain: f32,
+    /// What a built skin shows beyond the ideal model.
+    pub imperfections: Imperfections,
 }
 
 impl SensorUnit {
@@ -121,47 +126,24 @@ impl SensorUnit {
             black_step: 0.022,
             black_width_c: 3.0,
             shading_gain: 0.5,
+            imperfections: Imperfections::none(),
         }
     }
 
     /// Another plausible unit, drawn from `seed` (seed 0 is the reference build).
     pub fn from_seed(seed: u64) -> SensorUnit {
-        let mut u = SensorUnit::reference();
         if seed == 0 {
-            return u;
+            return SensorUnit::reference();
         }
-        let mut r = Rng::derive(seed, "unit");
-        let sizes = [(320, 240), (480, 360), (640, 480), (800, 600)];
-        let (w, h) = sizes[(r.next_u64() % sizes.len() as u64) as usize];
-        u.width_px = w;
-        u.height_px = h;
-        u.period_px = r.range(8.0, 24.0) as f32;
-        u.tilt_deg = r.range(-8.0, 8.0) as f32;
-        u.duty = r.range(0.42, 0.58) as f32;
-        u.edge_sharpness = r.range(1.0, 6.0) as f32;
-        u.phase0_rad = r.range(0.0, std::f64::consts::TAU) as f32;
-        u.phase_gain_rad_per_mm = r.range(1.1, 2.2) as f32;
-        u.phase_saturation_mm = r.range(4.0, 9.0) as f32;
-        u.modulus_mpa = r.range(1.2, 2.0) as f32;
-        u.layer_decay_mm = r.range(2.0, 4.5) as f32;
-        u.blur_px = r.range(0.5, 1.3) as f32;
-        u.noise_dn = r.range(0.8, 2.5) as f32;
-        u.vignetting = r.range(0.15, 0.5) as f32;
-        u.hotspot_gain = r.range(0.1, 0.4) as f32;
-        u.exposure = r.range(0.85, 1.1) as f32;
-        let tint = r.range(-0.04, 0.04) as f32;
-        u.backing = [0.62 + tint, 0.62, 0.60 - tint];
-        for p in &mut u.pigments {
-            p.activation_c += r.range(-0.6, 0.6) as f32;
-            p.width_c = r.range(0.7, 1.2) as f32;
-            for a in &mut p.absorb {
-                *a = (*a * r.range(0.8, 1.2) as f32).min(0.9);
-            }
-        }
-        u.black_base = r.range(0.012, 0.03) as f32;
-        u.black_step = r.range(0.016, 0.028) as f32;
-        u.black_width_c = r.range(2.5, 4.0) as f32;
-        u.shading_gain = r.range(0.3, 0.7) as f32;
+        Envelope::PLAUSIBLE.draw(&mut Rng::derive(seed, "unit"))
+    }
+
+    /// A unit drawn from `seed` over ranges wider than we expect (grating period 7–30 px,
+    /// blur to 1.8 px, noise 1–4 DN, pigments ±40 %), with every [`Imperfections`] effect.
+    pub fn wide(seed: u64) -> SensorUnit {
+        let mut r = Rng::derive(seed, "wide unit");
+        let mut u = Envelope::WIDE.draw(&mut r);
+        u.imperfections = Imperfections::draw(&mut r, u.width_px, u.height_px);
         u
     }
 
@@ -171,10 +153,18 @@ impl SensorUnit {
     }
 
     /// Grating phase change for an indentation of `depth_mm` (monotone, saturating):
-    /// `−g·s·(1 − e^(−h/s))`; negative, as indentation moves the stripes towards −carrier.
+    /// `−g·s·[(1−β)(1 − e^(−h/s)) + β·tanh(h/s)]` (β the imperfections' phase shape, 0 for
+    /// an ideal build); negative, as indentation moves the stripes towards −carrier.
     pub fn phase_of_depth(&self, depth_mm: f32) -> f32 {
         let s = self.phase_saturation_mm;
-        -self.phase_gain_rad_per_mm * s * (1.0 - (-depth_mm.max(0.0) / s).exp())
+        let x = depth_mm.max(0.0) / s;
+        let b = self.imperfections.phase_shape;
+        let shape = if b == 0.0 {
+            1.0 - (-x).exp()
+        } else {
+            (1.0 - b) * (1.0 - (-x).exp()) + b * x.tanh()
+        };
+        -self.phase_gain_rad_per_mm * s * shape
     }
 
     /// Linear RGB reflectance of a coloured stripe at `t_c`.
@@ -203,6 +193,121 @@ impl SensorUnit {
             0.98 * g + 0.04 * col[1],
             0.96 * g + 0.04 * col[2],
         ]
+    }
+}
+
+/// The ranges a unit's parameters are drawn from (each uniform), in the order drawn.
+struct Envelope {
+    period_px: (f64, f64),
+    duty: (f64, f64),
+    edge_sharpness: (f64, f64),
+    phase_gain_rad_per_mm: (f64, f64),
+    phase_saturation_mm: (f64, f64),
+    modulus_mpa: (f64, f64),
+    layer_decay_mm: (f64, f64),
+    blur_px: (f64, f64),
+    noise_dn: (f64, f64),
+    vignetting: (f64, f64),
+    hotspot_gain: (f64, f64),
+    exposure: (f64, f64),
+    /// Backing tint: red up and blue down by the same amount.
+    tint: f64,
+    /// Pigment activation shift, °C (±).
+    activation_c: f64,
+    pigment_width_c: (f64, f64),
+    /// Pigment absorption scale.
+    absorb_scale: (f64, f64),
+    black_base: (f64, f64),
+    black_step: (f64, f64),
+    black_width_c: (f64, f64),
+    shading_gain: (f64, f64),
+}
+
+impl Envelope {
+    /// Units as we expect them to be built.
+    const PLAUSIBLE: Envelope = Envelope {
+        period_px: (8.0, 24.0),
+        duty: (0.42, 0.58),
+        edge_sharpness: (1.0, 6.0),
+        phase_gain_rad_per_mm: (1.1, 2.2),
+        phase_saturation_mm: (4.0, 9.0),
+        modulus_mpa: (1.2, 2.0),
+        layer_decay_mm: (2.0, 4.5),
+        blur_px: (0.5, 1.3),
+        noise_dn: (0.8, 2.5),
+        vignetting: (0.15, 0.5),
+        hotspot_gain: (0.1, 0.4),
+        exposure: (0.85, 1.1),
+        tint: 0.04,
+        activation_c: 0.6,
+        pigment_width_c: (0.7, 1.2),
+        absorb_scale: (0.8, 1.2),
+        black_base: (0.012, 0.03),
+        black_step: (0.016, 0.028),
+        black_width_c: (2.5, 4.0),
+        shading_gain: (0.3, 0.7),
+    };
+
+    /// Wider than we expect.
+    const WIDE: Envelope = Envelope {
+        period_px: (7.0, 30.0),
+        duty: (0.4, 0.6),
+        edge_sharpness: (0.8, 8.0),
+        phase_gain_rad_per_mm: (0.9, 2.6),
+        phase_saturation_mm: (2.5, 10.0),
+        modulus_mpa: (1.0, 2.4),
+        layer_decay_mm: (1.5, 5.0),
+        blur_px: (0.5, 1.8),
+        noise_dn: (1.0, 4.0),
+        vignetting: (0.1, 0.6),
+        hotspot_gain: (0.05, 0.5),
+        exposure: (0.7, 1.2),
+        tint: 0.06,
+        activation_c: 1.0,
+        pigment_width_c: (0.6, 1.4),
+        absorb_scale: (0.6, 1.4),
+        black_base: (0.01, 0.035),
+        black_step: (0.014, 0.03),
+        black_width_c: (2.0, 4.5),
+        shading_gain: (0.2, 0.9),
+    };
+
+    /// A unit drawn from these ranges (image size one of four, tilt ±8°, any phase).
+    fn draw(&self, r: &mut Rng) -> SensorUnit {
+        let mut u = SensorUnit::reference();
+        let sizes = [(320, 240), (480, 360), (640, 480), (800, 600)];
+        let (w, h) = sizes[(r.next_u64() % sizes.len() as u64) as usize];
+        let mut pick = |(lo, hi): (f64, f64)| r.range(lo, hi) as f32;
+        u.width_px = w;
+        u.height_px = h;
+        u.period_px = pick(self.period_px);
+        u.tilt_deg = pick((-8.0, 8.0));
+        u.duty = pick(self.duty);
+        u.edge_sharpness = pick(self.edge_sharpness);
+        u.phase0_rad = pick((0.0, std::f64::consts::TAU));
+        u.phase_gain_rad_per_mm = pick(self.phase_gain_rad_per_mm);
+        u.phase_saturation_mm = pick(self.phase_saturation_mm);
+        u.modulus_mpa = pick(self.modulus_mpa);
+        u.layer_decay_mm = pick(self.layer_decay_mm);
+        u.blur_px = pick(self.blur_px);
+        u.noise_dn = pick(self.noise_dn);
+        u.vignetting = pick(self.vignetting);
+        u.hotspot_gain = pick(self.hotspot_gain);
+        u.exposure = pick(self.exposure);
+        let tint = pick((-self.tint, self.tint));
+        u.backing = [0.62 + tint, 0.62, 0.60 - tint];
+        for p in &mut u.pigments {
+            p.activation_c += pick((-self.activation_c, self.activation_c));
+            p.width_c = pick(self.pigment_width_c);
+            for a in &mut p.absorb {
+                *a = (*a * pick(self.absorb_scale)).min(0.9);
+            }
+        }
+        u.black_base = pick(self.black_base);
+        u.black_step = pick(self.black_step);
+        u.black_width_c = pick(self.black_width_c);
+        u.shading_gain = pick(self.shading_gain);
+        u
     }
 }
 

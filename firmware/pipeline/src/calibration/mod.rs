@@ -123,16 +123,44 @@ pub enum ForceFeature {
     ContactArea,
     /// Peak depth, mm.
     PeakDepth,
+    /// Elastic load `√(A/π)·d`, mm²: the half-peak contact radius times the peak depth. In
+    /// an elastic half-space the force is proportional to it for a sphere of any radius
+    /// (Hertz: `F = (4/3)·E*·a·d`, and the depth falls to half its peak exactly at the
+    /// contact radius `a`) and within 6 % for a flat punch of any size (Boussinesq:
+    /// `F = 2·E*·a·d`, its depth at half the plateau at `√2·a`), so a calibration on one
+    /// sphere carries to other indenters.
+    ElasticLoad,
 }
 
 impl ForceFeature {
     /// Every feature.
-    pub const ALL: [ForceFeature; 4] = [
+    pub const ALL: [ForceFeature; 5] = [
         ForceFeature::Volume,
         ForceFeature::IntegratedPhase,
         ForceFeature::ContactArea,
         ForceFeature::PeakDepth,
+        ForceFeature::ElasticLoad,
     ];
+
+    /// The feature's value for a contact of half-peak `area_mm2`, `peak_mm` deep, with
+    /// `volume_mm3` and `integrated_phase_rad_mm2`.
+    pub fn of(
+        self,
+        area_mm2: f32,
+        peak_mm: f32,
+        volume_mm3: f32,
+        integrated_phase_rad_mm2: f32,
+    ) -> f32 {
+        match self {
+            ForceFeature::Volume => volume_mm3,
+            ForceFeature::IntegratedPhase => integrated_phase_rad_mm2,
+            ForceFeature::ContactArea => area_mm2,
+            ForceFeature::PeakDepth => peak_mm,
+            ForceFeature::ElasticLoad => {
+                (area_mm2.max(0.0) / std::f32::consts::PI).sqrt() * peak_mm
+            }
+        }
+    }
 
     /// Symbol used in equations.
     pub fn symbol(self) -> &'static str {
@@ -141,6 +169,7 @@ impl ForceFeature {
             ForceFeature::IntegratedPhase => "Φ_rad_mm2",
             ForceFeature::ContactArea => "A_mm2",
             ForceFeature::PeakDepth => "d_mm",
+            ForceFeature::ElasticLoad => "ad_mm2",
         }
     }
 }

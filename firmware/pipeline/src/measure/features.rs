@@ -2,7 +2,7 @@
 //! slope the flags judge.
 
 use super::FORCE_RANGE_SLACK;
-use crate::calibration::{Calibration, ForceFeature, MAX_FORCE_N};
+use crate::calibration::{Calibration, MAX_FORCE_N};
 
 /// Features of a depth map.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -105,12 +105,10 @@ pub fn bounded_force(calib: &Calibration, f: &Features, integrated_phase: f32) -
 /// [`bounded_force`]).
 pub fn force_of(calib: &Calibration, f: &Features, integrated_phase: f32) -> f32 {
     let Some(fm) = &calib.force else { return 0.0 };
-    let u = match fm.model.feature {
-        ForceFeature::Volume => f.volume_mm3,
-        ForceFeature::IntegratedPhase => integrated_phase,
-        ForceFeature::ContactArea => f.area_mm2,
-        ForceFeature::PeakDepth => f.peak_mm,
-    };
+    let u = fm
+        .model
+        .feature
+        .of(f.area_mm2, f.peak_mm, f.volume_mm3, integrated_phase);
     fm.model.force_n(f64::from(u)) as f32
 }
 

@@ -1,0 +1,510 @@
+//! The accuracy battery: units drawn wide ([`SensorUnit::wide`]), each calibrated on its own
+//! kit (the 10 mm sphere, uniform temperatures) and measured blind on scenes the kit never
+//! showed: the calibration sphere anywhere in view, other spheres, flat cylinders, letter
+//! punches, heated presses, presses at other skin temperatures and uniform skins, with
+//! exposure and white balance drifting from frame to frame.
+//!
+//! Every frame is scored against its truth. A quantity beyond its tolerance is a *failure*;
+//! a failure without any flag is a *silent failure*, the one a robot cannot guard against.
+//! Tolerances: peak depth 3 % + 0.02 mm; contact centre 1.5 mm; force 8 % + 0.3 N for the
+//! calibration sphere and 25 % + 0.3 N for other indenters; temperature 1 °C (contact and
+//! skin mean), and a skin's hottest block within 1.5 °C of its truth. A press of 0.2 mm or
+//! more reported as no contact is *missed*; a contact reported more than 3 mm from any
+//! press (or on an untouched skin) is a *phantom*.
+
+use std::path::Path;
+
+use vistaf_calibrate::{calibrate, Quiet};
+use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement};
+use vistaf_sim::contact::{Contact, Footprint, Indenter};
+use vistaf_sim::rng::Rng;
+use vistaf_sim::scene::{ROOM_C, SPHERE_R_MM};
+use vistaf_sim::sets::{write_calibration_kit, SetOptions};
+use vistaf_sim::thermal::HeatSource;
+use vistaf_sim::{Renderer, SensorUnit, SkinState, Truth};
+
+/// What a scene presses with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Kind {
+    /// The calibration sphere.
+    CalibrationSphere,
+    /// A sphere of another radius.
+    OtherSphere,
+    /// A flat cylinder.
+    Cylinder,
+    /// A letter-shaped punch.
+    Letter,
+    /// A sphere hotter than the skin.
+    Heated,
+    /// The calibration sphere at the skin's temperature, the skin not at room temperature.
+    SkinWarm,
+    /// No contact, a uniform skin.
+    Uniform,
+}
+
+impl Kind {
+    /// Name in tables.
+    pub fn name(self) -> &'static str {
+        match self {
+            Kind::CalibrationSphere => "calibration sphere",
+            Kind::OtherSphere => "other spheres",
+            Kind::Cylinder => "flat cylinders",
+            Kind::Letter => "letter punches",
+            Kind::Heated => "heated sphere",
+            Kind::SkinWarm => "sphere at skin temperature",
+            Kind::Uniform => "uniform skin",
+        }
+    }
+}
+
+/// One scored frame.
+#[derive(Debug, Clone)]
+pub struct Scored {
+    /// Unit seed.
+    pub unit: u64,
+    /// Scene kind.
+    pub kind: Kind,
+    /// True peak depth, mm.
+    pub depth_mm: f32,
+    /// Peak depth error, mm (None without a press).
+    pub depth_err_mm: Option<f32>,
+    /// Centre error, mm.
+    pub centre_err_mm: Option<f32>,
+    /// Force error, N, and the true force.
+    pub force_err_n: Option<(f32, f32)>,
+    /// Contact temperature error, °C.
+    pub contact_temp_err_c: Option<f32>,
+    /// Skin mean temperature error, °C (uniform skins).
+    pub mean_temp_err_c: Option<f32>,
+    /// Hottest block above the truth's hottest point, °C.
+    pub max_temp_excess_c: Option<f32>,
+    /// A press of 0.2 mm or more reported as no contact.
+    pub missed: bool,
+    /// A contact reported away from every press.
+    pub phantom: bool,
+    /// Which quantities failed their tolerance.
+    pub failures: Vec<&'static str>,
+    /// Flags raised.
+    pub flags: Vec<&'static str>,
+}
+
+impl Scored {
+    /// A failure no flag warned of.
+    pub fn silent(&self) -> bool {
+        !self.failures.is_empty() && self.flags.is_empty()
+    }
+}
+
+/// A unit that could not be calibrated, and why.
+#[derive(Debug, Clone)]
+pub struct Refused {
+    /// Unit seed.
+    pub unit: u64,
+    /// The calibration's error.
+    pub why: String,
+}
+
+/// Effects [`without`] can switch off, to find which one a failure needs.
+pub const EFFECTS: [&str; 11] = [
+    "oblique",
+    "glare",
+    "vignetting",
+    "white-balance",
+    "mottle",
+    "wobble",
+    "distortion",
+    "phase-shape",
+    "jpeg",
+    "drift",
+    "shading",
+];
+
+/// `unit` with the named effects switched off (names from [`EFFECTS`]; `drift` is the
+/// per-frame exposure and white balance, applied in the scenes).
+pub fn without(mut unit: SensorUnit, effects: &[String]) -> SensorUnit {
+    let i = &mut unit.imperfections;
+    for e in effects {
+        match e.as_str() {
+            "oblique" => i.oblique_gain = 0.0,
+            "glare" => i.glare.clear(),
+            "vignetting" => i.vignetting_offset = (0.0, 0.0),
+            "white-balance" => i.white_balance = [1.0; 3],
+            "mottle" => i.mottle = 0.0,
+            "wobble" => i.wobble_rad = 0.0,
+            "distortion" => i.distortion = 0.0,
+            "phase-shape" => i.phase_shape = 0.0,
+            "jpeg" => i.jpeg_quality = None,
+            "shading" => unit.shading_gain = 0.0,
+            _ => {}
+        }
+    }
+    unit
+}
+
+/// Calibrates unit `seed` on its kit (in `work`, removed afterwards) and scores its scenes,
+/// with the named effects switched off (none for the battery).
+pub fn run_unit(seed: u64, work: &Path, off: &[String]) -> Result<Vec<Scored>, Refused> {
+    let unit = without(SensorUnit::wide(seed), off);
+    let drifts = !off.iter().any(|e| e == "drift");
+    let refused = |why: String| Refused { unit: seed, why };
+    let dir = work.join(format!("unit-{seed}"));
+    let opts = SetOptions {
+        truth_maps: false,
+        seed: seed.wrapping_mul(7),
+        unit_seed: seed,
+    };
+    let sets = write_calibration_kit(&dir, &unit, &opts, |_, _, _| {})
+        .map_err(|e| refused(format!("kit: {e}")))?;
+    let calib = calibrate(&sets, Implementation::Fixed, &mut Quiet);
+    let _ = std::fs::remove_dir_all(&dir);
+    let calib = calib.map_err(|e| refused(format!("{e:#}")))?;
+    let r = Renderer::new(unit.clone());
+    let (reference, _) = r.render(&SkinState::idle(ROOM_C), seed ^ 0x5eed);
+    let a = Analyzer::new(
+        &reference,
+        calib,
+        Implementation::Fixed,
+        AnalyzerOptions::default(),
+    )
+    .map_err(|e| refused(format!("reference: {e}")))?;
+    let mut rng = Rng::derive(seed, "accuracy scenes");
+    let mut out = Vec::new();
+    for (k, (kind, mut state)) in scenes(&unit, &mut rng).into_iter().enumerate() {
+        if !drifts {
+            state.exposure_scale = 1.0;
+            state.white_balance = [1.0; 3];
+        }
+        let (img, truth) = r.render(&state, seed.wrapping_mul(1000) + k as u64);
+        match a.analyze(&img) {
+            Ok(m) => out.push(score(seed, kind, &unit, &state, &truth, &m)),
+            Err(e) => return Err(refused(format!("frame {k}: {e}"))),
+        }
+    }
+    Ok(out)
+}
+
+/// The scenes of one unit.
+fn scenes(unit: &SensorUnit, rng: &mut Rng) -> Vec<(Kind, SkinState)> {
+    let mut v = Vec::new();
+    let cal = Indenter::Sphere { r_mm: SPHERE_R_MM };
+    for _ in 0..8 {
+        let d = rng.range(0.15, 2.4) as f32;
+        v.push((Kind::CalibrationSphere, pressed(unit, rng, cal.clone(), d)));
+    }
+    for _ in 0..3 {
+        let r_mm = [2.5f32, 5.0, 7.5, 15.0, 20.0][(rng.next_u64() % 5) as usize];
+        let d = rng.range(0.15, 1.5) as f32;
+        v.push((
+            Kind::OtherSphere,
+            pressed(unit, rng, Indenter::Sphere { r_mm }, d),
+        ));
+    }
+    for _ in 0..3 {
+        let r_mm = [2.0f32, 3.0, 4.0, 6.0][(rng.next_u64() % 4) as usize];
+        let d = rng.range(0.15, 1.0) as f32;
+        let fp = Footprint::Disc { r_mm };
+        v.push((Kind::Cylinder, pressed(unit, rng, Indenter::Punch(fp), d)));
+    }
+    for _ in 0..2 {
+        let h = [8.0f32, 10.0, 12.0][(rng.next_u64() % 3) as usize];
+        let fp = match rng.next_u64() % 3 {
+            0 => Footprint::letter_e(h),
+            1 => Footprint::letter_p(h),
+            _ => Footprint::letter_f(h),
+        };
+        let d = rng.range(0.15, 0.8) as f32;
+        v.push((Kind::Letter, pressed(unit, rng, Indenter::Punch(fp), d)));
+    }
+    for _ in 0..3 {
+        let d = rng.range(0.3, 2.0) as f32;
+        let mut s = pressed(unit, rng, cal.clone(), d);
+        let c = s.contacts[0].center_mm;
+        s.temperature.sources.push(HeatSource::Spot {
+            center_mm: c,
+            footprint: Footprint::Disc {
+                r_mm: (SPHERE_R_MM * d).sqrt(),
+            },
+            temp_c: rng.range(30.0, 45.0) as f32,
+            spread_mm: 2.0,
+        });
+        v.push((Kind::Heated, s));
+    }
+    for _ in 0..2 {
+        let d = rng.range(0.3, 2.0) as f32;
+        let mut s = pressed(unit, rng, cal.clone(), d);
+        s.temperature.base_c = rng.range(20.0, 34.0) as f32;
+        v.push((Kind::SkinWarm, s));
+    }
+    for _ in 0..3 {
+        let mut s = SkinState::idle(rng.range(16.0, 45.0) as f32);
+        drift(&mut s, rng);
+        v.push((Kind::Uniform, s));
+    }
+    v
+}
+
+/// A press at a random place where its contact lies wholly in view.
+fn pressed(unit: &SensorUnit, rng: &mut Rng, indenter: Indenter, depth_mm: f32) -> SkinState {
+    let mmpp = unit.mm_per_px();
+    let (fw, fh) = (unit.width_px as f32 * mmpp, unit.height_px as f32 * mmpp);
+    let reach = match &indenter {
+        Indenter::Sphere { r_mm } => (r_mm * depth_mm).sqrt(),
+        Indenter::Punch(fp) => fp.bound_mm() * std::f32::consts::SQRT_2,
+    } + 1.0;
+    let at = |rng: &mut Rng, span: f32| {
+        let m = reach.min(0.45 * span);
+        rng.range(f64::from(m), f64::from(span - m)) as f32
+    };
+    let centre = (at(rng, fw), at(rng, fh));
+    let mut s = SkinState::idle(ROOM_C);
+    s.contacts.push(Contact {
+        indenter,
+        center_mm: centre,
+        depth_mm,
+    });
+    drift(&mut s, rng);
+    s
+}
+
+/// Exposure within ±6 % and white balance within ±4 % of the reference's.
+fn drift(s: &mut SkinState, rng: &mut Rng) {
+    s.exposure_scale = rng.range(0.94, 1.06) as f32;
+    s.white_balance = [
+        rng.range(0.96, 1.04) as f32,
+        1.0,
+        rng.range(0.96, 1.04) as f32,
+    ];
+}
+
+fn score(
+    seed: u64,
+    kind: Kind,
+    unit: &SensorUnit,
+    state: &SkinState,
+    truth: &Truth,
+    m: &Measurement,
+) -> Scored {
+    let mmpp = unit.mm_per_px();
+    let mut s = Scored {
+        unit: seed,
+        kind,
+        depth_mm: truth.peak_depth_mm,
+        depth_err_mm: None,
+        centre_err_mm: None,
+        force_err_n: None,
+        contact_temp_err_c: None,
+        mean_temp_err_c: None,
+        max_temp_excess_c: None,
+        missed: false,
+        phantom: false,
+        failures: Vec::new(),
+        flags: m.flags.iter().map(|f| f.name()).collect(),
+    };
+    let pressed = truth.peak_depth_mm > 0.0;
+    if pressed {
+        let e = m.peak_depth_mm - truth.peak_depth_mm;
+        s.depth_err_mm = Some(e);
+        if e.abs() > 0.03 * truth.peak_depth_mm + 0.02 {
+            s.failures.push("depth");
+        }
+        s.missed = truth.peak_depth_mm >= 0.2 && !m.contact;
+        let f = truth.force_n;
+        s.force_err_n = Some((m.force_n - f, f));
+        let rel = if kind == Kind::CalibrationSphere {
+            0.08
+        } else {
+            0.25
+        };
+        if (m.force_n - f).abs() > rel * f + 0.3 {
+            s.failures.push("force");
+        }
+    }
+    if let (Some(t), Some(c)) = (truth.contact_px, m.centroid_px) {
+        let e = (c.0 - t.0).hypot(c.1 - t.1) * mmpp;
+        s.centre_err_mm = Some(e);
+        s.phantom = e > 3.0;
+        if e > 1.5 {
+            s.failures.push("centre");
+        }
+    } else if !pressed && m.contact {
+        s.phantom = true;
+    }
+    if s.missed {
+        s.failures.push("missed");
+    }
+    if s.phantom {
+        s.failures.push("phantom");
+    }
+    score_temperature(&mut s, state, truth, m);
+    s
+}
+
+fn score_temperature(s: &mut Scored, state: &SkinState, truth: &Truth, m: &Measurement) {
+    let Some(t) = &m.temperature else {
+        s.failures.push("no temperature");
+        return;
+    };
+    if let (Some(want), Some(got)) = (truth.contact_temp_c, t.contact_c) {
+        let e = got - want;
+        s.contact_temp_err_c = Some(e);
+        if e.abs() > 1.0 {
+            s.failures.push("contact temperature");
+        }
+    }
+    let hottest = truth.temperature_c.iter().copied().fold(f32::MIN, f32::max);
+    if state.temperature.sources.is_empty() {
+        let e = t.mean_c - state.temperature.base_c;
+        s.mean_temp_err_c = Some(e);
+        if e.abs() > 1.0 || e.is_nan() {
+            s.failures.push("mean temperature");
+        }
+    }
+    let excess = t.max_c - hottest;
+    s.max_temp_excess_c = Some(excess);
+    if excess > 1.5 || excess.is_nan() {
+        s.failures.push("hottest block");
+    }
+}
+
+/// Median, 95th percentile and worst of `v` (absolute values), or None when empty.
+pub fn spread(v: impl IntoIterator<Item = f32>) -> Option<[f32; 3]> {
+    let mut a: Vec<f32> = v
+        .into_iter()
+        .map(f32::abs)
+        .filter(|x| x.is_finite())
+        .collect();
+    if a.is_empty() {
+        return None;
+    }
+    a.sort_by(f32::total_cmp);
+    let at = |q: f32| a[((q * (a.len() - 1) as f32).round() as usize).min(a.len() - 1)];
+    Some([at(0.5), at(0.95), a[a.len() - 1]])
+}
+
+/// One unit's outcome.
+pub type UnitResult = Result<Vec<Scored>, Refused>;
+
+/// Units run on `jobs` threads; results in seed order.
+pub fn run_units(
+    seeds: &[u64],
+    work: &Path,
+    jobs: usize,
+    off: &[String],
+    done: impl Fn(u64) + Sync,
+) -> Vec<UnitResult> {
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let slots: Vec<std::sync::Mutex<Option<UnitResult>>> =
+        seeds.iter().map(|_| std::sync::Mutex::new(None)).collect();
+    std::thread::scope(|s| {
+        for _ in 0..jobs.max(1) {
+            s.spawn(|| loop {
+                let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                let Some(&seed) = seeds.get(i) else { break };
+                let r = run_unit(seed, work, off);
+                if let Ok(mut slot) = slots[i].lock() {
+                    *slot = Some(r);
+                }
+                done(seed);
+            });
+        }
+    });
+    slots
+        .into_iter()
+        .filter_map(|m| m.into_inner().ok().flatten())
+        .collect()
+}
+
+/// The battery's report as Markdown: per scene kind, the error spread and the failures,
+/// silent ones first; then every silent failure by name.
+pub fn report(results: &[UnitResult]) -> String {
+    use std::fmt::Write as _;
+    let frames: Vec<&Scored> = results.iter().flatten().flatten().collect();
+    let refused: Vec<&Refused> = results.iter().filter_map(|r| r.as_ref().err()).collect();
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "{} units, {} frames; {} units refused calibration.\n",
+        results.len(),
+        frames.len(),
+        refused.len()
+    );
+    let _ = writeln!(
+        s,
+        "| scenes | frames | silent failures | flagged failures | missed | phantom | flagged without failure | depth err mm (median / p95 / worst) | force err % | centre err mm | contact temp err °C |"
+    );
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---|---|---|---|");
+    let mut kinds: Vec<Kind> = frames.iter().map(|f| f.kind).collect();
+    kinds.sort();
+    kinds.dedup();
+    for k in kinds {
+        let of: Vec<&&Scored> = frames.iter().filter(|f| f.kind == k).collect();
+        let fmt = |v: Option<[f32; 3]>, digits: usize| {
+            v.map_or("–".into(), |[a, b, c]| {
+                format!("{a:.digits$} / {b:.digits$} / {c:.digits$}")
+            })
+        };
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            k.name(),
+            of.len(),
+            of.iter().filter(|f| f.silent()).count(),
+            of.iter()
+                .filter(|f| !f.failures.is_empty() && !f.silent())
+                .count(),
+            of.iter().filter(|f| f.missed).count(),
+            of.iter().filter(|f| f.phantom).count(),
+            of.iter()
+                .filter(|f| f.failures.is_empty() && !f.flags.is_empty())
+                .count(),
+            fmt(spread(of.iter().filter_map(|f| f.depth_err_mm)), 3),
+            fmt(
+                spread(
+                    of.iter()
+                        .filter_map(|f| f.force_err_n.map(|(e, t)| 100.0 * e / t.max(0.1)))
+                ),
+                1
+            ),
+            fmt(spread(of.iter().filter_map(|f| f.centre_err_mm)), 2),
+            fmt(spread(of.iter().filter_map(|f| f.contact_temp_err_c)), 2),
+        );
+    }
+    let uniform = spread(frames.iter().filter_map(|f| f.mean_temp_err_c));
+    let excess: Vec<f32> = frames.iter().filter_map(|f| f.max_temp_excess_c).collect();
+    if let Some([a, b, c]) = uniform {
+        let _ = writeln!(
+            s,
+            "\nUniform skin mean temperature error, °C: median {a:.2}, p95 {b:.2}, worst {c:.2}."
+        );
+    }
+    if let Some([a, b, c]) = spread(excess) {
+        let _ = writeln!(
+            s,
+            "Hottest block above the truth's hottest point, °C (absolute): median {a:.2}, p95 {b:.2}, worst {c:.2}."
+        );
+    }
+    let silent: Vec<&&Scored> = frames.iter().filter(|f| f.silent()).collect();
+    let _ = writeln!(s, "\n### Silent failures ({})\n", silent.len());
+    for f in silent {
+        let _ = writeln!(
+            s,
+            "- unit {} {} at {:.2} mm: {} (depth err {:?} mm, force err {:?}, centre err {:?} mm, contact temp err {:?} °C, mean temp err {:?} °C)",
+            f.unit,
+            f.kind.name(),
+            f.depth_mm,
+            f.failures.join(", "),
+            f.depth_err_mm.map(|e| (e * 1000.0).round() / 1000.0),
+            f.force_err_n.map(|(e, t)| format!("{e:.2} N of {t:.2} N")),
+            f.centre_err_mm.map(|e| (e * 100.0).round() / 100.0),
+            f.contact_temp_err_c.map(|e| (e * 100.0).round() / 100.0),
+            f.mean_temp_err_c.map(|e| (e * 100.0).round() / 100.0),
+        );
+    }
+    if !refused.is_empty() {
+        let _ = writeln!(s, "\n### Units refused\n");
+        for r in refused {
+            let _ = writeln!(s, "- unit {}: {}", r.unit, r.why);
+        }
+    }
+    s
+}
