@@ -74,7 +74,7 @@ pub struct Scored {
     pub force_err_n: Option<(f32, f32)>,
     /// Contact temperature error, °C.
     pub contact_temp_err_c: Option<f32>,
-    /// Skin mean temperature error, °C (uniform skins).
+    /// Skin mean temperature error, °C (wherever the skin is at one temperature).
     pub mean_temp_err_c: Option<f32>,
     /// Hottest block above the truth's hottest point, °C.
     pub max_temp_excess_c: Option<f32>,
@@ -170,6 +170,7 @@ pub fn run_unit(seed: u64, work: &Path, off: &[String]) -> Result<Vec<Scored>, R
     let mut rng = Rng::derive(seed, "accuracy scenes");
     let mut out = Vec::new();
     for (k, (kind, mut state)) in scenes(&unit, &mut rng).into_iter().enumerate() {
+        // Drawn either way, so an ablation sees the same scenes.
         if !drifts {
             state.exposure_scale = 1.0;
             state.white_balance = [1.0; 3];

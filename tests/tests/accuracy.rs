@@ -1,10 +1,10 @@
 //! The accuracy battery on three units drawn wide (`vistaf-accuracy` runs it on many and
 //! writes `docs/accuracy.md`). What must already hold on every unit: it calibrates on its own
-//! kit (unit 5's deepest kit presses bend its 7.4 px stripes beyond the band, which once
-//! made the calibration pick the wrong phase sign and refuse the unit), no press of 0.2 mm
-//! or more goes unreported, and no press of the calibration sphere is reported elsewhere
-//! without a flag. (Silent depth, force and temperature errors remain on such units: the
-//! battery's report lists them.)
+//! kit (one of the three has a grating fine enough that its deepest kit presses are flagged,
+//! and the phase sign must not hang on them), no press of 0.2 mm or more goes unreported,
+//! and no press of the calibration sphere is reported elsewhere without a flag. (Silent
+//! depth, force and temperature errors remain on such units: the battery's report lists
+//! them.)
 #![allow(clippy::unwrap_used)] // tests unwrap: a failure is the test failing
 
 use vistaf_tests::accuracy::{run_units, Kind};

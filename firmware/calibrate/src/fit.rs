@@ -227,21 +227,33 @@ fn score_all<M>(
 fn choose<M: Clone>(
     scored: Vec<(M, CandidateScore)>,
 ) -> Option<(M, CandidateScore, Vec<CandidateScore>)> {
+    choose_preferring(scored, |_| false)
+}
+
+/// The parsimony rule among the candidates within one standard error of the best CV RMSE
+/// that `preferred` accepts, when there are any; else among all within it.
+fn choose_preferring<M: Clone>(
+    scored: Vec<(M, CandidateScore)>,
+    preferred: impl Fn(&M) -> bool,
+) -> Option<(M, CandidateScore, Vec<CandidateScore>)> {
     let best = scored
         .iter()
         .map(|s| &s.1)
         .filter(|s| s.cv_rmse.is_finite())
         .min_by(|a, b| a.cv_rmse.total_cmp(&b.cv_rmse))?;
     let limit = best.cv_rmse + best.cv_se;
-    let (m, s) = scored
-        .iter()
-        .filter(|(_, s)| s.cv_rmse <= limit)
-        .min_by(|a, b| {
-            a.1.params
-                .cmp(&b.1.params)
-                .then(a.1.cv_rmse.total_cmp(&b.1.cv_rmse))
-        })?
-        .clone();
+    let parsimonious = |only_preferred: bool| {
+        scored
+            .iter()
+            .filter(|(m, s)| s.cv_rmse <= limit && (!only_preferred || preferred(m)))
+            .min_by(|a, b| {
+                a.1.params
+                    .cmp(&b.1.params)
+                    .then(a.1.cv_rmse.total_cmp(&b.1.cv_rmse))
+            })
+            .cloned()
+    };
+    let (m, s) = parsimonious(true).or_else(|| parsimonious(false))?;
     Some((m, s, scored.into_iter().map(|x| x.1).collect()))
 }
 
@@ -310,86 +322,40 @@ pub fn fit_force(
     let mut pool = Vec::new();
     for (k, (feature, samples)) in features.iter().enumerate() {
         let f = *feature;
-        let sym = f.symbol();
+        let form = |name: &str, params: usize, fit: fn(&[Sample]) -> ForceForm| Candidate {
+            name: format!("{name}({})", f.symbol()),
+            params,
+            fit: Box::new(move |s| ForceModel {
+                feature: f,
+                form: fit(s),
+            }),
+        };
         let cands: Vec<Candidate<ForceModel>> = vec![
-            Candidate {
-                name: format!("linear({sym})"),
-                params: 1,
-                fit: Box::new(move |s| ForceModel {
-                    feature: f,
-                    form: ForceForm::Linear {
-                        a: scale_fit(s, |u| u).0,
-                    },
-                }),
-            },
-            Candidate {
-                name: format!("hertz({sym})"),
-                params: 1,
-                fit: Box::new(move |s| ForceModel {
-                    feature: f,
-                    form: ForceForm::Hertz {
-                        c: scale_fit(s, |u| u.max(0.0).powf(1.5)).0,
-                    },
-                }),
-            },
-            Candidate {
-                name: format!("power({sym})"),
-                params: 2,
-                fit: Box::new(move |s| {
-                    let (a, b) = fit_ab(s, 0.2, 4.0, |b, u| u.max(0.0).powf(b));
-                    ForceModel {
-                        feature: f,
-                        form: ForceForm::PowerLaw { a, b },
-                    }
-                }),
-            },
-            Candidate {
-                name: format!("exp_growth({sym})"),
-                params: 2,
-                fit: Box::new(move |s| {
-                    let umax = s.iter().map(|x| x.u).fold(1e-9, f64::max);
-                    let (a, b) = fit_ab(s, 1e-3 / umax, 8.0 / umax, |b, u| (b * u).exp() - 1.0);
-                    ForceModel {
-                        feature: f,
-                        form: ForceForm::Exponential { a, b },
-                    }
-                }),
-            },
+            form("linear", 1, |s| ForceForm::Linear {
+                a: scale_fit(s, |u| u).0,
+            }),
+            form("hertz", 1, |s| ForceForm::Hertz {
+                c: scale_fit(s, |u| u.max(0.0).powf(1.5)).0,
+            }),
+            form("power", 2, |s| {
+                let (a, b) = fit_ab(s, 0.2, 4.0, |b, u| u.max(0.0).powf(b));
+                ForceForm::PowerLaw { a, b }
+            }),
+            form("exp_growth", 2, |s| {
+                let umax = s.iter().map(|x| x.u).fold(1e-9, f64::max);
+                let (a, b) = fit_ab(s, 1e-3 / umax, 8.0 / umax, |b, u| (b * u).exp() - 1.0);
+                ForceForm::Exponential { a, b }
+            }),
         ];
         pool.extend(score_all(samples, cands, &|m: &ForceModel, u| {
             m.force_n(u)
         })?);
         progress(k + 1, features.len());
     }
-    choose_force(pool)
-}
-
-/// The force model: among candidates within one standard error of the best CV RMSE, one on
-/// the elastic load when there is one (the feature that holds for indenters other than the
-/// calibration's, see [`ForceFeature::ElasticLoad`]: a kit of one sphere cannot tell the
-/// features apart, physics can; any monotone form of it keeps that), by the parsimony rule
-/// among those; else the parsimony rule among all.
-fn choose_force(
-    scored: Vec<(ForceModel, CandidateScore)>,
-) -> Option<(ForceModel, CandidateScore, Vec<CandidateScore>)> {
-    let (model, score, all) = choose(scored.clone())?;
-    let best = all
-        .iter()
-        .filter(|s| s.cv_rmse.is_finite())
-        .min_by(|a, b| a.cv_rmse.total_cmp(&b.cv_rmse))?;
-    let limit = best.cv_rmse + best.cv_se;
-    let elastic = scored
-        .into_iter()
-        .filter(|(m, s)| m.feature == ForceFeature::ElasticLoad && s.cv_rmse <= limit)
-        .min_by(|a, b| {
-            a.1.params
-                .cmp(&b.1.params)
-                .then(a.1.cv_rmse.total_cmp(&b.1.cv_rmse))
-        });
-    Some(match elastic {
-        Some((m, s)) => (m, s, all),
-        None => (model, score, all),
-    })
+    // Within a standard error, a model on the elastic load: the feature that holds for
+    // indenters other than the calibration's (see `ForceFeature::ElasticLoad`; a kit of one
+    // sphere cannot tell the features apart, physics can, and any monotone form keeps it).
+    choose_preferring(pool, |m| m.feature == ForceFeature::ElasticLoad)
 }
 
 #[cfg(test)]

@@ -197,18 +197,18 @@ fn check_curve(
     Ok(())
 }
 
+/// `v` is a finite, positive coefficient, or an error naming `key`.
+fn positive(key: &str, v: f64) -> Check {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(bad(key, format!("{}: must be positive", num(v))))
+    }
+}
+
 fn check_depth(m: &DepthModel, range: Option<&FitRange>) -> Check {
     let key = "depth.model";
-    let positive = |k: &str, v: f64| {
-        if v.is_finite() && v > 0.0 {
-            Ok(())
-        } else {
-            Err(bad(
-                &format!("{key}.{k}"),
-                format!("{}: must be positive", num(v)),
-            ))
-        }
-    };
+    let positive = |k: &str, v: f64| positive(&format!("{key}.{k}"), v);
     match m {
         DepthModel::Linear { k_mm_per_rad } => positive("k_mm_per_rad", *k_mm_per_rad)?,
         DepthModel::Hinge { h_mm, k_per_rad } => {
@@ -259,16 +259,7 @@ fn default_input(m: &ForceModel) -> f64 {
 
 fn check_force(m: &ForceModel, range: Option<&FitRange>) -> Check {
     let key = "force.model.form";
-    let positive = |k: &str, v: f64| {
-        if v.is_finite() && v > 0.0 {
-            Ok(())
-        } else {
-            Err(bad(
-                &format!("{key}.{k}"),
-                format!("{}: must be positive", num(v)),
-            ))
-        }
-    };
+    let positive = |k: &str, v: f64| positive(&format!("{key}.{k}"), v);
     match m.form {
         ForceForm::Linear { a } => positive("a", a)?,
         ForceForm::PowerLaw { a, b } => {
