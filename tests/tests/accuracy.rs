@@ -26,3 +26,22 @@ fn wide_units_calibrate_and_report_every_press_where_it_is() {
         }
     }
 }
+
+/// On this unit the pigment darkens so far in the middle of its range (22–27 °C) that the
+/// grating's contrast is flagged low there; the colour → temperature fit must still see
+/// those kit frames (their colours are the skin's), or the whole skin reads 3–6 °C low at
+/// room temperature with no flag.
+#[test]
+fn a_pigment_dark_enough_to_lower_contrast_is_still_calibrated() {
+    let work = std::env::temp_dir().join(format!("vistaf-dark-pigment-{}", std::process::id()));
+    let results = run_units(&[7], &work, 2, &[], |_| {});
+    let _ = std::fs::remove_dir_all(&work);
+    let frames = results[0]
+        .as_ref()
+        .unwrap_or_else(|e| panic!("unit {}: {}", e.unit, e.why));
+    let read: Vec<f32> = frames.iter().filter_map(|f| f.mean_temp_err_c).collect();
+    assert!(read.len() >= 10, "{} skins read", read.len());
+    for e in read {
+        assert!(e.abs() <= 1.0, "mean temperature {e:+.2} °C off");
+    }
+}

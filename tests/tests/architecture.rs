@@ -45,7 +45,7 @@ fn crates_depend_only_on_what_is_below_them_in_the_flow() {
         ("firmware/pipeline", &["vistaf-protocol"]),
         (
             "firmware/calibrate",
-            &["vistaf-pipeline", "vistaf-hardware"],
+            &["vistaf-protocol", "vistaf-pipeline", "vistaf-hardware"],
         ),
         (
             "firmware",

@@ -22,6 +22,7 @@ use vistaf_pipeline::calibration::{
 use vistaf_pipeline::ftp::carrier;
 use vistaf_pipeline::image_ops::gray_down_f32;
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement};
+use vistaf_protocol::Flag;
 
 use crate::fit::{fit_depth, fit_force, Sample};
 
@@ -156,6 +157,16 @@ impl<O: Observer> Run<'_, O> {
 /// whole field, few enough to keep the fit quick.
 const BLOCKS_PER_FRAME: usize = 256;
 
+/// The flags that leave a no-contact frame out of the colour → temperature fit: those that
+/// say its colours are not the skin's (clipped, or read against a reference they no longer
+/// match). The others judge the depth map; a pigment dark enough at some temperature to
+/// lower the grating's contrast is exactly what the fit must see.
+const COLOUR_FLAGS: [Flag; 3] = [
+    Flag::OverExposure,
+    Flag::Misregistration,
+    Flag::StaleReference,
+];
+
 /// Colour → temperature from the frames labelled `temperature_c` without contact
 /// (`depth_mm` and `force_n` absent or 0); `None` (with a note) when there are too few.
 fn temperature_model<O: Observer>(
@@ -199,15 +210,19 @@ fn temperature_model<O: Observer>(
             done += 1;
             run.obs.progress("colour → temperature", done, total);
             let (d, sums) = an.colour_sums(&s.load_frame(i)?).map_err(pipe)?;
-            if !d.flags.is_empty() || d.contact {
-                let names: Vec<&str> = d.flags.iter().map(|f| f.name()).collect();
+            let spoilt: Vec<&str> = COLOUR_FLAGS
+                .iter()
+                .filter(|f| d.flags.contains(**f))
+                .map(|f| f.name())
+                .collect();
+            if !spoilt.is_empty() || d.contact {
                 run.obs.note(format!(
                     "{set}: {} left out of the temperature fit ({})",
                     f.file,
                     if d.contact {
                         "shows contact".to_string()
                     } else {
-                        names.join(", ")
+                        spoilt.join(", ")
                     }
                 ));
                 continue;

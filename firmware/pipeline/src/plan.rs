@@ -268,7 +268,7 @@ impl Analyzer {
             integer,
             mm_per_px,
         );
-        Ok(Analyzer {
+        let mut an = Analyzer {
             path,
             unwrap: opts.unwrap,
             thermo,
@@ -277,7 +277,12 @@ impl Analyzer {
             calib,
             size: reference.dimensions(),
             ref_saturation: image_ops::saturated_fraction(reference),
-        })
+        };
+        if an.thermo.has_model() {
+            let (_, sums) = an.colour_sums(reference)?;
+            an.thermo.learn_static_light(&sums);
+        }
+        Ok(an)
     }
 
     /// Input scale, mm per pixel (from the measured carrier period).

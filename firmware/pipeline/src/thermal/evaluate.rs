@@ -105,12 +105,6 @@ pub struct BlockMap {
     pub outside: usize,
     /// Sum of the measured blocks' temperatures, °C.
     pub sum_c: f64,
-    /// Coldest and hottest measured block, °C (±∞ when none).
-    pub min_c: f32,
-    /// See `min_c`.
-    pub max_c: f32,
-    /// Index of the hottest block.
-    pub hottest: Option<usize>,
 }
 
 /// What the thermometer asks of an evaluator, whichever its arithmetic.
@@ -153,9 +147,6 @@ impl<E: Evaluator + std::fmt::Debug + Send + Sync> Temperatures for E {
             measured: 0,
             outside: 0,
             sum_c: 0.0,
-            min_c: f32::INFINITY,
-            max_c: f32::NEG_INFINITY,
-            hottest: None,
         };
         for (b, s) in blocks.iter().enumerate() {
             let cell = (b / bw / 2) * gw + (b % bw) / 2;
@@ -170,11 +161,6 @@ impl<E: Evaluator + std::fmt::Debug + Send + Sync> Temperatures for E {
             m.outside += usize::from(!r.trusted);
             m.sum_c += f64::from(r.t_c);
             m.measured += 1;
-            m.min_c = m.min_c.min(r.t_c);
-            if r.t_c > m.max_c {
-                m.max_c = r.t_c;
-                m.hottest = Some(b);
-            }
         }
         m
     }

@@ -14,12 +14,16 @@
 //! [`lab`] holds the colour science, [`stripes`] the segmentation, [`model`] the
 //! calibration's models and their fusion, [`evaluate`] the map over blocks in either
 //! arithmetic ([`Evaluator`]), and [`fixed`] the device path's integer evaluation of the
-//! models. Fitting them is the calibration's job (`vistaf-calibrate`).
+//! models. [`static_light`] finds the blocks glare misreads, from the reference, and
+//! [`extremes`] reads the map's coldest and hottest places. Fitting the models is the
+//! calibration's job (`vistaf-calibrate`).
 
 pub mod evaluate;
+pub mod extremes;
 pub mod fixed;
 pub mod lab;
 pub mod model;
+pub mod static_light;
 pub mod stripes;
 
 use image::RgbImage;
@@ -40,13 +44,14 @@ pub struct Temperature {
     pub block_mm: f32,
     /// Temperature per block, °C (NaN where a block could not be measured).
     pub map_c: Vec<f32>,
-    /// Coldest, mean and hottest block, °C (NaN when no block was measured).
+    /// Coldest place, mean and hottest place, °C (NaN when no block was measured); the
+    /// extremes are read over each block's neighbourhood ([`extremes`]).
     pub min_c: f32,
     /// See `min_c`.
     pub mean_c: f32,
     /// See `min_c`.
     pub max_c: f32,
-    /// Centre of the hottest block, input pixels.
+    /// Centre of the hottest place, input pixels.
     pub hottest_px: Option<(f32, f32)>,
     /// Temperature over the contact region, °C, when there is contact.
     pub contact_c: Option<f32>,
@@ -92,6 +97,8 @@ pub struct Thermometer {
     model: Option<TemperatureModel>,
     evaluator: Option<Box<dyn Temperatures>>,
     mm_per_px: f32,
+    /// Blocks the reference shows misread by static light ([`static_light`]).
+    misread: Vec<bool>,
 }
 
 impl Thermometer {
@@ -119,7 +126,33 @@ impl Thermometer {
             model,
             evaluator,
             mm_per_px,
+            misread: Vec::new(),
         }
+    }
+
+    /// Learns where static light (glare) misreads the skin from the reference's colour
+    /// sums per block (`reference`: a skin at rest, one temperature throughout); those blocks
+    /// go unmeasured from then on. Without a model nothing is learnt.
+    pub fn learn_static_light(&mut self, reference: &[Sums]) {
+        let Some(evaluator) = self.evaluator.as_ref() else {
+            return;
+        };
+        let g = &self.geom;
+        let map = evaluator.map(reference, g.bw, g.bh);
+        let view: Vec<static_light::BlockView> = reference
+            .iter()
+            .zip(&map.map_c)
+            .map(|(s, &t_c)| {
+                let (c, k) = s.means();
+                let lum = |m: [f64; 3]| (m.iter().sum::<f64>() / 3.0) as f32;
+                static_light::BlockView {
+                    t_c,
+                    brightness: [lum(c), lum(k)],
+                    readable: s.enough(),
+                }
+            })
+            .collect();
+        self.misread = static_light::misread(&view, g.bw, g.bh);
     }
 
     /// Whether temperatures can be measured (the calibration has a model).
@@ -135,7 +168,8 @@ impl Thermometer {
     /// Colour sums of a frame whose grating phase along working row `y` is what
     /// `phase(y, reference, row)` writes into `row` (units) from the reference's along that
     /// row (`reference`), over the working pixels the FTP found `reliable`; `regions` marks
-    /// the contact region and its core.
+    /// the contact region and its core. Blocks that saw only a sliver of a stripe pair come
+    /// back empty ([`drop_partial`]).
     pub fn sums(
         &self,
         frame: &RgbImage,
@@ -144,7 +178,7 @@ impl Thermometer {
         regions: Option<Regions<'_>>,
     ) -> (Vec<Sums>, [Sums; 2]) {
         let w = self.geom.w;
-        stripes::accumulate(
+        let (mut blocks, contact) = stripes::accumulate(
             frame,
             &self.geom,
             |y, row: &mut [u16]| {
@@ -154,7 +188,9 @@ impl Thermometer {
             reliable,
             regions,
             &self.lin,
-        )
+        );
+        drop_partial(&mut blocks);
+        (blocks, contact)
     }
 
     /// The reading of a block from its own sums (coloured stripes) and its neighbourhood's
@@ -181,7 +217,10 @@ impl Thermometer {
     ) -> Option<Temperature> {
         let evaluator = self.evaluator.as_ref()?;
         let g = &self.geom;
-        let (blocks, [inside, core]) = self.sums(frame, &phase, reliable, regions);
+        let (mut blocks, [inside, core]) = self.sums(frame, &phase, reliable, regions);
+        for (s, _) in blocks.iter_mut().zip(&self.misread).filter(|(_, &m)| m) {
+            *s = Sums::default();
+        }
         let map = evaluator.map(&blocks, g.bw, g.bh);
         let region = if core.n[0] >= CORE_SAMPLES && core.n[1] >= CORE_SAMPLES {
             core
@@ -196,20 +235,41 @@ impl Thermometer {
                 out_of_range |= !r.trusted;
                 r.t_c
             });
-        let nan = |v: f32| if n == 0 { f32::NAN } else { v };
+        let ext = extremes::extremes(&map.map_c, g.bw, g.bh);
+        let nan = |v: f32| if v.is_finite() { v } else { f32::NAN };
         Some(Temperature {
             bw: g.bw,
             bh: g.bh,
             block_mm: (g.block_px * g.factor) as f32 * self.mm_per_px,
-            min_c: nan(map.min_c),
-            mean_c: nan((map.sum_c / n.max(1) as f64) as f32),
-            max_c: nan(map.max_c),
-            hottest_px: map.hottest.map(|b| g.block_center_px(b)),
+            min_c: nan(ext.min_c),
+            mean_c: if n == 0 {
+                f32::NAN
+            } else {
+                (map.sum_c / n as f64) as f32
+            },
+            max_c: nan(ext.max_c),
+            hottest_px: ext.hottest.map(|b| g.block_center_px(b)),
             map_c: map.map_c,
             contact_c,
             out_of_range,
             measured: n,
         })
+    }
+}
+
+/// Empties the blocks that saw less than half the stripe samples of a typical block (of
+/// either population): at the edge of what the FTP trusts, a block holds a sliver of a
+/// stripe pair whose colour is the edge's, not the skin's.
+fn drop_partial(blocks: &mut [Sums]) {
+    let seen = |s: &Sums| s.n[0].min(s.n[1]);
+    let mut counts: Vec<u32> = blocks.iter().map(seen).filter(|&n| n > 0).collect();
+    if counts.is_empty() {
+        return;
+    }
+    let mid = counts.len() / 2;
+    let (_, &mut typical, _) = counts.select_nth_unstable(mid);
+    for s in blocks.iter_mut().filter(|s| 2 * seen(s) < typical) {
+        *s = Sums::default();
     }
 }
 
