@@ -484,6 +484,28 @@ pub fn report(results: &[UnitResult]) -> String {
             "Hottest block above the truth's hottest point, °C (absolute): median {a:.2}, p95 {b:.2}, worst {c:.2}."
         );
     }
+    let false_flags: Vec<&&Scored> = frames
+        .iter()
+        .filter(|f| f.failures.is_empty() && !f.flags.is_empty())
+        .collect();
+    let mut by_flag: Vec<(&str, usize)> = Vec::new();
+    for name in false_flags.iter().flat_map(|f| f.flags.iter()) {
+        match by_flag.iter_mut().find(|(n, _)| n == name) {
+            Some((_, c)) => *c += 1,
+            None => by_flag.push((name, 1)),
+        }
+    }
+    by_flag.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(b.0)));
+    let named: Vec<String> = by_flag.iter().map(|(n, c)| format!("{n} {c}")).collect();
+    let _ = writeln!(
+        s,
+        "Flagged without failure: {} of {} frames ({:.1} %){}{}.",
+        false_flags.len(),
+        frames.len(),
+        100.0 * false_flags.len() as f64 / frames.len().max(1) as f64,
+        if named.is_empty() { "" } else { ": " },
+        named.join(", ")
+    );
     let silent: Vec<&&Scored> = frames.iter().filter(|f| f.silent()).collect();
     let _ = writeln!(s, "\n### Silent failures ({})\n", silent.len());
     for f in silent {
