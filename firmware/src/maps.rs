@@ -69,7 +69,8 @@ pub fn map_png(
 }
 
 /// The temperature map as PNG: one cell per block, the bar spanning the frame's coldest to
-/// hottest block (at least 2 °C wide).
+/// hottest place (`min_c`, `max_c`; at least 2 °C wide, a stray block beyond it drawn at
+/// the bar's end).
 pub fn temperature_png(t: &vistaf_pipeline::thermal::Temperature, path: &Path) -> Result<()> {
     let (lo, hi) = if t.min_c.is_finite() {
         let mid = (t.min_c + t.max_c) / 2.0;

@@ -8,7 +8,7 @@
 //! a failure without any flag is a *silent failure*, the one a robot cannot guard against.
 //! Tolerances: peak depth 3 % + 0.02 mm; contact centre 1.5 mm; force 8 % + 0.3 N for the
 //! calibration sphere and 25 % + 0.3 N for other indenters; temperature 1 °C (contact and
-//! skin mean), and a skin's hottest block within 1.5 °C of its truth. A press of 0.2 mm or
+//! skin mean), and a skin's hottest place (`temp_max_c`) within 1.5 °C of its truth. A press of 0.2 mm or
 //! more reported as no contact is *missed*; a contact reported more than 3 mm from any
 //! press (or on an untouched skin) is a *phantom*.
 

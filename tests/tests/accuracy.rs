@@ -27,10 +27,9 @@ fn wide_units_calibrate_and_report_every_press_where_it_is() {
     }
 }
 
-/// On this unit the pigment darkens so far in the middle of its range (22–27 °C) that the
-/// grating's contrast is flagged low there; the colour → temperature fit must still see
-/// those kit frames (their colours are the skin's), or the whole skin reads 3–6 °C low at
-/// room temperature with no flag.
+/// On this unit the pigment darkens so far inside its transition that the grating's
+/// contrast is flagged low there; the colour → temperature fit must still see those kit
+/// frames (their colours are the skin's), or the skin reads low in that span with no flag.
 #[test]
 fn a_pigment_dark_enough_to_lower_contrast_is_still_calibrated() {
     let work = std::env::temp_dir().join(format!("vistaf-dark-pigment-{}", std::process::id()));

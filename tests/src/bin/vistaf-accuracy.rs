@@ -5,8 +5,8 @@
 //! cargo run --release -p vistaf-tests --bin vistaf-accuracy -- --units 40
 //! ```
 //!
-//! Seeds from 900 000 on are held out: no method was tuned on them. Development runs use
-//! `--first 1` (or any seed below 900 000).
+//! Seeds from [`HELD_OUT`] on are held out: no method is tuned on them. Development runs
+//! use `--first 1` (or any seed below it).
 
 use std::path::PathBuf;
 

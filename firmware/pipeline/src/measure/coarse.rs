@@ -1,6 +1,7 @@
 //! The coarse grid: the background's samples, its noise floor and the contact tiles.
 
 use super::{TILE_MIN_SAMPLES, TILE_PX};
+use crate::mask::dilate;
 use crate::phase::{PhaseMap, GRID};
 
 /// Contact tiles ([`TILE_PX`] working pixels square) from the coarse grid (`cw × ch`
@@ -47,32 +48,6 @@ pub fn contact_tiles(
     let dil = dilate(&active, tw, th);
     let tiles = dil.iter().filter(|t| **t).count();
     Some((dil, tiles))
-}
-
-/// `on` (`tw × th` tiles) grown by one tile in each of the eight directions: across, then
-/// down (a 3 × 3 square is a 3-wide row swept 3 high), branch-free, whatever the number of
-/// tiles set.
-pub(super) fn dilate(on: &[bool], tw: usize, th: usize) -> Vec<bool> {
-    let n = tw * th;
-    if n == 0 {
-        return Vec::new();
-    }
-    let mut across = vec![false; n];
-    for (a, o) in across.chunks_exact_mut(tw).zip(on.chunks_exact(tw)) {
-        for x in 0..tw {
-            let left = x > 0 && o[x - 1];
-            let right = x + 1 < tw && o[x + 1];
-            a[x] = o[x] | left | right;
-        }
-    }
-    let mut dil = across.clone();
-    for (d, up) in dil[tw..].iter_mut().zip(&across[..n - tw]) {
-        *d |= *up;
-    }
-    for (d, down) in dil[..n - tw].iter_mut().zip(&across[tw..]) {
-        *d |= *down;
-    }
-    dil
 }
 
 /// Per coarse sample (`cw × ch`), whether its tile is set in `tiles` (`tw` across). The

@@ -6,9 +6,10 @@
 //! known. Each later set is the reliable samples less some; its resultant is the whole's
 //! less that of the samples it drops, or, when it keeps fewer than it drops, its own.
 
-use super::coarse::{contact_tiles, dilate, local_noise_units, samples_in, Coarse};
+use super::coarse::{contact_tiles, local_noise_units, samples_in, Coarse};
 use super::{Grid, CONTACT_SIGMAS, MIN_CONTACT_RAD, TILE_MIN_SAMPLES, TILE_PX};
 use crate::ftp::carrier::Carrier;
+use crate::mask::dilate;
 use crate::phase::{PhaseNum, Resultant, GRID};
 
 /// A first offset's neighbourhood: samples this close to it (rad) make the second estimate.

@@ -168,8 +168,9 @@ impl Thermometer {
     /// Colour sums of a frame whose grating phase along working row `y` is what
     /// `phase(y, reference, row)` writes into `row` (units) from the reference's along that
     /// row (`reference`), over the working pixels the FTP found `reliable`; `regions` marks
-    /// the contact region and its core. Blocks that saw only a sliver of a stripe pair come
-    /// back empty ([`drop_partial`]).
+    /// the contact region and its core. Blocks that saw only a sliver of a stripe pair
+    /// ([`drop_partial`]) and blocks static light misreads ([`static_light`]) come back
+    /// empty.
     pub fn sums(
         &self,
         frame: &RgbImage,
@@ -190,6 +191,9 @@ impl Thermometer {
             &self.lin,
         );
         drop_partial(&mut blocks);
+        for (s, _) in blocks.iter_mut().zip(&self.misread).filter(|(_, &m)| m) {
+            *s = Sums::default();
+        }
         (blocks, contact)
     }
 
@@ -217,10 +221,7 @@ impl Thermometer {
     ) -> Option<Temperature> {
         let evaluator = self.evaluator.as_ref()?;
         let g = &self.geom;
-        let (mut blocks, [inside, core]) = self.sums(frame, &phase, reliable, regions);
-        for (s, _) in blocks.iter_mut().zip(&self.misread).filter(|(_, &m)| m) {
-            *s = Sums::default();
-        }
+        let (blocks, [inside, core]) = self.sums(frame, &phase, reliable, regions);
         let map = evaluator.map(&blocks, g.bw, g.bh);
         let region = if core.n[0] >= CORE_SAMPLES && core.n[1] >= CORE_SAMPLES {
             core

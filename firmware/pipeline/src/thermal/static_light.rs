@@ -18,6 +18,8 @@
 //! skin's temperature is not a spot) and against the reference's own spread (so a noisy,
 //! pale unit does not lose blocks to its noise).
 
+use crate::mask::dilate;
+
 /// Blocks each side of a block in the window whose median it is compared with (a spot is
 /// at most a few blocks across, so it never holds the window's majority).
 pub const WINDOW_BLOCKS: usize = 4;
@@ -75,7 +77,7 @@ pub fn misread(view: &[BlockView], bw: usize, bh: usize) -> Vec<bool> {
     }
     let t: Vec<f32> = view.iter().map(|v| v.t_c).collect();
     let misread = outliers(&t, bw, bh, MIN_DEPARTURE_C, true);
-    grow(&lit, bw, bh)
+    dilate(&lit, bw, bh)
         .into_iter()
         .zip(misread)
         .zip(view)
@@ -133,19 +135,6 @@ fn median(v: &mut [f32]) -> Option<f32> {
     let mid = v.len() / 2;
     let (_, m, _) = v.select_nth_unstable_by(mid, f32::total_cmp);
     Some(*m)
-}
-
-/// `marked` and every block next to a marked one (8-neighbourhood).
-fn grow(marked: &[bool], bw: usize, bh: usize) -> Vec<bool> {
-    (0..marked.len())
-        .map(|b| {
-            let (x, y) = (b % bw, b / bw);
-            (y.saturating_sub(1)..(y + 2).min(bh)).any(|j| {
-                (x.saturating_sub(1)..(x + 2).min(bw))
-                    .any(|i| marked.get(j * bw + i).copied().unwrap_or(false))
-            })
-        })
-        .collect()
 }
 
 #[cfg(test)]
