@@ -352,10 +352,20 @@ pub fn fit_force(
         })?);
         progress(k + 1, features.len());
     }
-    // Within a standard error, a model on the elastic load: the feature that holds for
-    // indenters other than the calibration's (see `ForceFeature::ElasticLoad`; a kit of one
-    // sphere cannot tell the features apart, physics can, and any monotone form keeps it).
-    choose_preferring(pool, |m| m.feature == ForceFeature::ElasticLoad)
+    // A model on the reciprocal load whenever one fits: the feature contact mechanics
+    // carries to indenters other than the calibration's (see `ForceFeature::ReciprocalLoad`;
+    // a kit of one sphere cannot tell the features apart, and others that fit the sphere
+    // more closely fail on a flat punch). Its form is chosen by the parsimony rule among
+    // its own candidates; the rest are scored for the report.
+    let physics: Vec<_> = pool
+        .iter()
+        .filter(|(m, _)| m.feature == ForceFeature::ReciprocalLoad)
+        .cloned()
+        .collect();
+    match choose(physics) {
+        Some((m, s, _)) => Some((m, s, pool.into_iter().map(|x| x.1).collect())),
+        None => choose(pool),
+    }
 }
 
 #[cfg(test)]
@@ -432,30 +442,29 @@ mod tests {
         assert!(m.depth_mm(4.0) < 4.0, "{}", m.depth_mm(4.0));
     }
 
-    /// A one-sphere kit cannot tell a volume power law from the elastic load: when both fit
-    /// within a standard error, the elastic load is chosen; when it fits worse, it is not.
+    /// A one-sphere kit cannot tell which feature carries to other indenters: the
+    /// reciprocal load is chosen whenever it fits, even when a volume power law fits the
+    /// sphere more closely, and its form by the parsimony rule (linear for linear data).
+    /// Without it the rule chooses among the rest.
     #[test]
-    fn the_elastic_load_wins_a_tie_and_only_a_tie() {
-        let volume = samples(|u| 3.0 * u.powf(0.8), 0.05);
-        let good = samples(|u| 2.0 * u, 0.05);
-        let chosen = fit_force(
+    fn the_reciprocal_load_is_chosen_whenever_it_fits_its_form_by_parsimony() {
+        let volume = samples(|u| 3.0 * u.powf(0.8), 0.01);
+        let load = samples(|u| 2.0 * u, 0.2);
+        let (m, _, all) = fit_force(
             &[
                 (ForceFeature::Volume, volume.clone()),
-                (ForceFeature::ElasticLoad, good),
+                (ForceFeature::ReciprocalLoad, load),
             ],
             |_, _| {},
         )
         .unwrap();
-        assert_eq!(chosen.0.feature, ForceFeature::ElasticLoad);
-        let bad = samples(|u| 2.0 * u + (3.0 * u).sin(), 0.05);
-        let chosen = fit_force(
-            &[
-                (ForceFeature::Volume, volume),
-                (ForceFeature::ElasticLoad, bad),
-            ],
-            |_, _| {},
-        )
-        .unwrap();
-        assert_eq!(chosen.0.feature, ForceFeature::Volume);
+        assert_eq!(m.feature, ForceFeature::ReciprocalLoad);
+        assert!(matches!(m.form, ForceForm::Linear { .. }), "{m:?}");
+        // Every candidate is still scored for the report.
+        assert!(all
+            .iter()
+            .any(|c| c.name.contains(ForceFeature::Volume.symbol())));
+        let (m, _, _) = fit_force(&[(ForceFeature::Volume, volume)], |_, _| {}).unwrap();
+        assert_eq!(m.feature, ForceFeature::Volume);
     }
 }

@@ -439,12 +439,7 @@ fn force_model<O: Observer>(
             let s = force_frames
                 .iter()
                 .map(|(y, d)| Sample {
-                    u: f64::from(f.of(
-                        d.contact_area_mm2,
-                        d.peak_depth_mm,
-                        d.volume_mm3,
-                        d.integrated_phase_rad_mm2,
-                    )),
+                    u: f64::from(f.of(&d.force_inputs())),
                     y: *y,
                     group: setpoint(*y),
                 })

@@ -3,6 +3,7 @@
 
 use vistaf_protocol::QualityFlags;
 
+use crate::calibration::ForceInputs;
 use crate::thermal::Temperature;
 
 /// The result of analysing one frame.
@@ -28,6 +29,8 @@ pub struct Measurement {
     pub volume_mm3: f32,
     /// Contact centre in input-image pixels (depth-weighted over the contact area).
     pub centroid_px: Option<(f32, f32)>,
+    /// Reciprocal load (the force over the skin's modulus, `crate::measure::load`), mm².
+    pub reciprocal_load_mm2: f32,
     /// Indentation phase integrated over the deformed area, rad·mm².
     pub integrated_phase_rad_mm2: f32,
     /// Normal force from the calibration's force model, N.
@@ -48,6 +51,19 @@ pub struct Measurement {
     pub temperature: Option<Temperature>,
 }
 
+impl Measurement {
+    /// What the force model reads of this frame's contact.
+    pub fn force_inputs(&self) -> ForceInputs {
+        ForceInputs {
+            area_mm2: self.contact_area_mm2,
+            peak_mm: self.peak_depth_mm,
+            volume_mm3: self.volume_mm3,
+            integrated_phase_rad_mm2: self.integrated_phase_rad_mm2,
+            reciprocal_load_mm2: self.reciprocal_load_mm2,
+        }
+    }
+}
+
 impl std::fmt::Debug for Measurement {
     /// The summary numbers; the maps only by size.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -61,6 +77,7 @@ impl std::fmt::Debug for Measurement {
             .field("contact_area_mm2", &self.contact_area_mm2)
             .field("volume_mm3", &self.volume_mm3)
             .field("centroid_px", &self.centroid_px)
+            .field("reciprocal_load_mm2", &self.reciprocal_load_mm2)
             .field("force_n", &self.force_n)
             .field(
                 "flags",

@@ -108,7 +108,24 @@ fn with_temperature(
     if !thermo.has_model() {
         return d;
     }
-    let peak_um = d.peak_depth_mm * 1000.0;
+    // Over the contact window only (clipped to the map): depth is zero outside it.
+    let window = d.window_px.filter(|_| d.contact).map(|[x0, y0, x1, y1]| {
+        let (x1, y1) = (x1.min(d.width_px), y1.min(d.height_px));
+        [x0.min(x1), y0.min(y1), x1, y1]
+    });
+    // The thresholds are fractions of the map's own deepest value (the reported peak has
+    // the band's blur taken out and may lie above every pixel of the map).
+    let peak_um = window.map_or(0, |[x0, y0, x1, y1]| {
+        (y0..y1)
+            .filter_map(|y| {
+                d.depth_um[y * d.width_px + x0..y * d.width_px + x1]
+                    .iter()
+                    .max()
+            })
+            .copied()
+            .max()
+            .unwrap_or(0)
+    }) as f32;
     let (half, core) = (
         (peak_um * 0.5).round() as i32,
         (peak_um * 0.75).round() as i32,
@@ -117,11 +134,6 @@ fn with_temperature(
     // passed.
     const _: () = assert!(region::NONE == 0 && region::CONTACT == 1 && region::CORE == 2);
     let (half, core) = (half.max(1), core.max(1));
-    // Over the contact window only (clipped to the map): depth is zero outside it.
-    let window = d.window_px.filter(|_| d.contact).map(|[x0, y0, x1, y1]| {
-        let (x1, y1) = (x1.min(d.width_px), y1.min(d.height_px));
-        [x0.min(x1), y0.min(y1), x1, y1]
-    });
     let mut codes = Vec::new();
     if let Some([x0, y0, x1, y1]) = window {
         codes.reserve((x1 - x0) * (y1 - y0));

@@ -52,6 +52,7 @@ pub fn result_json(file: &str, d: &Measurement, latency_us: u128) -> serde_json:
         "contact_x_px": d.centroid_px.map(|c| c.0),
         "contact_y_px": d.centroid_px.map(|c| c.1),
         "integrated_phase_rad_mm2": d.integrated_phase_rad_mm2,
+        "reciprocal_load_mm2": d.reciprocal_load_mm2,
         "temperature_c": t.and_then(|t| t.contact_c.or(finite(t.mean_c))),
         "temp_mean_c": t.and_then(|t| finite(t.mean_c)),
         "temp_min_c": t.and_then(|t| finite(t.min_c)),

@@ -130,35 +130,50 @@ pub enum ForceFeature {
     /// `F = 2·E*·a·d`, its depth at half the plateau at `√2·a`), so a calibration on one
     /// sphere carries to other indenters.
     ElasticLoad,
+    /// Reciprocal load `L`, mm²: the depth map weighted by a flat punch's pressure around
+    /// the contact (`crate::measure::load`). By Betti's reciprocal theorem the force on an
+    /// elastic half-space is `E*·L` for any indenter shape, so the calibration on one
+    /// sphere only finds the skin's modulus.
+    ReciprocalLoad,
+}
+
+/// What a contact offers the force model: one value per [`ForceFeature`].
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ForceInputs {
+    /// Half-peak contact area, mm².
+    pub area_mm2: f32,
+    /// Peak depth, mm.
+    pub peak_mm: f32,
+    /// Volume, mm³.
+    pub volume_mm3: f32,
+    /// Phase integrated over the deformed area, rad·mm².
+    pub integrated_phase_rad_mm2: f32,
+    /// Reciprocal load, mm².
+    pub reciprocal_load_mm2: f32,
 }
 
 impl ForceFeature {
     /// Every feature.
-    pub const ALL: [ForceFeature; 5] = [
+    pub const ALL: [ForceFeature; 6] = [
         ForceFeature::Volume,
         ForceFeature::IntegratedPhase,
         ForceFeature::ContactArea,
         ForceFeature::PeakDepth,
         ForceFeature::ElasticLoad,
+        ForceFeature::ReciprocalLoad,
     ];
 
-    /// The feature's value for a contact of half-peak `area_mm2`, `peak_mm` deep, with
-    /// `volume_mm3` and `integrated_phase_rad_mm2`.
-    pub fn of(
-        self,
-        area_mm2: f32,
-        peak_mm: f32,
-        volume_mm3: f32,
-        integrated_phase_rad_mm2: f32,
-    ) -> f32 {
+    /// The feature's value for a contact.
+    pub fn of(self, x: &ForceInputs) -> f32 {
         match self {
-            ForceFeature::Volume => volume_mm3,
-            ForceFeature::IntegratedPhase => integrated_phase_rad_mm2,
-            ForceFeature::ContactArea => area_mm2,
-            ForceFeature::PeakDepth => peak_mm,
+            ForceFeature::Volume => x.volume_mm3,
+            ForceFeature::IntegratedPhase => x.integrated_phase_rad_mm2,
+            ForceFeature::ContactArea => x.area_mm2,
+            ForceFeature::PeakDepth => x.peak_mm,
             ForceFeature::ElasticLoad => {
-                (area_mm2.max(0.0) / std::f32::consts::PI).sqrt() * peak_mm
+                (x.area_mm2.max(0.0) / std::f32::consts::PI).sqrt() * x.peak_mm
             }
+            ForceFeature::ReciprocalLoad => x.reciprocal_load_mm2,
         }
     }
 
@@ -170,6 +185,7 @@ impl ForceFeature {
             ForceFeature::ContactArea => "A_mm2",
             ForceFeature::PeakDepth => "d_mm",
             ForceFeature::ElasticLoad => "ad_mm2",
+            ForceFeature::ReciprocalLoad => "L_mm2",
         }
     }
 }

@@ -253,7 +253,7 @@ fn default_input(m: &ForceModel) -> f64 {
         F::IntegratedPhase => 400.0,
         F::ContactArea => 400.0,
         F::PeakDepth => 5.0,
-        F::ElasticLoad => 50.0,
+        F::ElasticLoad | F::ReciprocalLoad => 50.0,
     }
 }
 

@@ -26,6 +26,18 @@ pub fn box_lengths(c: &Carrier) -> (usize, usize) {
     (lx, ly)
 }
 
+/// The box length whose two passes (the triangle of length `2l − 1`) have variance `v`
+/// px²: each pass is uniform over `l` pixels, of variance `(l² − 1)/12`.
+pub fn box2_length_of_variance(v: f32) -> usize {
+    (6.0 * v + 1.0).sqrt().round().max(1.0) as usize
+}
+
+/// Variance of the point-spread of a Hann band-pass of half-width `rho` cycles/px, px²:
+/// `−H''(0)/(4π²·H(0))` for `H(ν) = ½ + ½·cos(πν/ρ)`, that is `1/(8ρ²)`.
+pub fn hann_variance_px2(rho: f32) -> f32 {
+    1.0 / (8.0 * rho * rho)
+}
+
 /// `|D_L(ν)|²`: the magnitude response of two passes of a length-`L` box at `ν` cycles/px.
 pub fn box2_response(nu: f32, l: usize) -> f32 {
     let s = (std::f32::consts::PI * nu).sin();

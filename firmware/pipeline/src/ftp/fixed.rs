@@ -547,6 +547,9 @@ impl PhaseMap for FixedField<'_> {
     fn depth_um(&self, x: i32) -> i32 {
         self.ftp.lut.depth_um(x)
     }
+    fn blur_box_lengths(&self) -> (usize, usize) {
+        (self.ftp.lx, self.ftp.ly)
+    }
 }
 
 #[cfg(test)]

@@ -22,7 +22,10 @@ use image::RgbImage;
 use rustfft::num_complex::Complex32;
 use rustfft::FftPlanner;
 
-use super::band::{box2_response, box_lengths, BandWindow, BAND_HALF_WIDTH};
+use super::band::{
+    box2_length_of_variance, box2_response, box_lengths, hann_variance_px2, BandWindow,
+    BAND_HALF_WIDTH,
+};
 use super::carrier::{self, Carrier};
 use crate::calibration::DepthModel;
 use crate::image_ops::{gray_down_f32, saturated_fraction};
@@ -50,6 +53,8 @@ pub struct FloatFtp {
     factor: usize,
     carrier: Carrier,
     window: Vec<f32>,
+    /// The band-pass's blur as two-box lengths (x, y) ([`PhaseMap::blur_box_lengths`]).
+    blur: (usize, usize),
     z_ref: Vec<Complex32>,
     ref_median: u32,
     fwd: carrier::Plan2,
@@ -84,6 +89,13 @@ impl FloatFtp {
             }
         };
         let (lx, ly) = box_lengths(&carrier);
+        let blur = match band {
+            BandWindow::Matched => (lx, ly),
+            BandWindow::Hann => {
+                let l = box2_length_of_variance(hann_variance_px2(rho));
+                (l, l)
+            }
+        };
         let taper = |d: f32, l: usize| match band {
             BandWindow::Matched => box2_response(d, l),
             BandWindow::Hann => hann(d),
@@ -110,6 +122,7 @@ impl FloatFtp {
             factor,
             carrier,
             window,
+            blur,
             z_ref: Vec::new(),
             ref_median: 0,
             fwd,
@@ -191,6 +204,7 @@ pub struct FloatMap<'a> {
     field: PhaseField,
     saturated: f32,
     ref_median: u32,
+    blur: (usize, usize),
     depth: &'a DepthModel,
 }
 
@@ -201,6 +215,7 @@ impl FloatFtp {
             field: self.phase(frame),
             saturated: saturated_fraction(frame),
             ref_median: self.ref_median,
+            blur: self.blur,
             depth,
         }
     }
@@ -245,5 +260,8 @@ impl PhaseMap for FloatMap<'_> {
     }
     fn depth_um(&self, x: f32) -> i32 {
         (self.depth.depth_mm(f64::from(x)) * 1000.0).round() as i32
+    }
+    fn blur_box_lengths(&self) -> (usize, usize) {
+        self.blur
     }
 }

@@ -2,7 +2,7 @@
 //! slope the flags judge.
 
 use super::FORCE_RANGE_SLACK;
-use crate::calibration::{Calibration, MAX_FORCE_N};
+use crate::calibration::{Calibration, ForceInputs, MAX_FORCE_N};
 
 /// Features of a depth map.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -42,29 +42,14 @@ pub fn summarize(
             n_area += 1;
         }
     }
-    // The centre is that of the contact holding the peak (its 8-connected component above
-    // half the peak), so a second, shallower blob cannot drag it.
-    let h = depth_um.len() / w.max(1);
-    let start = depth_um.iter().position(|&d| d == peak).unwrap_or(0);
+    // The centre is that of the contact holding the peak, so a second, shallower blob
+    // cannot drag it.
     let (mut wx, mut wy, mut ws) = (0i64, 0i64, 0i64);
-    let mut seen = vec![false; depth_um.len()];
-    let mut stack = vec![start];
-    seen[start] = true;
-    while let Some(i) = stack.pop() {
-        let (x, y) = (i % w, i / w);
+    for i in peak_component(depth_um, w, thr_um) {
         let d = i64::from(depth_um[i]);
-        wx += d * x as i64;
-        wy += d * y as i64;
+        wx += d * (i % w) as i64;
+        wy += d * (i / w) as i64;
         ws += d;
-        for ny in y.saturating_sub(1)..(y + 2).min(h) {
-            for nx in x.saturating_sub(1)..(x + 2).min(w) {
-                let j = ny * w + nx;
-                if !seen[j] && depth_um[j] >= half && depth_um[j] > thr_um {
-                    seen[j] = true;
-                    stack.push(j);
-                }
-            }
-        }
     }
     let px_mm = mm_per_px * factor as f32;
     let px_area = px_mm * px_mm;
@@ -82,18 +67,50 @@ pub fn summarize(
     }
 }
 
+/// The pixels of the contact holding the peak: its 8-connected component deeper than half
+/// the peak (and than `thr_um`), as indices into `depth_um` (`w` wide). Empty without depth.
+pub fn peak_component(depth_um: &[i32], w: usize, thr_um: i32) -> Vec<usize> {
+    let Some(peak) = depth_um
+        .iter()
+        .copied()
+        .max()
+        .filter(|&p| p > thr_um.max(0))
+    else {
+        return Vec::new();
+    };
+    let (h, half) = (depth_um.len() / w.max(1), peak / 2);
+    let start = depth_um.iter().position(|&d| d == peak).unwrap_or(0);
+    let mut seen = vec![false; depth_um.len()];
+    let (mut stack, mut out) = (vec![start], Vec::new());
+    seen[start] = true;
+    while let Some(i) = stack.pop() {
+        out.push(i);
+        let (x, y) = (i % w, i / w);
+        for ny in y.saturating_sub(1)..(y + 2).min(h) {
+            for nx in x.saturating_sub(1)..(x + 2).min(w) {
+                let j = ny * w + nx;
+                if !seen[j] && depth_um[j] >= half && depth_um[j] > thr_um {
+                    seen[j] = true;
+                    stack.push(j);
+                }
+            }
+        }
+    }
+    out
+}
+
 /// Force from the calibration's model.
 /// The force the calibration's model gives for a contact's features, N, bounded by what the
 /// calibration covers: beyond [`FORCE_RANGE_SLACK`] times its largest force label (or
 /// [`MAX_FORCE_N`] for a file that does not record it) the force is saturated there and
 /// `true` says so. Never NaN or infinite.
-pub fn bounded_force(calib: &Calibration, f: &Features, integrated_phase: f32) -> (f32, bool) {
+pub fn bounded_force(calib: &Calibration, x: &ForceInputs) -> (f32, bool) {
     let limit = calib
         .force
         .as_ref()
         .and_then(|fm| fm.range)
         .map_or(MAX_FORCE_N, |r| FORCE_RANGE_SLACK * r.output[1]) as f32;
-    let force = force_of(calib, f, integrated_phase);
+    let force = force_of(calib, x);
     if force.is_nan() || force > limit {
         (limit, true)
     } else {
@@ -103,12 +120,9 @@ pub fn bounded_force(calib: &Calibration, f: &Features, integrated_phase: f32) -
 
 /// The force the calibration's model gives for a contact's features, N (unbounded: see
 /// [`bounded_force`]).
-pub fn force_of(calib: &Calibration, f: &Features, integrated_phase: f32) -> f32 {
+pub fn force_of(calib: &Calibration, x: &ForceInputs) -> f32 {
     let Some(fm) = &calib.force else { return 0.0 };
-    let u = fm
-        .model
-        .feature
-        .of(f.area_mm2, f.peak_mm, f.volume_mm3, integrated_phase);
+    let u = fm.model.feature.of(x);
     fm.model.force_n(f64::from(u)) as f32
 }
 

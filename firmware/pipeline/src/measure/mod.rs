@@ -12,14 +12,16 @@
 
 use vistaf_protocol::{Flag, QualityFlags};
 
+pub mod apex;
 mod coarse;
 mod contact;
 mod features;
+pub mod load;
 mod register;
 mod window;
 
 pub use coarse::{contact_tiles, local_noise_units};
-pub use features::{bounded_force, force_of, summarize, Features};
+pub use features::{bounded_force, force_of, peak_component, summarize, Features};
 pub use window::upsample2;
 
 use coarse::{median, read_coarse, Coarse, Margin, NOISE_STEP};
@@ -28,7 +30,7 @@ use contact::{
 };
 use register::Background;
 
-use crate::calibration::Calibration;
+use crate::calibration::{Calibration, ForceInputs};
 use crate::fixed_point::UNITS_PER_RAD;
 use crate::ftp::carrier::Carrier;
 pub use crate::phase::GRID;
@@ -276,8 +278,9 @@ struct FrameResult {
 /// A contact's share of the result.
 struct ContactResult {
     feats: Features,
+    /// What the force model read.
+    inputs: ForceInputs,
     flags: QualityFlags,
-    integrated_rad_mm2: f32,
     force_n: f32,
     threshold_um: i32,
     /// The window's depth, and its pixels: origin and size.
@@ -306,6 +309,7 @@ impl FrameResult {
             volume_mm3: 0.0,
             centroid_px: None,
             integrated_phase_rad_mm2: 0.0,
+            reciprocal_load_mm2: 0.0,
             force_n: 0.0,
             flags: self.flags,
             noise_rad: self.noise_rad,
@@ -334,7 +338,8 @@ impl FrameResult {
             contact_area_mm2: c.feats.area_mm2,
             volume_mm3: c.feats.volume_mm3,
             centroid_px: c.feats.centroid_px,
-            integrated_phase_rad_mm2: c.integrated_rad_mm2,
+            integrated_phase_rad_mm2: c.inputs.integrated_phase_rad_mm2,
+            reciprocal_load_mm2: c.inputs.reciprocal_load_mm2,
             force_n: c.force_n,
             tiles,
             floor_um: c.threshold_um,
@@ -357,6 +362,38 @@ struct Found<'a, M: PhaseMap> {
 }
 
 impl<M: PhaseMap> Found<'_, M> {
+    /// What the force model reads of a contact: its features, the phase integrated over
+    /// its deformed pixels and its reciprocal load about its centre (`x0, y0` the window's
+    /// origin, `bw` its width; working pixels `px_mm` wide; depth reported above
+    /// `threshold_um`).
+    fn force_inputs(
+        &self,
+        feats: &Features,
+        pass: &DepthPass,
+        (x0, y0, bw): (usize, usize, usize),
+        (px_mm, threshold_um): (f32, i32),
+    ) -> ForceInputs {
+        let contact = peak_component(&pass.depth_um, bw, threshold_um);
+        // The centre in window pixels, from input pixels.
+        let centre = feats.centroid_px.map_or((0.0, 0.0), |(x, y)| {
+            let f = self.factor as f32;
+            (x / f - x0 as f32, y / f - y0 as f32)
+        });
+        ForceInputs {
+            area_mm2: feats.area_mm2,
+            peak_mm: feats.peak_mm,
+            volume_mm3: feats.volume_mm3,
+            integrated_phase_rad_mm2: pass.integrated_units as f32 / UNITS_PER_RAD * px_mm * px_mm,
+            reciprocal_load_mm2: load::reciprocal_load_mm2(
+                &pass.depth_um,
+                bw,
+                &contact,
+                centre,
+                px_mm,
+            ),
+        }
+    }
+
     /// The contact read at every pixel of its window: `None` when it turns out to be no
     /// contact (a dipole, or nothing above the threshold's depth). The window's phase as
     /// read goes into `wrapped`.
@@ -402,7 +439,7 @@ impl<M: PhaseMap> Found<'_, M> {
         if pass.is_dipole() {
             return None;
         }
-        let feats = summarize(
+        let mut feats = summarize(
             &pass.depth_um,
             bw,
             (x0, y0),
@@ -413,8 +450,10 @@ impl<M: PhaseMap> Found<'_, M> {
         if feats.peak_mm == 0.0 {
             return None;
         }
+        let peak_um = apex::corrected_peak_um(&pass.depth_um, bw, self.map.blur_box_lengths());
+        feats.peak_mm = peak_um as f32 / 1000.0;
         let px_mm = ctx.mm_per_px * self.factor as f32;
-        let integrated_rad_mm2 = pass.integrated_units as f32 / UNITS_PER_RAD * px_mm * px_mm;
+        let inputs = self.force_inputs(&feats, &pass, (x0, y0, bw), (px_mm, threshold_um));
         let limits = Limits {
             coarse: self.coarse,
             margin: self.margin,
@@ -425,14 +464,14 @@ impl<M: PhaseMap> Found<'_, M> {
             unwrap: (unreached, residues),
         };
         let mut flags = limits.flags(&feats, carrier, ctx);
-        let (force_n, beyond) = bounded_force(ctx.calib, &feats, integrated_rad_mm2);
+        let (force_n, beyond) = bounded_force(ctx.calib, &inputs);
         if beyond {
             flags.insert(Flag::ForceOutOfRange);
         }
         Some(ContactResult {
             feats,
+            inputs,
             flags,
-            integrated_rad_mm2,
             force_n,
             threshold_um,
             depth_um: pass.depth_um,
