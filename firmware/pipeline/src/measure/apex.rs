@@ -47,32 +47,33 @@ pub fn corrected_peak_um(depth_um: &[i32], w: usize, (lx, ly): (usize, usize)) -
 /// part of the kernel inside the window.
 fn blur(z: &[i32], w: usize, kx: &[i64], ky: &[i64]) -> Vec<i32> {
     let h = z.len() / w;
-    let along = |n: usize, k: &[i64], get: &dyn Fn(usize) -> i64| -> Vec<i64> {
-        let r = k.len() / 2;
-        (0..n)
-            .map(|c| {
-                let span = c.saturating_sub(r)..(c + r + 1).min(n);
-                let (s, ws) = span.fold((0i64, 0i64), |(s, ws), i| {
-                    let wt = k[i + r - c];
-                    (s + wt * get(i), ws + wt)
-                });
-                s / ws.max(1)
-            })
-            .collect()
-    };
+    let mut line = Vec::with_capacity(w.max(h));
     let mut rows = vec![0i64; w * h];
     for y in 0..h {
-        let row = &z[y * w..(y + 1) * w];
-        rows[y * w..(y + 1) * w].copy_from_slice(&along(w, kx, &|x| i64::from(row[x])));
+        line.clear();
+        line.extend(z[y * w..(y + 1) * w].iter().map(|&v| i64::from(v)));
+        along(&line, kx, &mut rows[y * w..(y + 1) * w], 1);
     }
-    let mut out = vec![0i32; w * h];
+    let mut cols = vec![0i64; w * h];
     for x in 0..w {
-        let col = along(h, ky, &|y| rows[y * w + x]);
-        for (y, v) in col.into_iter().enumerate() {
-            out[y * w + x] = v as i32;
-        }
+        line.clear();
+        line.extend((0..h).map(|y| rows[y * w + x]));
+        along(&line, ky, &mut cols[x..], w);
     }
-    out
+    cols.into_iter().map(|v| v as i32).collect()
+}
+
+/// `v` filtered by the centred kernel `k`, renormalised where `v` ends, written to every
+/// `stride`-th element of `out`.
+fn along(v: &[i64], k: &[i64], out: &mut [i64], stride: usize) {
+    let (n, r) = (v.len(), k.len() / 2);
+    for c in 0..n {
+        let (lo, hi) = (c.saturating_sub(r), (c + r + 1).min(n));
+        let taps = &k[lo + r - c..hi + r - c];
+        let s: i64 = v[lo..hi].iter().zip(taps).map(|(a, b)| a * b).sum();
+        let ws: i64 = taps.iter().sum();
+        out[c * stride] = s / ws.max(1);
+    }
 }
 
 /// The triangle of two boxes of length `l`: weights `l − |d|` for `|d| < l`.
