@@ -127,8 +127,8 @@ pub enum ForceFeature {
     /// an elastic half-space the force is proportional to it for a sphere of any radius
     /// (Hertz: `F = (4/3)·E*·a·d`, and the depth falls to half its peak exactly at the
     /// contact radius `a`) and within 6 % for a flat punch of any size (Boussinesq:
-    /// `F = 2·E*·a·d`, its depth at half the plateau at `√2·a`), so a calibration on one
-    /// sphere carries to other indenters.
+    /// `F = 2·E*·a·d`, its depth at half the plateau at `√2·a`); the reciprocal load below
+    /// is exact for any shape and is the one the calibration keeps when it fits.
     ElasticLoad,
     /// Reciprocal load `L`, mm²: the depth map weighted by a flat punch's pressure around
     /// the contact (`crate::measure::load`). By Betti's reciprocal theorem the force on an

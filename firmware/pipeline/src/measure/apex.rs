@@ -22,57 +22,109 @@
 /// The blur-corrected peak of a window's depth map (`w` pixels wide), µm: at the deepest
 /// point of `s₁ = K∗b`, `s₁ + 2·(s₁ − K∗s₁)`, `K` the separable triangle of two boxes of
 /// lengths `(lx, ly)`, its weights renormalised where the window crops it.
+///
+/// `s₁` is sought over the bounding box of the pixels at least half as deep as the map's
+/// deepest (no shallower point can hold its maximum), and only that box grown by two kernel
+/// reaches is blurred: `K∗s₁` reads one reach around it, so every value used sees the map
+/// as the whole window would.
 pub fn corrected_peak_um(depth_um: &[i32], w: usize, (lx, ly): (usize, usize)) -> i32 {
-    if w == 0 || depth_um.len() < w {
+    let Some(bbox) = half_peak_box(depth_um, w) else {
         return 0;
-    }
-    let (tx, ty) = (triangle(lx), triangle(ly));
-    let once = blur(depth_um, w, &tx, &ty);
-    let Some((at, &s1)) = once
-        .iter()
-        .enumerate()
-        .max_by_key(|&(i, &d)| (d, usize::MAX - i))
+    };
+    let h = depth_um.len() / w;
+    let (rx, ry) = (lx.max(1) - 1, ly.max(1) - 1);
+    let grow = |(a, b): (usize, usize), r: usize, n: usize| (a.saturating_sub(r), (b + r).min(n));
+    let (xs, ys) = (grow(bbox.0, 2 * rx, w), grow(bbox.1, 2 * ry, h));
+    let sw = xs.1 - xs.0;
+    let sub: Vec<i32> = (ys.0..ys.1)
+        .flat_map(|y| depth_um[y * w + xs.0..y * w + xs.1].iter().copied())
+        .collect();
+    let once = blur(&sub, sw, (lx, ly));
+    let Some(((ax, ay), s1)) = (bbox.1 .0..bbox.1 .1)
+        .flat_map(|y| (bbox.0 .0..bbox.0 .1).map(move |x| (x, y)))
+        .map(|(x, y)| ((x, y), once[(y - ys.0) * sw + x - xs.0]))
+        .max_by_key(|&((x, y), d)| (d, std::cmp::Reverse((y, x))))
     else {
         return 0;
     };
     if s1 <= 0 {
         return 0;
     }
-    let s2 = weighted_mean(&once, w, (at % w, at / w), &tx, &ty);
+    let (tx, ty) = (triangle(lx), triangle(ly));
+    let s2 = weighted_mean(&once, sw, (ax - xs.0, ay - ys.0), &tx, &ty);
     let loss = (f64::from(s1) - s2).clamp(0.0, f64::from(s1));
     (f64::from(s1) + 2.0 * loss).round() as i32
 }
 
-/// `z` (`w` wide) blurred by the separable kernel `kx ⊗ ky`, weights renormalised over the
-/// part of the kernel inside the window.
-fn blur(z: &[i32], w: usize, kx: &[i64], ky: &[i64]) -> Vec<i32> {
+/// The half-open column and row spans of a map's pixels at least half as deep as its
+/// deepest (`None` without depth).
+fn half_peak_box(z: &[i32], w: usize) -> Option<((usize, usize), (usize, usize))> {
+    let peak = z.iter().copied().max().filter(|&p| p > 0 && w > 0)?;
+    let (mut xs, mut ys) = ((usize::MAX, 0), (usize::MAX, 0));
+    for (i, _) in z.iter().enumerate().filter(|&(_, &d)| 2 * d >= peak) {
+        let (x, y) = (i % w, i / w);
+        xs = (xs.0.min(x), xs.1.max(x + 1));
+        ys = (ys.0.min(y), ys.1.max(y + 1));
+    }
+    Some((xs, ys))
+}
+
+/// `z` (`w` wide) blurred by the separable triangle of box lengths `(lx, ly)`, weights
+/// renormalised over the part of the kernel inside the window.
+fn blur(z: &[i32], w: usize, (lx, ly): (usize, usize)) -> Vec<i32> {
     let h = z.len() / w;
-    let mut line = Vec::with_capacity(w.max(h));
+    let mut scratch = Scratch::default();
     let mut rows = vec![0i64; w * h];
     for y in 0..h {
-        line.clear();
-        line.extend(z[y * w..(y + 1) * w].iter().map(|&v| i64::from(v)));
-        along(&line, kx, &mut rows[y * w..(y + 1) * w], 1);
+        let row = z[y * w..(y + 1) * w].iter().map(|&v| i64::from(v));
+        scratch.triangle(row, lx, &mut rows[y * w..(y + 1) * w], 1);
     }
     let mut cols = vec![0i64; w * h];
     for x in 0..w {
-        line.clear();
-        line.extend((0..h).map(|y| rows[y * w + x]));
-        along(&line, ky, &mut cols[x..], w);
+        let col = (0..h).map(|y| rows[y * w + x]);
+        scratch.triangle(col, ly, &mut cols[x..], w);
     }
     cols.into_iter().map(|v| v as i32).collect()
 }
 
-/// `v` filtered by the centred kernel `k`, renormalised where `v` ends, written to every
-/// `stride`-th element of `out`.
-fn along(v: &[i64], k: &[i64], out: &mut [i64], stride: usize) {
-    let (n, r) = (v.len(), k.len() / 2);
-    for c in 0..n {
-        let (lo, hi) = (c.saturating_sub(r), (c + r + 1).min(n));
-        let taps = &k[lo + r - c..hi + r - c];
-        let s: i64 = v[lo..hi].iter().zip(taps).map(|(a, b)| a * b).sum();
-        let ws: i64 = taps.iter().sum();
-        out[c * stride] = s / ws.max(1);
+/// Prefix sums for [`Scratch::triangle`], kept from line to line.
+#[derive(Default)]
+struct Scratch {
+    /// `Σ_{j<i} v_j` and `Σ_{j<i} j·v_j`.
+    p0: Vec<i64>,
+    p1: Vec<i64>,
+}
+
+impl Scratch {
+    /// The line `v` filtered by the triangle `l − |d|` (`|d| < l`), renormalised where the
+    /// line ends, written to every `stride`-th element of `out`. O(1) per sample whatever
+    /// `l`: the triangle's two ramps are sums of `v` and of `i·v` over a span.
+    fn triangle(&mut self, v: impl Iterator<Item = i64>, l: usize, out: &mut [i64], stride: usize) {
+        let (p0, p1) = (&mut self.p0, &mut self.p1);
+        p0.clear();
+        p1.clear();
+        let (mut s0, mut s1) = (0i64, 0i64);
+        p0.push(0);
+        p1.push(0);
+        for (i, x) in v.enumerate() {
+            s0 += x;
+            s1 += i as i64 * x;
+            p0.push(s0);
+            p1.push(s1);
+        }
+        let n = p0.len() - 1;
+        let l = l.max(1) as i64;
+        for c in 0..n {
+            let (lo, hi) = (c.saturating_sub(l as usize - 1), (c + l as usize).min(n));
+            let ci = c as i64;
+            // Left ramp i ∈ [lo, c]: weight (l − c) + i; right ramp i ∈ (c, hi): (l + c) − i.
+            let left = (l - ci) * (p0[c + 1] - p0[lo]) + (p1[c + 1] - p1[lo]);
+            let right = (l + ci) * (p0[hi] - p0[c + 1]) - (p1[hi] - p1[c + 1]);
+            let (n_l, n_r) = ((c + 1 - lo) as i64, (hi - c - 1) as i64);
+            let w_l = (l - ci) * n_l + (lo as i64 + ci) * n_l / 2;
+            let w_r = (l + ci) * n_r - (ci + hi as i64) * n_r / 2;
+            out[c * stride] = (left + right) / (w_l + w_r).max(1);
+        }
     }
 }
 
@@ -143,6 +195,48 @@ mod tests {
             (f64::from(got) - want).abs() <= loss / 6.0,
             "{got} vs {want}"
         );
+    }
+
+    /// Blurring only around the deep pixels sees what the whole window would: a shallower
+    /// blob elsewhere in the window leaves the corrected peak as it was.
+    #[test]
+    fn a_blob_elsewhere_does_not_move_the_peak() {
+        let (w, h) = (120, 41);
+        let mut z: Vec<i32> = paraboloid(w, h, (20.0, 20.0), 800.0, 10.0)
+            .into_iter()
+            .map(|v| v.max(0))
+            .collect();
+        let alone = corrected_peak_um(&z, w, (5, 5));
+        for y in 10..30 {
+            for x in 90..110 {
+                z[y * w + x] = 700;
+            }
+        }
+        assert_eq!(corrected_peak_um(&z, w, (5, 5)), alone);
+        assert!(alone > 800, "{alone}");
+    }
+
+    /// The prefix-sum triangle equals the direct weighted sum, renormalised at the ends.
+    #[test]
+    fn the_running_triangle_is_the_direct_one() {
+        let v: Vec<i64> = (0..37).map(|i| (i * 7919 % 113) - 40).collect();
+        for l in [1, 2, 5, 9, 40] {
+            let mut got = vec![0i64; v.len()];
+            Scratch::default().triangle(v.iter().copied(), l, &mut got, 1);
+            let k = triangle(l);
+            let r = k.len() / 2;
+            for (c, &g) in got.iter().enumerate() {
+                let (mut s, mut ws) = (0i64, 0i64);
+                for (i, &x) in v.iter().enumerate() {
+                    let d = i as i64 - c as i64;
+                    if d.unsigned_abs() as usize <= r {
+                        s += k[(d + r as i64) as usize] * x;
+                        ws += k[(d + r as i64) as usize];
+                    }
+                }
+                assert_eq!(g, s / ws, "l {l} at {c}");
+            }
+        }
     }
 
     #[test]

@@ -7,7 +7,8 @@ use crate::calibration::{Calibration, ForceInputs, MAX_FORCE_N};
 /// Features of a depth map.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Features {
-    /// Deepest point, mm.
+    /// Deepest point, mm: the map's deepest pixel from [`summarize`]; the measurement
+    /// replaces it by the apex with the band's blur taken out (`super::apex`).
     pub peak_mm: f32,
     /// Area with depth ≥ half the peak, mm².
     pub area_mm2: f32,
@@ -19,9 +20,11 @@ pub struct Features {
 
 /// Features of a working-resolution depth map (µm), in integer sums: shared by both paths.
 ///
-/// `depth_um` may be a window of the working image whose top-left pixel is `origin`.
+/// `depth_um` may be a window of the working image whose top-left pixel is `origin`;
+/// `contact` is its peak's component ([`peak_component`]), whose centre is the contact's.
 pub fn summarize(
     depth_um: &[i32],
+    contact: &[usize],
     w: usize,
     origin: (usize, usize),
     factor: usize,
@@ -45,7 +48,7 @@ pub fn summarize(
     // The centre is that of the contact holding the peak, so a second, shallower blob
     // cannot drag it.
     let (mut wx, mut wy, mut ws) = (0i64, 0i64, 0i64);
-    for i in peak_component(depth_um, w, thr_um) {
+    for &i in contact {
         let d = i64::from(depth_um[i]);
         wx += d * (i % w) as i64;
         wy += d * (i / w) as i64;

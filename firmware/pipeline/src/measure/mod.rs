@@ -363,17 +363,17 @@ struct Found<'a, M: PhaseMap> {
 
 impl<M: PhaseMap> Found<'_, M> {
     /// What the force model reads of a contact: its features, the phase integrated over
-    /// its deformed pixels and its reciprocal load about its centre (`x0, y0` the window's
-    /// origin, `bw` its width; working pixels `px_mm` wide; depth reported above
-    /// `threshold_um`).
+    /// its deformed pixels and its reciprocal load about its centre, enclosing its peak's
+    /// component `contact` (`x0, y0` the window's origin, `bw` its width; working pixels
+    /// `px_mm` wide).
     fn force_inputs(
         &self,
         feats: &Features,
         pass: &DepthPass,
+        contact: &[usize],
         (x0, y0, bw): (usize, usize, usize),
-        (px_mm, threshold_um): (f32, i32),
+        px_mm: f32,
     ) -> ForceInputs {
-        let contact = peak_component(&pass.depth_um, bw, threshold_um);
         // The centre in window pixels, from input pixels.
         let centre = feats.centroid_px.map_or((0.0, 0.0), |(x, y)| {
             let f = self.factor as f32;
@@ -387,7 +387,7 @@ impl<M: PhaseMap> Found<'_, M> {
             reciprocal_load_mm2: load::reciprocal_load_mm2(
                 &pass.depth_um,
                 bw,
-                &contact,
+                contact,
                 centre,
                 px_mm,
             ),
@@ -439,8 +439,10 @@ impl<M: PhaseMap> Found<'_, M> {
         if pass.is_dipole() {
             return None;
         }
+        let contact = peak_component(&pass.depth_um, bw, threshold_um);
         let mut feats = summarize(
             &pass.depth_um,
+            &contact,
             bw,
             (x0, y0),
             self.factor,
@@ -450,10 +452,11 @@ impl<M: PhaseMap> Found<'_, M> {
         if feats.peak_mm == 0.0 {
             return None;
         }
-        let peak_um = apex::corrected_peak_um(&pass.depth_um, bw, self.map.blur_box_lengths());
+        let blur = self.map.blur_box_lengths();
+        let peak_um = apex::corrected_peak_um(&pass.depth_um, bw, blur);
         feats.peak_mm = peak_um as f32 / 1000.0;
         let px_mm = ctx.mm_per_px * self.factor as f32;
-        let inputs = self.force_inputs(&feats, &pass, (x0, y0, bw), (px_mm, threshold_um));
+        let inputs = self.force_inputs(&feats, &pass, &contact, (x0, y0, bw), px_mm);
         let limits = Limits {
             coarse: self.coarse,
             margin: self.margin,
