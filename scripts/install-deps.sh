@@ -5,11 +5,30 @@
 #   libclang-dev  the V4L2 camera (v4l → v4l2-sys-mit runs bindgen at build time)
 #   socat         a second pseudo-terminal implementation the tests use
 #
+# Then the Python packages of the interop tests (tests/interop/requirements.txt: the
+# official MCAP readers) into a venv, target/interop-venv, which the tests run.
+#
 # Safe to run more than once. Installs as root, or with sudo when not root; a machine that
 # already has every package skips apt entirely.
 set -euo pipefail
 
 packages=(libclang-dev socat)
+
+venv() {
+  local dir=target/interop-venv
+  local want=tests/interop/requirements.txt
+  if [ -x "$dir/bin/python" ] && cmp -s "$want" "$dir/requirements.txt"; then
+    echo "install-deps: $dir is up to date"
+    return
+  fi
+  python3 -m venv "$dir"
+  "$dir/bin/pip" install -q --disable-pip-version-check -r "$want"
+  cp "$want" "$dir/requirements.txt"
+  echo "install-deps: $dir made"
+}
+
+cd "$(dirname "$0")/.."
+python3 -c 'import venv, ensurepip' 2>/dev/null || packages+=(python3-venv)
 
 missing=()
 for p in "${packages[@]}"; do
@@ -18,6 +37,7 @@ done
 
 if [ ${#missing[@]} -eq 0 ]; then
   echo "install-deps: all packages present (${packages[*]})"
+  venv
   exit 0
 fi
 
@@ -31,3 +51,4 @@ echo "install-deps: installing ${missing[*]}"
 # A mirror warning from apt-get update must not stop the build.
 $SUDO apt-get update -q || echo "install-deps: apt-get update reported a problem; trying the install anyway" >&2
 DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
+venv

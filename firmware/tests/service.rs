@@ -473,3 +473,21 @@ fn a_reference_without_a_grating_is_reported_and_retried() {
         "every frame is accounted for: {c:?}"
     );
 }
+
+#[test]
+fn a_clock_request_is_answered_on_the_device_clock_with_its_wait() {
+    use vistaf_firmware::service::Clock;
+    // The device's epoch is taken before anything is timed, as the service's runner does.
+    vistaf_hardware::clock::epoch();
+    let mut rig = Rig::new(settings(Default::default()));
+    let (mut svc, cam) = rig.start();
+    let received = cam.clock.now();
+    // The request waited 7 ms for a frame to finish before it was answered.
+    cam.wait(Duration::from_millis(7));
+    let DeviceMsg::Clock(r) = svc.on_command_received(HostMsg::Clock { nonce: 9 }, received) else {
+        panic!("not a clock reading");
+    };
+    assert_eq!(r.nonce, 9);
+    assert_eq!(r.received_us, vistaf_hardware::clock::micros(received));
+    assert_eq!(r.sent_us - r.received_us, 7_000);
+}

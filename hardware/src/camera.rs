@@ -19,7 +19,7 @@
 //! --list-devices` shows what the kernel sees.
 
 use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use v4l::buffer::Type;
 use v4l::io::mmap::Stream;
@@ -245,7 +245,6 @@ pub struct Camera {
     format: SourceFormat,
     stream: Stream<'static>,
     _dev: Device,
-    opened: Instant,
     last_seq: Option<u32>,
     /// Frames the driver dropped (sequence gaps) since opening.
     pub driver_dropped: u64,
@@ -349,7 +348,6 @@ impl Camera {
             },
             stream,
             _dev: dev,
-            opened: Instant::now(),
             last_seq: None,
             driver_dropped: 0,
             stale_skipped: 0,
@@ -390,7 +388,7 @@ impl FrameSource for Camera {
             height: self.format.height,
             format: self.format.pixel,
             data,
-            timestamp: self.opened.elapsed(),
+            timestamp: crate::clock::now(),
             seq: self.seq - 1,
         }))
     }

@@ -59,7 +59,8 @@ pub struct Frame {
     pub format: PixelFormat,
     /// Pixel bytes.
     pub data: Vec<u8>,
-    /// Capture time since the source was opened.
+    /// Capture time: on the device's clock ([`crate::clock`]) from a camera or the
+    /// simulated skin, the recorded time from a replayed set.
     pub timestamp: Duration,
     /// Sequence number from the source; gaps mean frames the source dropped.
     pub seq: u64,

@@ -8,11 +8,13 @@
 //! | [`source::FrameSource`] | [`camera`] (V4L2, feature `v4l`) | [`source::SetReplay`]; the simulated skin (`vistaf-sim`) |
 //! | [`led::LedRing`] | [`led::SpiLedRing`] over rppal SPI (feature `rpi`) | [`led::MemoryLedRing`] |
 //!
-//! [`frameset`] reads and writes the `vistaf-frames/1` format.
+//! [`frameset`] reads and writes the `vistaf-frames/1` format; [`clock`] is the device's
+//! one time line, which frame timestamps from a camera or the simulated skin are read on.
 #![deny(missing_docs)]
 
 #[cfg(feature = "v4l")]
 pub mod camera;
+pub mod clock;
 pub mod frame;
 pub mod frameset;
 pub mod led;

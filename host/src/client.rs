@@ -7,10 +7,11 @@ use std::time::{Duration, Instant, SystemTime};
 
 use vistaf_protocol::frame::HOST_FRAME_MAX;
 use vistaf_protocol::{
-    encode, schema, Command, DeviceDecoder, DeviceMsg, DropCounts, FrameError, Hello, HostMsg, Map,
-    MapKind, SetLed,
+    encode, schema, ClockReading, Command, DeviceDecoder, DeviceMsg, DropCounts, FrameError, Hello,
+    HostMsg, Map, MapKind, SetLed,
 };
 
+use crate::clock::{next_request, ClockEstimator, ClockMap, Exchange, HostTimeline, MappedTime};
 use crate::error::HostError;
 use crate::link::Link;
 
@@ -24,7 +25,46 @@ pub struct Received {
     pub msg: DeviceMsg,
     /// Wall-clock receive time (when its last byte was read).
     pub at: SystemTime,
+    /// A summary's capture time on the host's clock, with its uncertainty, once the
+    /// device's clock has been read ([`Client::keep_clock`], [`Client::sync_clock`]).
+    pub captured: Option<MappedTime>,
 }
+
+impl Received {
+    /// A message received at `at`, with no capture time mapped.
+    pub fn new(msg: DeviceMsg, at: SystemTime) -> Received {
+        Received {
+            msg,
+            at,
+            captured: None,
+        }
+    }
+}
+
+/// What was thrown away on connecting because the device sent it before the host was
+/// listening: a backlog in the port's buffer, the messages before the handshake's answer.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Discarded {
+    /// Bytes waiting in the port's input buffer when it was opened.
+    pub bytes: u64,
+    /// Messages decoded before the device's answer to the handshake.
+    pub messages: u64,
+}
+
+/// The device's clock, as read by one client: the estimate, the request in flight, and
+/// when the next goes out.
+#[derive(Debug)]
+struct ClockSync {
+    timeline: HostTimeline,
+    estimator: ClockEstimator,
+    pending: Option<(u32, Instant)>,
+    nonce: u32,
+    every: Option<Duration>,
+    next_at: Instant,
+}
+
+/// How long a clock request may go unanswered before another is sent.
+const CLOCK_ANSWER_WAIT: Duration = Duration::from_secs(1);
 
 /// A skin's identity in one line: serial, firmware, image size.
 pub fn describe(hello: &Hello) -> String {
@@ -57,6 +97,8 @@ pub struct Client {
     queue: VecDeque<Received>,
     mismatch: Option<(u16, u64)>,
     ended: bool,
+    clock: ClockSync,
+    discarded_messages: u64,
 }
 
 impl Client {
@@ -68,6 +110,105 @@ impl Client {
             queue: VecDeque::new(),
             mismatch: None,
             ended: false,
+            clock: ClockSync {
+                timeline: HostTimeline::now(),
+                estimator: ClockEstimator::new(),
+                pending: None,
+                nonce: 0,
+                every: None,
+                next_at: Instant::now(),
+            },
+            discarded_messages: 0,
+        }
+    }
+
+    /// What was thrown away on connecting, sent before the host was listening.
+    pub fn discarded(&self) -> Discarded {
+        Discarded {
+            bytes: self.link.discarded_bytes(),
+            messages: self.discarded_messages,
+        }
+    }
+
+    /// Reads the device's clock every `period` while messages are read (quickly at first,
+    /// until a few exchanges are in), so every summary gets its capture time on the host's
+    /// clock ([`Received::captured`]). Nothing is sent on a read-only link.
+    pub fn keep_clock(&mut self, period: Duration) {
+        self.clock.every = Some(period);
+        self.clock.next_at = Instant::now();
+    }
+
+    /// The device's clock mapped onto the host's, once read.
+    pub fn clock_map(&self) -> Option<&ClockMap> {
+        self.clock.estimator.map()
+    }
+
+    /// Reads the device's clock `exchanges` times, one request after the other, and returns
+    /// the map; messages arriving meanwhile stay queued for [`Client::next`].
+    pub fn sync_clock(
+        &mut self,
+        exchanges: usize,
+        timeout: Duration,
+    ) -> Result<ClockMap, HostError> {
+        let deadline = Instant::now() + timeout;
+        for _ in 0..exchanges {
+            self.request_clock()?;
+            while self.clock.pending.is_some() {
+                if self.ended || Instant::now() >= deadline {
+                    return Err(HostError::Timeout {
+                        link: self.name().to_string(),
+                        waiting_for: "Clock",
+                        timeout,
+                    });
+                }
+                self.fill()?;
+            }
+        }
+        self.clock_map().copied().ok_or_else(|| HostError::Timeout {
+            link: self.name().to_string(),
+            waiting_for: "Clock",
+            timeout,
+        })
+    }
+
+    fn request_clock(&mut self) -> Result<(), HostError> {
+        let c = &mut self.clock;
+        c.nonce = c.nonce.wrapping_add(1);
+        let nonce = c.nonce;
+        let sent = Instant::now();
+        c.pending = Some((nonce, sent));
+        c.next_at = sent + next_request(c.estimator.len(), c.every.unwrap_or(CLOCK_ANSWER_WAIT));
+        self.send(&HostMsg::Clock { nonce })
+    }
+
+    /// Sends a clock request when one is due (and the last was answered or given up on).
+    fn request_clock_if_due(&mut self) -> Result<(), HostError> {
+        let now = Instant::now();
+        let c = &self.clock;
+        let due = c.every.is_some()
+            && self.link.is_writable()
+            && now >= c.next_at
+            && c.pending
+                .is_none_or(|(_, sent)| now.duration_since(sent) >= CLOCK_ANSWER_WAIT);
+        if due {
+            self.request_clock()?;
+        }
+        Ok(())
+    }
+
+    /// Takes a clock answer: one exchange, if it answers the request in flight.
+    fn clock_answered(&mut self, reading: &ClockReading, at: Instant) {
+        let c = &mut self.clock;
+        if let Some((nonce, sent)) = c.pending {
+            if nonce == reading.nonce {
+                c.pending = None;
+                c.estimator.add(Exchange {
+                    host_sent_s: c.timeline.unix_s(sent),
+                    device_received_us: reading.received_us,
+                    device_sent_us: reading.sent_us,
+                    host_received_s: c.timeline.unix_s(at),
+                });
+            }
         }
     }
 
@@ -104,6 +245,7 @@ impl Client {
             if deadline.is_some_and(|d| Instant::now() >= d) {
                 return Ok(Next::Timeout);
             }
+            self.request_clock_if_due()?;
             self.fill()?;
         }
     }
@@ -128,13 +270,14 @@ impl Client {
             }
             Err(e) => return Err(e),
         };
-        let at = SystemTime::now();
-        let (queue, mismatch) = (&mut self.queue, &mut self.mismatch);
+        let (at, now) = (SystemTime::now(), Instant::now());
+        let mut decoded = Vec::new();
+        let mismatch = &mut self.mismatch;
         // Nothing after a mismatching Hello is trusted: what follows it in the same read is
         // dropped, so the messages handed out are exactly those before it.
         self.decoder.push(&buf[..n], |r| match r {
             Ok(_) if mismatch.is_some() => {}
-            Ok(msg) => queue.push_back(Received { msg, at }),
+            Ok(msg) => decoded.push(msg),
             Err(FrameError::ProtocolMismatch {
                 protocol_version,
                 schema_hash,
@@ -143,6 +286,17 @@ impl Client {
             }
             Err(_) => {}
         });
+        for msg in decoded {
+            if let DeviceMsg::Clock(reading) = &msg {
+                self.clock_answered(reading, now);
+                continue;
+            }
+            let captured = match &msg {
+                DeviceMsg::Summary(s) => self.clock_map().map(|m| m.host_time(s.capture_us)),
+                _ => None,
+            };
+            self.queue.push_back(Received { msg, at, captured });
+        }
         Ok(())
     }
 
@@ -162,6 +316,18 @@ impl Client {
         &mut self,
         waiting_for: &'static str,
         timeout: Duration,
+        pick: impl FnMut(&DeviceMsg) -> Option<T>,
+    ) -> Result<T, HostError> {
+        self.wait_keeping(waiting_for, timeout, true, pick)
+    }
+
+    /// [`Client::wait_for`]; with `keep` off, the messages before the one picked are
+    /// discarded (and counted) instead of queued.
+    fn wait_keeping<T>(
+        &mut self,
+        waiting_for: &'static str,
+        timeout: Duration,
+        keep: bool,
         mut pick: impl FnMut(&DeviceMsg) -> Option<T>,
     ) -> Result<T, HostError> {
         let deadline = Instant::now() + timeout;
@@ -196,15 +362,22 @@ impl Client {
                 Err(e) => break Err(e),
             }
         };
-        held.append(&mut self.queue);
-        self.queue = held;
+        if keep || result.is_err() {
+            held.append(&mut self.queue);
+            self.queue = held;
+        } else {
+            self.discarded_messages += held.len() as u64;
+        }
         result
     }
 
-    /// Asks for the device's `Hello` and checks that it speaks this protocol.
+    /// Asks for the device's `Hello` and checks that it speaks this protocol. Whatever the
+    /// device sent before its answer (a backlog from before the host was listening) is
+    /// discarded and counted ([`Client::discarded`]); the answer itself is the first message
+    /// [`Client::next`] hands out.
     pub fn handshake(&mut self, timeout: Duration) -> Result<Hello, HostError> {
         self.send(&HostMsg::GetInfo)?;
-        let hello = self.wait_for("Hello", timeout, |m| match m {
+        let hello = self.wait_keeping("Hello", timeout, false, |m| match m {
             DeviceMsg::Hello(h) => Some(h.clone()),
             _ => None,
         })?;
@@ -215,6 +388,11 @@ impl Client {
                 hello.schema_hash,
             ));
         }
+        // The answer stays in the stream, first, so whoever reads on knows whose it is.
+        self.queue.push_front(Received::new(
+            DeviceMsg::Hello(hello.clone()),
+            SystemTime::now(),
+        ));
         Ok(hello)
     }
 

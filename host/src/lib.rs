@@ -1,9 +1,10 @@
 //! # vistaf-host
 //!
 //! The robot computer's side of a vistaf skin: open a link ([`link`]), shake hands and
-//! send commands ([`client`]), read one skin or many ([`multi`]) with sequence-gap
-//! accounting ([`seq`]) until told to stop ([`stream`]), show it live ([`monitor`]), and
-//! record what arrives ([`record`]). The `vistaf-host` binary is a thin CLI over this
+//! send commands ([`client`]), map the device's clock onto the host's ([`clock`]), read one
+//! skin or many ([`multi`]) with sequence-gap accounting ([`seq`]) until told to stop
+//! ([`stream`]), show it live ([`monitor`]), record what arrives ([`record`]), and publish it
+//! as ROS 2 messages ([`ros2`]) to MCAP and JSON lines ([`bridge`]). The `vistaf-host` binary is a thin CLI over this
 //! library. It depends on the wire (`vistaf-protocol`) alone: nothing of the pipeline or
 //! the camera is built on the robot computer.
 //!
@@ -28,12 +29,15 @@
 //! ```
 #![deny(missing_docs)]
 
+pub mod bridge;
 pub mod client;
+pub mod clock;
 pub mod error;
 pub mod link;
 pub mod monitor;
 pub mod multi;
 pub mod record;
+pub mod ros2;
 pub mod seq;
 pub mod stream;
 

@@ -24,6 +24,7 @@ pub struct Link {
     name: String,
     reader: Box<dyn Read + Send>,
     writer: Option<Box<dyn Write + Send>>,
+    discarded_bytes: u64,
 }
 
 impl fmt::Debug for Link {
@@ -64,15 +65,22 @@ impl Link {
     }
 
     /// Wraps an open serial port (for example one end of a pseudo-terminal pair).
-    pub fn from_serial(name: String, port: serialport::TTYPort) -> Result<Link, HostError> {
-        let writer = port.try_clone_native().map_err(|e| HostError::Open {
+    ///
+    /// What waits in the port's input buffer was sent before anyone listened (a device
+    /// that streamed while the port was closed): it is thrown away, and counted
+    /// ([`Link::discarded_bytes`]), so the first summaries read are fresh ones.
+    pub fn from_serial(name: String, mut port: serialport::TTYPort) -> Result<Link, HostError> {
+        let open_error = |e: serialport::Error| HostError::Open {
             link: name.clone(),
             cause: e.into(),
-        })?;
+        };
+        let discarded_bytes = drain(&mut port).map_err(open_error)?;
+        let writer = port.try_clone_native().map_err(open_error)?;
         Ok(Link {
             name,
             reader: Box::new(TimeoutIsEmpty(port)),
             writer: Some(Box::new(writer)),
+            discarded_bytes,
         })
     }
 
@@ -82,6 +90,7 @@ impl Link {
             name,
             reader: Box::new(reader),
             writer: None,
+            discarded_bytes: 0,
         }
     }
 
@@ -95,12 +104,23 @@ impl Link {
             name,
             reader: Box::new(reader),
             writer: Some(Box::new(writer)),
+            discarded_bytes: 0,
         }
     }
 
     /// The link's name, as used in messages.
     pub fn name(&self) -> &str {
         &self.name
+    }
+
+    /// Whether commands can be sent (a serial port; not a file or stdin).
+    pub fn is_writable(&self) -> bool {
+        self.writer.is_some()
+    }
+
+    /// Bytes thrown away on opening, sent before anyone listened.
+    pub fn discarded_bytes(&self) -> u64 {
+        self.discarded_bytes
     }
 
     /// Reads some bytes. `Ok(0)` means end of stream, including the other end going away
@@ -140,6 +160,29 @@ impl Link {
                 cause: e,
             })
     }
+}
+
+/// Most bytes [`drain`] throws away: a backlog larger than this is a device streaming
+/// faster than it can be drained, and what is left goes to the handshake to discard.
+const DRAIN_MAX: u64 = 1 << 20;
+
+/// Reads what waits in `port`'s input without waiting for more, throws it away, and says
+/// how many bytes that was; then clears the input buffer for good measure. (The count comes
+/// from reading, because `FIONREAD` does not see all of a pseudo-terminal's buffer.)
+fn drain(port: &mut serialport::TTYPort) -> serialport::Result<u64> {
+    use serialport::{ClearBuffer, SerialPort};
+    port.set_timeout(Duration::ZERO)?;
+    let mut buf = [0u8; 4096];
+    let mut total = 0u64;
+    while total < DRAIN_MAX {
+        match port.read(&mut buf) {
+            Ok(0) | Err(_) => break,
+            Ok(n) => total += n as u64,
+        }
+    }
+    port.clear(ClearBuffer::Input)?;
+    port.set_timeout(READ_POLL)?;
+    Ok(total)
 }
 
 /// Serial reads time out every [`READ_POLL`]; that is "no bytes yet", not an error.

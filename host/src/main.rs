@@ -6,6 +6,7 @@ use std::time::Duration;
 
 use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
+use vistaf_host::bridge::{mcap::McapSink, Bridge, Stamps};
 use vistaf_host::client::{describe, Client, Next, DEFAULT_TIMEOUT};
 use vistaf_host::link::{Link, LinkSpec};
 use vistaf_host::monitor::Monitor;
@@ -41,9 +42,28 @@ enum Cmd {
         /// Links to record from.
         #[arg(required = true)]
         ports: Vec<String>,
-        /// Output file (.csv keeps summaries; .jsonl keeps every message).
+        /// Output file (.csv keeps summaries; .jsonl keeps every message; - is JSON lines
+        /// on standard output).
         #[arg(long)]
         out: PathBuf,
+        #[command(flatten)]
+        run: RunArgs,
+    },
+    /// Own the links and publish every skin to every consumer at once: an MCAP file
+    /// (Foxglove, ROS 2 bag), JSON lines. A `file:` link replays a capture and ends there.
+    Bridge {
+        /// Links to bridge.
+        #[arg(required = true)]
+        ports: Vec<String>,
+        /// Write an MCAP recording (ROS 2 messages in CDR, plus each summary as JSON).
+        #[arg(long)]
+        mcap: Option<PathBuf>,
+        /// Write every message as JSON lines to this file, or - for standard output.
+        #[arg(long)]
+        jsonl: Option<PathBuf>,
+        /// The frame of every skin's messages (default vistaf_<serial>).
+        #[arg(long)]
+        frame_id: Option<String>,
         #[command(flatten)]
         run: RunArgs,
     },
@@ -106,6 +126,9 @@ struct RunArgs {
     reconnect_s: f64,
 }
 
+/// How often a streaming skin's clock is read, to map capture times onto the host's.
+const CLOCK_PERIOD: Duration = Duration::from_secs(1);
+
 /// A duration for `--duration-s`: finite, not negative, at most a year.
 fn seconds(s: &str) -> Result<f64, String> {
     let v: f64 = s.parse().map_err(|_| format!("{s:?} is not a number"))?;
@@ -133,6 +156,13 @@ fn run(cli: Cli) -> Result<()> {
             let rec = Recorder::create(&out)?;
             stream(&ports, &run, Some(rec), false)
         }
+        Cmd::Bridge {
+            ports,
+            mcap,
+            jsonl,
+            frame_id,
+            run,
+        } => bridge(&ports, &run, mcap.as_deref(), jsonl.as_deref(), frame_id),
         Cmd::Decode { file, json: _ } => decode(&file),
         Cmd::Info { port, timeout_ms } => {
             let mut c = open_client(&port)?;
@@ -239,27 +269,83 @@ fn decode(file: &str) -> Result<()> {
 /// A serial link that goes away is opened again (and greeted) for `--reconnect-s`; one
 /// that does not come back, or ends with reconnecting off, is an error.
 fn stream(ports: &[String], run: &RunArgs, rec: Option<Recorder>, live: bool) -> Result<()> {
+    let links = open_links(ports, run)?;
+    let mut readout = Readout {
+        recorder: rec,
+        monitor: Monitor::new(links.len(), live),
+    };
+    let outcome = vistaf_host::stream::stream_with(links, &limits(run), &mut readout)?;
+    readout.finish(&outcome);
+    match outcome.failure {
+        Some(e) => Err(e.into()),
+        None => Ok(()),
+    }
+}
+
+/// Opens every link; serial ones are greeted, read with their clock kept, and opened
+/// again when they go away.
+fn open_links(ports: &[String], run: &RunArgs) -> Result<Vec<(Client, Option<Reopen>)>> {
     let mut links = Vec::new();
     for p in ports {
         let serial = matches!(p.parse::<LinkSpec>()?, LinkSpec::Serial { .. });
         let mut c = open_client(p)?;
         if serial && !run.no_handshake {
             greet(&mut c, p)?;
+            c.keep_clock(CLOCK_PERIOD);
         }
         let reopen = serial.then(|| reopen(p, run));
         links.push((c, reopen));
     }
-    let clients = links.len();
-    let limits = Limits {
+    Ok(links)
+}
+
+fn limits(run: &RunArgs) -> Limits {
+    Limits {
         summaries: run.frames,
         duration: run.duration_s.map(Duration::from_secs_f64),
-    };
-    let mut readout = Readout {
-        recorder: rec,
-        monitor: Monitor::new(clients, live),
-    };
-    let outcome = vistaf_host::stream::stream_with(links, &limits, &mut readout)?;
-    readout.finish(&outcome);
+    }
+}
+
+/// `bridge`: every skin to every consumer, until the limits or the end of every link.
+fn bridge(
+    ports: &[String],
+    run: &RunArgs,
+    mcap: Option<&std::path::Path>,
+    jsonl: Option<&std::path::Path>,
+    frame_id: Option<String>,
+) -> Result<()> {
+    if mcap.is_none() && jsonl.is_none() {
+        bail!("nothing to bridge to: give --mcap FILE and/or --jsonl FILE|-");
+    }
+    let replay = ports
+        .iter()
+        .map(|p| p.parse::<LinkSpec>())
+        .collect::<Result<Vec<_>, _>>()?
+        .iter()
+        .all(|s| !matches!(s, LinkSpec::Serial { .. }));
+    let links = open_links(ports, run)?;
+    let stamps = if replay { Stamps::Device } else { Stamps::Host };
+    let mut b = Bridge::new(links.len(), stamps, frame_id);
+    if let Some(path) = mcap {
+        b = b.sink(Box::new(McapSink::create(path)?));
+    }
+    if let Some(path) = jsonl {
+        b = b.jsonl(Recorder::create(path)?);
+    }
+    let outcome = vistaf_host::stream::stream_with(links, &limits(run), &mut b);
+    let finished = b.finish();
+    let outcome = outcome?;
+    finished?;
+    for s in &outcome.stats {
+        eprintln!(
+            "{}: {} summaries, {} missing (sequence gaps), {} frames dropped",
+            s.name,
+            s.seq.received,
+            s.seq.missing,
+            s.drops.total()
+        );
+    }
+    eprintln!("published {} messages", b.published());
     match outcome.failure {
         Some(e) => Err(e.into()),
         None => Ok(()),
@@ -274,6 +360,7 @@ fn reopen(port: &str, run: &RunArgs) -> Reopen {
             let mut c = Client::new(Link::open(&port.parse::<LinkSpec>()?)?);
             if handshake {
                 c.handshake(DEFAULT_TIMEOUT)?;
+                c.keep_clock(CLOCK_PERIOD);
             }
             Ok(c)
         }),
@@ -292,5 +379,15 @@ fn greet(c: &mut Client, port: &str) -> Result<()> {
         other => other.into(),
     })?;
     eprintln!("{}: {}", c.name(), describe(&hello));
+    let d = c.discarded();
+    if d.bytes + d.messages > 0 {
+        eprintln!(
+            "{}: discarded what the skin sent before the host listened: {} bytes waiting \
+             in the port, {} message(s) before its Hello",
+            c.name(),
+            d.bytes,
+            d.messages
+        );
+    }
     Ok(())
 }

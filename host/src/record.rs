@@ -4,13 +4,14 @@
 use std::fs::File;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::time::{SystemTime, UNIX_EPOCH};
+use std::time::SystemTime;
 
 use serde::Serialize;
 use serde_json::{json, Value};
 use vistaf_protocol::{DeviceMsg, Summary};
 
 use crate::client::Received;
+use crate::clock::MappedTime;
 use crate::error::HostError;
 
 /// Output format, chosen from the file extension.
@@ -33,12 +34,7 @@ impl Format {
     }
 }
 
-/// Seconds since the Unix epoch, with µs resolution.
-pub fn unix_s(t: SystemTime) -> f64 {
-    t.duration_since(UNIX_EPOCH)
-        .map(|d| d.as_secs_f64())
-        .unwrap_or(0.0)
-}
+pub use crate::clock::unix_s;
 
 /// A summary in SI units with flag names: the one form every output of the host (CSV,
 /// JSON lines, session files) is written from. Temperatures that were not measured are
@@ -101,16 +97,23 @@ impl From<&Summary> for SummaryRecord {
 /// CSV columns of a summary line.
 pub const CSV_HEADER: &str = "device,received_unix_s,seq,capture_us,latency_us,force_n,\
 peak_depth_mm,contact_area_mm2,volume_mm3,centroid_x_mm,centroid_y_mm,temp_min_c,\
-temp_mean_c,temp_max_c,contact_temp_c,flags";
+temp_mean_c,temp_max_c,contact_temp_c,flags,captured_unix_s,captured_uncertainty_s";
 
 impl SummaryRecord {
     /// One CSV line (no newline), in [`CSV_HEADER`]'s columns; an unmeasured temperature
-    /// reads `NaN` in the block columns and is empty for the contact.
-    pub fn csv_line(&self, device: &str, at: SystemTime) -> String {
+    /// reads `NaN` in the block columns and is empty for the contact, and a capture time
+    /// not mapped onto the host's clock is empty.
+    pub fn csv_line(&self, device: &str, at: SystemTime, captured: Option<MappedTime>) -> String {
         let opt = |v: Option<f32>| v.map(|x| format!("{x}")).unwrap_or_default();
         let nan = |v: Option<f32>| v.unwrap_or(f32::NAN);
+        let (host_s, uncertainty_s) = captured.map_or((String::new(), String::new()), |c| {
+            (
+                format!("{:.6}", c.host_s),
+                format!("{:.6}", c.uncertainty_s),
+            )
+        });
         format!(
-            "{device},{:.6},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{device},{:.6},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{host_s},{uncertainty_s}",
             unix_s(at),
             self.seq,
             self.capture_us,
@@ -130,12 +133,15 @@ impl SummaryRecord {
     }
 }
 
-/// A summary line of the JSON-lines record: the device, the receive time, the summary.
+/// A summary line of the JSON-lines record: the device, the receive time, the capture
+/// time on the host's clock (when mapped), the summary.
 #[derive(Serialize)]
 struct SummaryLine<'a> {
     r#type: &'static str,
     device: &'a str,
     received_unix_s: f64,
+    captured_unix_s: Option<f64>,
+    captured_uncertainty_s: Option<f64>,
     #[serde(flatten)]
     summary: SummaryRecord,
 }
@@ -149,6 +155,8 @@ pub fn message_json(device: &str, received: &Received) -> Value {
             r#type: "summary",
             device,
             received_unix_s: at,
+            captured_unix_s: received.captured.map(|c| c.host_s),
+            captured_uncertainty_s: received.captured.map(|c| c.uncertainty_s),
             summary: SummaryRecord::from(s),
         })
         .unwrap_or(Value::Null),
@@ -160,6 +168,7 @@ pub fn message_json(device: &str, received: &Received) -> Value {
                 DeviceMsg::Error(e) => ("error", json!(e)),
                 DeviceMsg::Pong { nonce } => ("pong", json!({ "nonce": nonce })),
                 DeviceMsg::Ack(c) => ("ack", json!(c)),
+                DeviceMsg::Clock(c) => ("clock", json!(c)),
                 DeviceMsg::Summary(_) => ("summary", Value::Null),
             };
             json!({ "type": kind, "device": device, "received_unix_s": at, "body": body })
@@ -195,9 +204,38 @@ pub struct Recorder {
     lines: u64,
 }
 
+/// Standard output as a record file: JSON lines for another program to read. A line that
+/// fails to write cannot be taken back from a pipe; the recorder stops there.
+#[derive(Debug)]
+struct StdoutFile(std::io::Stdout);
+
+impl Write for StdoutFile {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.0.write(buf)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.0.flush()
+    }
+}
+
+impl RecordFile for StdoutFile {
+    fn cut_to(&mut self, _len: u64) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
 impl Recorder {
-    /// Creates (or truncates) `path`; the format follows its extension.
+    /// Creates (or truncates) `path`; the format follows its extension, and `-` is JSON
+    /// lines on standard output.
     pub fn create(path: &Path) -> Result<Recorder, HostError> {
+        if path == Path::new("-") {
+            return Recorder::to(
+                path,
+                Format::JsonLines,
+                Box::new(StdoutFile(std::io::stdout())),
+            );
+        }
         let format = Format::from_path(path).ok_or_else(|| HostError::RecordFormat {
             path: path.display().to_string(),
         })?;
@@ -251,7 +289,7 @@ impl Recorder {
     pub fn record(&mut self, device: &str, received: &Received) -> Result<(), HostError> {
         let text = match (self.format, &received.msg) {
             (Format::Csv, DeviceMsg::Summary(s)) => {
-                SummaryRecord::from(s).csv_line(device, received.at)
+                SummaryRecord::from(s).csv_line(device, received.at, received.captured)
             }
             (Format::Csv, _) => return Ok(()),
             (Format::JsonLines, _) => message_json(device, received).to_string(),
@@ -286,10 +324,7 @@ mod tests {
         };
         rec.record(
             "a",
-            &Received {
-                msg: DeviceMsg::Summary(s),
-                at: SystemTime::now(),
-            },
+            &Received::new(DeviceMsg::Summary(s), SystemTime::now()),
         )
         .unwrap();
         // Read back without closing the recorder: the line is already flushed.
@@ -345,13 +380,13 @@ mod tests {
             let mut rec = Recorder::to(Path::new("r"), format, Box::new(disk.clone())).unwrap();
             let mut failed = None;
             for seq in 0..100 {
-                let r = Received {
-                    msg: DeviceMsg::Summary(Summary {
+                let r = Received::new(
+                    DeviceMsg::Summary(Summary {
                         seq,
                         ..Default::default()
                     }),
-                    at: SystemTime::now(),
-                };
+                    SystemTime::now(),
+                );
                 if let Err(e) = rec.record("a", &r) {
                     failed = Some((seq, e));
                     break;

@@ -1,4 +1,4 @@
-//! Reading skins until told to stop: the loop behind `monitor`, `record` and the demo.
+//! Reading skins until told to stop: the loop behind `monitor`, `record`, `bridge` and the demo.
 //!
 //! [`stream`] merges every link's messages ([`MultiReader`]) and hands each to a
 //! [`Consumer`] (a monitor, a recorder, a hook), until the summary count or the duration
@@ -37,21 +37,22 @@ pub trait Consumer {
         stats: &[DeviceStats],
         received: &Received,
     ) -> Result<(), HostError>;
-    /// Link `device`'s stream ended.
+    /// Link `device`'s stream ended (said on standard error unless overridden, as are the
+    /// other link events).
     fn ended(&mut self, device: usize, stats: &[DeviceStats]) {
-        let _ = (device, stats);
+        eprintln!("{}: stream ended", name_of(stats, device));
     }
     /// Link `device` failed; its reader has stopped, the others go on.
     fn failed(&mut self, device: usize, stats: &[DeviceStats], error: &HostError) {
-        let _ = (device, stats, error);
+        eprintln!("{}: {error}", name_of(stats, device));
     }
     /// Link `device` went away and is being opened again ([`crate::multi::Reopen`]).
     fn lost(&mut self, device: usize, stats: &[DeviceStats], why: &str) {
-        let _ = (device, stats, why);
+        eprintln!("{}: lost ({why}); reconnecting", name_of(stats, device));
     }
     /// Link `device` is back.
     fn reconnected(&mut self, device: usize, stats: &[DeviceStats]) {
-        let _ = (device, stats);
+        eprintln!("{}: back", name_of(stats, device));
     }
     /// Called after every event and at least every [`TICK`] while nothing arrives.
     fn tick(&mut self, stats: &[DeviceStats]) {
@@ -132,7 +133,7 @@ pub fn stream_with(
 }
 
 /// The name of link `device`, for messages.
-fn name_of(stats: &[DeviceStats], device: usize) -> &str {
+pub fn name_of(stats: &[DeviceStats], device: usize) -> &str {
     stats.get(device).map_or("?", |s| s.name.as_str())
 }
 
@@ -156,6 +157,7 @@ impl Consumer for Readout {
         if let Some(rec) = self.recorder.as_mut() {
             rec.record(name_of(stats, device), received)?;
         }
+        self.monitor.heard(device);
         match &received.msg {
             DeviceMsg::Summary(s) => self.monitor.summary(device, s),
             DeviceMsg::Error(e) => eprintln!(
@@ -167,22 +169,6 @@ impl Consumer for Readout {
             _ => {}
         }
         Ok(())
-    }
-
-    fn ended(&mut self, device: usize, stats: &[DeviceStats]) {
-        eprintln!("{}: stream ended", name_of(stats, device));
-    }
-
-    fn failed(&mut self, device: usize, stats: &[DeviceStats], error: &HostError) {
-        eprintln!("{}: {error}", name_of(stats, device));
-    }
-
-    fn lost(&mut self, device: usize, stats: &[DeviceStats], why: &str) {
-        eprintln!("{}: lost ({why}); reconnecting", name_of(stats, device));
-    }
-
-    fn reconnected(&mut self, device: usize, stats: &[DeviceStats]) {
-        eprintln!("{}: back", name_of(stats, device));
     }
 
     fn tick(&mut self, stats: &[DeviceStats]) {

@@ -99,7 +99,7 @@ pub struct CentroidDeciMm {
 pub struct Summary {
     /// Frame sequence number, +1 per processed frame; gaps mean frames the host missed.
     pub seq: u32,
-    /// Capture time of the frame, µs since the service started.
+    /// Capture time of the frame, µs on the device's clock (see [`ClockReading`]).
     pub capture_us: u64,
     /// Capture-to-send processing latency, µs.
     pub latency_us: u32,
@@ -268,6 +268,28 @@ pub enum DeviceMsg {
     },
     /// A command was accepted.
     Ack(Command),
+    /// Answer to [`HostMsg::Clock`]: the device's clock when the request arrived and when
+    /// the answer left.
+    Clock(ClockReading),
+}
+
+/// The device's clock around one [`HostMsg::Clock`] request, in the clock of
+/// [`Summary::capture_us`] (µs since the device's epoch, monotonic, never reset while the
+/// service runs).
+///
+/// With the host's own send and receive times this is one sample of the four-timestamp
+/// exchange NTP uses: the time the request waited on the device (between two frames)
+/// drops out of the estimate, and only the link's asymmetry is left as error.
+#[derive(
+    Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize, MaxSize, Schema,
+)]
+pub struct ClockReading {
+    /// The nonce of the request.
+    pub nonce: u32,
+    /// When the request's last byte was decoded, µs.
+    pub received_us: u64,
+    /// When the answer was framed for the link, µs.
+    pub sent_us: u64,
 }
 
 /// An LED colour, 8-bit sRGB.
@@ -319,4 +341,9 @@ pub enum HostMsg {
     Start,
     /// Pause streaming summaries (processing continues, so the reference stays fresh).
     Stop,
+    /// Read the device's clock; answered by [`DeviceMsg::Clock`] with the same nonce.
+    Clock {
+        /// Echoed back.
+        nonce: u32,
+    },
 }

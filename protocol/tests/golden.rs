@@ -68,6 +68,14 @@ fn device_samples() -> Vec<(&'static str, DeviceMsg)> {
         ),
         ("pong", DeviceMsg::Pong { nonce: 0xfeed }),
         ("ack", DeviceMsg::Ack(Command::CaptureReference)),
+        (
+            "clock",
+            DeviceMsg::Clock(ClockReading {
+                nonce: 0xfeed,
+                received_us: 3_600_000_123,
+                sent_us: 3_600_000_456,
+            }),
+        ),
     ]
 }
 
@@ -92,6 +100,7 @@ fn host_samples() -> Vec<(&'static str, HostMsg)> {
         ("request_map", HostMsg::RequestMap(MapKind::Temperature)),
         ("start", HostMsg::Start),
         ("stop", HostMsg::Stop),
+        ("clock_request", HostMsg::Clock { nonce: 0xfeed }),
     ]
 }
 
@@ -174,7 +183,7 @@ fn every_golden_file_has_a_sample() {
 /// bump `PROTOCOL_VERSION` and update the constant below together with the golden files.
 #[test]
 fn schema_hash_is_pinned() {
-    assert_eq!(PROTOCOL_VERSION, 2);
+    assert_eq!(PROTOCOL_VERSION, 3);
     assert_eq!(
         schema_hash(),
         PINNED_SCHEMA_HASH,
@@ -183,24 +192,24 @@ fn schema_hash_is_pinned() {
     );
 }
 
-const PINNED_SCHEMA_HASH: u64 = 0xb983_5650_e841_ea3d;
+const PINNED_SCHEMA_HASH: u64 = 0xdfb9_1ebd_46d6_c5ef;
 
 #[test]
 fn a_hello_of_another_version_is_named_not_misread() {
-    // A future Hello: version 3, a different hash, and a field this build does not know.
+    // A future Hello: version 4, a different hash, and a field this build does not know.
     let mut payload = Vec::new();
-    payload.extend(postcard::to_stdvec(&(0u32, 3u16, 0x1111_2222_3333_4444u64)).unwrap());
+    payload.extend(postcard::to_stdvec(&(0u32, 4u16, 0x1111_2222_3333_4444u64)).unwrap());
     payload.extend([0xff, 0xff, 0xff, 0xff, 0xff, 0xff]);
     let got = decoded(&payload);
     assert_eq!(
         got,
         vec![Err(FrameError::ProtocolMismatch {
-            protocol_version: 3,
+            protocol_version: 4,
             schema_hash: 0x1111_2222_3333_4444
         })]
     );
     let text = got[0].clone().unwrap_err().to_string();
-    assert!(text.contains("v3") && text.contains("v2"), "{text}");
+    assert!(text.contains("v4") && text.contains("v3"), "{text}");
 }
 
 /// A Hello of this very version and schema that does not decode (a serial that is not

@@ -8,13 +8,14 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use image::RgbImage;
+use vistaf_hardware::clock::micros;
 use vistaf_hardware::led::{LedConfig, LedRing};
 use vistaf_hardware::source::SourceFormat;
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Scratch};
 use vistaf_protocol::msg::truncated;
 use vistaf_protocol::{
-    schema_hash, Command, DeviceError, DeviceMsg, ErrorCode, FirmwareVersion, Flag, Hello, HostMsg,
-    MapKind, RunState, Status, PROTOCOL_VERSION,
+    schema_hash, ClockReading, Command, DeviceError, DeviceMsg, ErrorCode, FirmwareVersion, Flag,
+    Hello, HostMsg, MapKind, RunState, Status, PROTOCOL_VERSION,
 };
 
 use super::clock::Clock;
@@ -165,10 +166,21 @@ impl<'a, C: Clock> Service<'a, C> {
         })
     }
 
-    /// A host command and its answer.
+    /// A host command and its answer, the command taken as received now.
     pub fn on_command(&mut self, cmd: HostMsg) -> DeviceMsg {
+        let now = self.clock.now();
+        self.on_command_received(cmd, now)
+    }
+
+    /// A host command decoded from the link at `received`, and its answer.
+    pub fn on_command_received(&mut self, cmd: HostMsg, received: Instant) -> DeviceMsg {
         match cmd {
             HostMsg::Ping { nonce } => DeviceMsg::Pong { nonce },
+            HostMsg::Clock { nonce } => DeviceMsg::Clock(ClockReading {
+                nonce,
+                received_us: micros(received),
+                sent_us: micros(self.clock.now()),
+            }),
             HostMsg::GetInfo => self.hello(),
             HostMsg::CaptureReference => {
                 self.keeper.renew();

@@ -20,7 +20,9 @@
 //!   `RunState::CameraLost` in `Status` while the source retries with back-off; frames
 //!   resuming count in `Status.camera_restarts`.
 //! * Host commands are handled between frames: `Ping`, `GetInfo`, `CaptureReference`,
-//!   `SetRate`, `SetLed`, `RequestMap`, `Start`, `Stop`.
+//!   `SetRate`, `SetLed`, `RequestMap`, `Start`, `Stop`, `Clock`. A `Clock` request is
+//!   stamped when the link reader decodes it, so its answer tells the host how long it
+//!   waited for the frame in progress.
 //! * A `Hello` goes out at start and on request; a `Status` every second.
 //! * A bad frame (wrong size, undecodable) is counted and skipped; a failing link write is
 //!   counted and the service keeps running (the host may come back).

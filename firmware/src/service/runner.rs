@@ -5,7 +5,7 @@ use std::io::{Read, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use crossbeam_channel::{bounded, Receiver, RecvTimeoutError, Sender, TrySendError};
 use vistaf_hardware::frame::Frame;
@@ -138,11 +138,12 @@ fn capture(
     None
 }
 
-/// Decodes host commands from the link into `commands` until `stop` is set; frames that
-/// do not decode are counted.
+/// Decodes host commands from the link into `commands`, each with the instant it was
+/// decoded (a clock request's answer tells it), until `stop` is set; frames that do not
+/// decode are counted.
 fn read_commands(
     mut link: Box<dyn Read + Send>,
-    commands: Sender<HostMsg>,
+    commands: Sender<(HostMsg, Instant)>,
     edge: Arc<EdgeCounters>,
     stop: Arc<AtomicBool>,
 ) {
@@ -153,7 +154,7 @@ fn read_commands(
             Ok(0) => std::thread::sleep(LINK_IDLE),
             Ok(n) => dec.push(&buf[..n], |r| match r {
                 Ok(m) => {
-                    let _ = commands.try_send(m);
+                    let _ = commands.try_send((m, Instant::now()));
                 }
                 Err(_) => {
                     edge.link_frames_dropped.fetch_add(1, Ordering::Relaxed);
@@ -174,7 +175,7 @@ fn read_commands(
 /// The threads at the edge and the channels from them.
 struct Edge {
     frames: Newest<Frame>,
-    commands: Receiver<HostMsg>,
+    commands: Receiver<(HostMsg, Instant)>,
     camera: Receiver<CameraEvent>,
     capture: JoinHandle<Option<String>>,
     counters: Arc<EdgeCounters>,
@@ -219,6 +220,8 @@ pub fn run(
     settings: &Settings,
     stop: Arc<AtomicBool>,
 ) -> anyhow::Result<Counters> {
+    // The device's clock starts before anything is timed on it.
+    vistaf_hardware::clock::epoch();
     let format = source.format();
     let mut tx = Tx {
         out: link,
@@ -288,8 +291,8 @@ fn serve<W: Write>(
 ) {
     while !stop.load(Ordering::Relaxed) && !service.done() {
         systemd.alive(std::time::Instant::now());
-        for cmd in edge.commands.try_iter() {
-            tx.send(&service.on_command(cmd));
+        for (cmd, received) in edge.commands.try_iter() {
+            tx.send(&service.on_command_received(cmd, received));
         }
         for event in edge.camera.try_iter() {
             tx.send_all(service.on_camera(event));

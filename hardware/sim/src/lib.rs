@@ -155,9 +155,9 @@ impl FrameSource for SimSource {
                 if let Some(wait) = due.checked_sub(started.elapsed()) {
                     std::thread::sleep(wait);
                 }
-                started.elapsed()
+                vistaf_hardware::clock::now()
             }
-            None => started.elapsed(),
+            None => vistaf_hardware::clock::now(),
         };
         self.next += 1;
         self.delivered += 1;

@@ -83,3 +83,20 @@ pub fn noisy_stream(count: u32, seed: u64) -> NoisyStream {
         expected_drops,
     }
 }
+
+/// The `Hello` of a skin of this protocol with `serial`.
+pub fn hello(serial: &str, calibration_id: u32) -> DeviceMsg {
+    DeviceMsg::Hello(Hello {
+        protocol_version: PROTOCOL_VERSION,
+        schema_hash: schema_hash(),
+        firmware: FirmwareVersion {
+            major: 0,
+            minor: 1,
+            patch: 0,
+        },
+        serial: heapless::String::from(serial),
+        frame_width_px: 640,
+        frame_height_px: 480,
+        calibration_id,
+    })
+}
