@@ -18,7 +18,7 @@ target/release/vistaf-skin run --source sim:demo --fps 60 --sim-frames 600 \
 skin_pid=$!
 sleep 1
 target/release/vistaf-host bridge "serial:$out/host" --duration-s "$seconds" \
-  --mcap "$out/demo.mcap" --jsonl "$out/demo.jsonl"
+  --maps depth,temperature --mcap "$out/demo.mcap" --jsonl "$out/demo.jsonl"
 kill $skin_pid 2>/dev/null || true
 wait $skin_pid 2>/dev/null || true
 target/interop-venv/bin/python - "$out/demo.mcap" <<'PY'

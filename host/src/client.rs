@@ -98,7 +98,16 @@ pub struct Client {
     mismatch: Option<(u16, u64)>,
     ended: bool,
     clock: ClockSync,
+    maps: Option<MapRequests>,
     discarded_messages: u64,
+}
+
+/// Maps asked for periodically ([`Client::keep_maps`]).
+#[derive(Debug)]
+struct MapRequests {
+    kinds: Vec<MapKind>,
+    every: Duration,
+    next_at: Instant,
 }
 
 impl Client {
@@ -118,8 +127,36 @@ impl Client {
                 every: None,
                 next_at: Instant::now(),
             },
+            maps: None,
             discarded_messages: 0,
         }
+    }
+
+    /// Asks for maps of `kinds` every `period` while messages are read (each comes with
+    /// the next processed frame, as a `Map` message). Nothing is sent on a read-only link.
+    pub fn keep_maps(&mut self, kinds: &[MapKind], period: Duration) {
+        self.maps = (!kinds.is_empty()).then(|| MapRequests {
+            kinds: kinds.to_vec(),
+            every: period,
+            next_at: Instant::now(),
+        });
+    }
+
+    /// Sends the map requests when they are due.
+    fn request_maps_if_due(&mut self) -> Result<(), HostError> {
+        let now = Instant::now();
+        let Some(m) = self.maps.as_mut() else {
+            return Ok(());
+        };
+        if !self.link.is_writable() || now < m.next_at {
+            return Ok(());
+        }
+        m.next_at = now + m.every;
+        let kinds = m.kinds.clone();
+        for kind in kinds {
+            self.send(&HostMsg::RequestMap(kind))?;
+        }
+        Ok(())
     }
 
     /// What was thrown away on connecting, sent before the host was listening.
@@ -246,6 +283,7 @@ impl Client {
                 return Ok(Next::Timeout);
             }
             self.request_clock_if_due()?;
+            self.request_maps_if_due()?;
             self.fill()?;
         }
     }
@@ -449,5 +487,61 @@ impl Client {
             DeviceMsg::Map(map) if map.kind == kind => Some(map.clone()),
             _ => None,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::{Arc, Mutex};
+    use vistaf_protocol::HostDecoder;
+
+    /// A link that never has bytes to read.
+    struct Quiet;
+
+    impl io::Read for Quiet {
+        fn read(&mut self, _: &mut [u8]) -> io::Result<usize> {
+            Err(io::ErrorKind::WouldBlock.into())
+        }
+    }
+
+    /// What was written, shared with the test.
+    #[derive(Clone, Default)]
+    struct Sent(Arc<Mutex<Vec<u8>>>);
+
+    impl io::Write for Sent {
+        fn write(&mut self, b: &[u8]) -> io::Result<usize> {
+            self.0
+                .lock()
+                .map_err(|_| io::Error::other("poisoned"))?
+                .extend(b);
+            Ok(b.len())
+        }
+        fn flush(&mut self) -> io::Result<()> {
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn maps_kept_are_asked_for_once_a_period() {
+        let sent = Sent::default();
+        let mut c = Client::new(Link::new("test".into(), Quiet, sent.clone()));
+        c.keep_maps(
+            &[MapKind::Depth, MapKind::Temperature],
+            Duration::from_secs(60),
+        );
+        let deadline = Instant::now() + Duration::from_millis(20);
+        assert_eq!(c.next(Some(deadline)).unwrap(), Next::Timeout);
+        let bytes = sent.0.lock().unwrap().clone();
+        let mut got = Vec::new();
+        HostDecoder::new().push(&bytes, |m| got.push(m.unwrap()));
+        assert_eq!(
+            got,
+            [
+                HostMsg::RequestMap(MapKind::Depth),
+                HostMsg::RequestMap(MapKind::Temperature)
+            ],
+            "asked once within the period, nothing else sent"
+        );
     }
 }

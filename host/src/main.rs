@@ -14,7 +14,7 @@ use vistaf_host::multi::Reopen;
 use vistaf_host::record::{message_json, Recorder};
 use vistaf_host::stream::{Limits, Readout};
 use vistaf_host::HostError;
-use vistaf_protocol::{schema, DeviceMsg};
+use vistaf_protocol::{schema, DeviceMsg, MapKind};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -64,6 +64,13 @@ enum Cmd {
         /// The frame of every skin's messages (default vistaf_<serial>).
         #[arg(long)]
         frame_id: Option<String>,
+        /// Ask live skins for maps (depth, temperature, or both: depth,temperature),
+        /// published as 32FC1 images.
+        #[arg(long, value_delimiter = ',', value_parser = map_kind)]
+        maps: Vec<MapKind>,
+        /// How often maps are asked for, Hz.
+        #[arg(long, default_value_t = 2.0, value_parser = rate_hz)]
+        maps_hz: f64,
         #[command(flatten)]
         run: RunArgs,
     },
@@ -129,6 +136,25 @@ struct RunArgs {
 /// How often a streaming skin's clock is read, to map capture times onto the host's.
 const CLOCK_PERIOD: Duration = Duration::from_secs(1);
 
+/// A map kind for `--maps`.
+fn map_kind(s: &str) -> Result<MapKind, String> {
+    match s {
+        "depth" => Ok(MapKind::Depth),
+        "temperature" => Ok(MapKind::Temperature),
+        other => Err(format!("{other:?}: depth or temperature")),
+    }
+}
+
+/// A rate for `--maps-hz`: above zero, at most 60.
+fn rate_hz(s: &str) -> Result<f64, String> {
+    let v: f64 = s.parse().map_err(|_| format!("{s:?} is not a number"))?;
+    if v.is_finite() && v > 0.0 && v <= 60.0 {
+        Ok(v)
+    } else {
+        Err(format!("{v}: a rate above 0 and at most 60 Hz"))
+    }
+}
+
 /// A duration for `--duration-s`: finite, not negative, at most a year.
 fn seconds(s: &str) -> Result<f64, String> {
     let v: f64 = s.parse().map_err(|_| format!("{s:?} is not a number"))?;
@@ -161,8 +187,13 @@ fn run(cli: Cli) -> Result<()> {
             mcap,
             jsonl,
             frame_id,
+            maps,
+            maps_hz,
             run,
-        } => bridge(&ports, &run, mcap.as_deref(), jsonl.as_deref(), frame_id),
+        } => {
+            let maps = (maps, Duration::from_secs_f64(1.0 / maps_hz));
+            bridge(&ports, &run, mcap.as_deref(), jsonl.as_deref(), frame_id, maps)
+        }
         Cmd::Decode { file, json: _ } => decode(&file),
         Cmd::Info { port, timeout_ms } => {
             let mut c = open_client(&port)?;
@@ -313,6 +344,7 @@ fn bridge(
     mcap: Option<&std::path::Path>,
     jsonl: Option<&std::path::Path>,
     frame_id: Option<String>,
+    (maps, maps_every): (Vec<MapKind>, Duration),
 ) -> Result<()> {
     if mcap.is_none() && jsonl.is_none() {
         bail!("nothing to bridge to: give --mcap FILE and/or --jsonl FILE|-");
@@ -323,7 +355,10 @@ fn bridge(
         .collect::<Result<Vec<_>, _>>()?
         .iter()
         .all(|s| !matches!(s, LinkSpec::Serial { .. }));
-    let links = open_links(ports, run)?;
+    let mut links = open_links(ports, run)?;
+    for (client, _) in &mut links {
+        client.keep_maps(&maps, maps_every);
+    }
     let stamps = if replay { Stamps::Device } else { Stamps::Host };
     let mut b = Bridge::new(links.len(), stamps, frame_id);
     if let Some(path) = mcap {

@@ -67,6 +67,25 @@ fn status() -> DeviceMsg {
     })
 }
 
+/// A depth and a temperature map of the frame of summary `seq`, each with a cell of no data.
+fn maps(seq: u32) -> [Map; 2] {
+    let map = |kind, cells: &[i16]| Map {
+        seq,
+        kind,
+        width: 3,
+        height: 2,
+        cell_pitch_centi_mm: 125,
+        cells: heapless::Vec::from_slice(cells).unwrap(),
+    };
+    [
+        map(MapKind::Depth, &[0, 150, msg::MAP_NO_DATA, 900, 2000, 1]),
+        map(
+            MapKind::Temperature,
+            &[2500, 2510, 3990, msg::MAP_NO_DATA, 2480, 2501],
+        ),
+    ]
+}
+
 /// Every field of a Python summary equals the Rust reading of the same summary.
 fn assert_same_summary(py: &Value, s: &Summary) {
     let r = SummaryRecord::from(s);
@@ -172,6 +191,11 @@ fn the_bridge_s_mcap_decodes_with_the_official_readers_to_what_the_device_sent()
             bytes.extend(common::frame(&status()));
         }
         bytes.extend(common::frame(&DeviceMsg::Summary(*s)));
+        if i == 10 {
+            for m in maps(s.seq) {
+                bytes.extend(common::frame(&DeviceMsg::Map(m)));
+            }
+        }
     }
     let capture = temp("bridge.bin");
     std::fs::write(&capture, &bytes).unwrap();
@@ -238,6 +262,44 @@ fn the_bridge_s_mcap_decodes_with_the_official_readers_to_what_the_device_sent()
     for (m, s) in json.iter().zip(&summaries) {
         assert_eq!(m["schema_encoding"], "jsonschema");
         assert_same_summary(&m["body"], s);
+    }
+    // The maps as 32FC1 images, stamped as the summary of their frame: depth in m,
+    // temperature in °C, NaN where there is no value.
+    for (topic, m, scale) in [
+        ("/vistaf/VSK_0042/depth", &maps(10)[0], 1e-6),
+        ("/vistaf/VSK_0042/temperature_map", &maps(10)[1], 1e-2),
+    ] {
+        let img = on(topic);
+        assert_eq!(img.len(), 1, "{topic}");
+        let b = &img[0]["body"];
+        assert_eq!(b["encoding"], "32FC1");
+        assert_eq!(
+            (b["width"].as_u64(), b["height"].as_u64()),
+            (Some(3), Some(2))
+        );
+        assert_eq!(b["step"], 12);
+        assert_eq!(stamp_ns(img[0]), summaries[10].capture_us as i64 * 1000);
+        let data: Vec<u8> = b["data"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_u64().unwrap() as u8)
+            .collect();
+        let px: Vec<f32> = data
+            .chunks(4)
+            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect();
+        for (p, &c) in px.iter().zip(&m.cells) {
+            if c == msg::MAP_NO_DATA {
+                assert!(p.is_nan(), "{topic}: {p} for no data");
+            } else {
+                let want = f64::from(c) * scale;
+                assert!(
+                    (f64::from(*p) - want).abs() <= 1e-6 * want.abs().max(1.0),
+                    "{topic}: {p} for {c}"
+                );
+            }
+        }
     }
     // Health on /diagnostics, per Status.
     let diag = on("/diagnostics");

@@ -49,6 +49,7 @@ struct Skin {
     topics: Option<SkinTopics>,
     counts: HostCounts,
     last_stamp_ns: Option<i64>,
+    last_seq: Option<u32>,
 }
 
 /// The bridge's consumer: names each skin by the serial of its `Hello` (by its link until
@@ -175,6 +176,7 @@ impl Consumer for Bridge {
             DeviceMsg::Summary(s) => {
                 let stamp = stamp.unwrap_or_default();
                 skin.last_stamp_ns = Some(stamp);
+                skin.last_seq = Some(s.seq);
                 skin.counts.last_flags = s
                     .flags
                     .iter()
@@ -191,6 +193,18 @@ impl Consumer for Bridge {
                     sink.summary_json(&topic, stamp, &json)?;
                 }
                 topics.summary(s, stamp)
+            }
+            DeviceMsg::Map(m) => {
+                // A map comes from the frame of the summary it names: stamped as that one.
+                let at = match (skin.last_seq, skin.last_stamp_ns) {
+                    (Some(seq), Some(t)) if seq == m.seq => Some(t),
+                    _ => stamp.or(skin.last_stamp_ns),
+                };
+                topics.map(m, at.unwrap_or_default()).into_iter().collect()
+            }
+            DeviceMsg::Error(e) => {
+                eprintln!("{link}: device error {:?}: {}", e.code, e.detail);
+                Vec::new()
             }
             DeviceMsg::Status(st) => {
                 // A replay's status goes on the time line of the summaries around it.

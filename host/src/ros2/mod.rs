@@ -7,6 +7,8 @@
 //! | `/vistaf/<serial>/contact` | `geometry_msgs/PointStamped` | every summary with contact |
 //! | `/vistaf/<serial>/contact_temperature` | `sensor_msgs/Temperature` | contact, measured |
 //! | `/vistaf/<serial>/skin_temperature` | `sensor_msgs/Temperature` | measured |
+//! | `/vistaf/<serial>/depth` | `sensor_msgs/Image` `32FC1`, m | every depth map asked for |
+//! | `/vistaf/<serial>/temperature_map` | `sensor_msgs/Image` `32FC1`, °C | every temperature map |
 //! | `/diagnostics` | `diagnostic_msgs/DiagnosticArray` | every `Status` (1 Hz) |
 //!
 //! The frame (`vistaf_<serial>` unless configured) is the camera's optical frame moved to
@@ -17,11 +19,12 @@
 pub mod cdr;
 pub mod msgs;
 
-use vistaf_protocol::{Status, Summary};
+use vistaf_protocol::msg::MAP_NO_DATA;
+use vistaf_protocol::{Map, MapKind, Status, Summary};
 
 use msgs::{
-    DiagnosticArray, DiagnosticStatus, Header, Level, PointStamped, RosMessage, Temperature,
-    WrenchStamped,
+    DiagnosticArray, DiagnosticStatus, Header, ImageF32, Level, PointStamped, RosMessage,
+    Temperature, WrenchStamped,
 };
 
 /// A message ready to go out: topic, type, CDR bytes and time.
@@ -138,6 +141,40 @@ impl SkinTopics {
             out.push(temperature("skin_temperature", si.temp_mean_c));
         }
         out
+    }
+
+    /// A map as a `32FC1` image: depth in m (ROS depth images are in metres), temperature
+    /// in °C; NaN where the device trusts no value. `None` for a map whose cells do not fill
+    /// it.
+    pub fn map(&self, m: &Map, stamp_ns: i64) -> Option<Outgoing> {
+        if !m.is_consistent() {
+            return None;
+        }
+        let (leaf, scale) = match m.kind {
+            MapKind::Depth => ("depth", 1e-6),
+            MapKind::Temperature => ("temperature_map", 1e-2),
+        };
+        let pixels = m
+            .cells
+            .iter()
+            .map(|&c| {
+                if c == MAP_NO_DATA {
+                    f32::NAN
+                } else {
+                    f32::from(c) * scale
+                }
+            })
+            .collect();
+        Some(Outgoing::of(
+            self.topic(leaf),
+            stamp_ns,
+            &ImageF32 {
+                header: self.header(stamp_ns),
+                width: u32::from(m.width),
+                height: u32::from(m.height),
+                pixels,
+            },
+        ))
     }
 
     /// A health report as `/diagnostics`, with what the host counted beside it.
