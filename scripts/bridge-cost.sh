@@ -6,7 +6,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-target/bridge-cost}
-cargo build --release -q -p vistaf-firmware -p vistaf-host
+cargo build --release -q -p vistaf-firmware
+cargo build --release -q -p vistaf-host --features ros2
 rm -rf "$out" && mkdir -p "$out"
 target/release/vistaf-skin run --source sim:demo --sim-frames 120 --frames 120 \
   --link "file:$out/one.bin" 2>/dev/null
@@ -26,3 +27,5 @@ echo "|---|---|---|"
 measure "MCAP" --mcap "$out/run.mcap"
 measure "JSON lines" --jsonl "$out/run.jsonl"
 measure "MCAP and JSON lines" --mcap "$out/run.mcap" --jsonl "$out/run.jsonl"
+measure "ROS 2 (DDS, no subscriber)" --ros2
+measure "ROS 2, MCAP and JSON lines" --ros2 --mcap "$out/run.mcap" --jsonl "$out/run.jsonl"

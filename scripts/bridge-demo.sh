@@ -1,13 +1,15 @@
 #!/usr/bin/env bash
 # A simulated skin streaming over a pseudo-terminal, as over USB, and the bridge reading it
-# live into an MCAP file and JSON lines; then the MCAP file read back by the official
-# Python readers (what Foxglove and ROS 2 tools see). Needs scripts/install-deps.sh (socat,
-# the interop venv).
+# live, publishing on ROS 2 (DDS) and recording MCAP and JSON lines; a Cyclone DDS
+# subscriber (a DDS we did not write, the one behind rmw_cyclonedds) says what it received,
+# and the MCAP file is read back by the official Python readers (what Foxglove and ROS 2
+# tools see). Needs scripts/install-deps.sh (socat, the interop venv).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-target/bridge-demo}
 seconds=${SECONDS_TO_RUN:-8}
-cargo build --release -q -p vistaf-firmware -p vistaf-host
+cargo build --release -q -p vistaf-firmware
+cargo build --release -q -p vistaf-host --features ros2
 rm -rf "$out" && mkdir -p "$out"
 socat -d -d pty,raw,echo=0,link="$out/skin" pty,raw,echo=0,link="$out/host" 2>"$out/socat.log" &
 socat_pid=$!
@@ -16,9 +18,24 @@ for _ in $(seq 50); do [ -e "$out/host" ] && break; sleep 0.1; done
 target/release/vistaf-skin run --source sim:demo --fps 60 --sim-frames 600 \
   --serial VSK-DEMO --link "serial:$out/skin" 2>"$out/skin.log" &
 skin_pid=$!
+target/interop-venv/bin/python tests/interop/dds_listen.py VSK_DEMO $((seconds + 5)) 100000 \
+  > "$out/cyclone.jsonl" &
+listener_pid=$!
 sleep 1
-target/release/vistaf-host bridge "serial:$out/host" --duration-s "$seconds" \
+target/release/vistaf-host bridge "serial:$out/host" --duration-s "$seconds" --ros2 \
   --maps depth,temperature --mcap "$out/demo.mcap" --jsonl "$out/demo.jsonl"
+sleep 1
+kill $listener_pid 2>/dev/null || true
+python3 - "$out/cyclone.jsonl" <<'PY'
+import json, sys
+rows = [json.loads(l) for l in open(sys.argv[1]) if l.startswith("{")]
+w = [r for r in rows if r["topic"] == "wrench"]
+t = [r for r in rows if r["topic"] != "wrench"]
+print(f"what a Cyclone DDS subscriber received on ROS 2: {len(w)} WrenchStamped on rt/vistaf/VSK_DEMO/wrench, {len(t)} Temperature on .../skin_temperature")
+if w:
+    p = min(w, key=lambda r: r["force"][2])
+    print(f"  strongest: force z {p['force'][2]:.2f} N at {p['sec']}.{p['nanosec']:09d} in frame {p['frame_id']}")
+PY
 kill $skin_pid 2>/dev/null || true
 wait $skin_pid 2>/dev/null || true
 target/interop-venv/bin/python - "$out/demo.mcap" <<'PY'

@@ -94,6 +94,12 @@ pub enum HostError {
         /// Why the link was lost, or why the last attempt failed.
         last: String,
     },
+    /// The ROS 2 side (DDS) could not be set up or refused a topic.
+    #[error("ROS 2: {detail}")]
+    Ros2 {
+        /// What failed and why.
+        detail: String,
+    },
     /// The device refused a command.
     #[error("{link}: device error {:?}: {}", .error.code, .error.detail)]
     Device {

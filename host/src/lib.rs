@@ -4,9 +4,10 @@
 //! send commands ([`client`]), map the device's clock onto the host's ([`clock`]), read one
 //! skin or many ([`multi`]) with sequence-gap accounting ([`seq`]) until told to stop
 //! ([`stream`]), show it live ([`monitor`]), record what arrives ([`record`]), and publish it
-//! as ROS 2 messages ([`ros2`]) to MCAP and JSON lines ([`bridge`]). The `vistaf-host` binary is a thin CLI over this
-//! library. It depends on the wire (`vistaf-protocol`) alone: nothing of the pipeline or
-//! the camera is built on the robot computer.
+//! as ROS 2 messages ([`ros2`]) to DDS (feature `ros2`), MCAP and JSON lines
+//! ([`bridge`]). The `vistaf-host` binary is a thin CLI over this library. It depends on
+//! the wire (`vistaf-protocol`) alone: nothing of the pipeline or the camera is built on
+//! the robot computer.
 //!
 //! ```text
 //!  skin ─▶ serial ─▶ Link ─▶ Client (DeviceDecoder) ─▶ Received { msg, at }

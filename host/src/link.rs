@@ -7,6 +7,7 @@
 //! | `/dev/ttyACM0`, `serial:/dev/ttyGS0@921600` | serial port (default 921 600 baud) |
 //! | `file:capture.bin`, `capture.bin` (an existing regular file) | a captured byte stream, read-only |
 //! | `-` | standard input, read-only |
+//! | `tcp:HOST:PORT` | a running bridge's re-served stream of one skin, read-only |
 
 use std::fmt;
 use std::io::{self, Read, Write};
@@ -61,6 +62,17 @@ impl Link {
                 Ok(Link::read_only(name, file))
             }
             LinkSpec::Stdio => Ok(Link::read_only(name, io::stdin())),
+            LinkSpec::Tcp(addr) => {
+                let open_error = |cause: io::Error| HostError::Open {
+                    link: name.clone(),
+                    cause,
+                };
+                let stream = std::net::TcpStream::connect(addr).map_err(open_error)?;
+                stream
+                    .set_read_timeout(Some(READ_POLL))
+                    .map_err(open_error)?;
+                Ok(Link::read_only(name, stream))
+            }
         }
     }
 

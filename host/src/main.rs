@@ -6,7 +6,7 @@ use std::time::Duration;
 
 use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
-use vistaf_host::bridge::{mcap::McapSink, Bridge, Stamps};
+use vistaf_host::bridge::{mcap::McapSink, serve::Serve, Bridge, Stamps};
 use vistaf_host::client::{describe, Client, Next, DEFAULT_TIMEOUT};
 use vistaf_host::link::{Link, LinkSpec};
 use vistaf_host::monitor::Monitor;
@@ -55,12 +55,20 @@ enum Cmd {
         /// Links to bridge.
         #[arg(required = true)]
         ports: Vec<String>,
+        /// Publish on ROS 2 (DDS): WrenchStamped, PointStamped, Temperature, Image,
+        /// DiagnosticArray per skin (needs a build with the `ros2` feature).
+        #[arg(long)]
+        ros2: bool,
         /// Write an MCAP recording (ROS 2 messages in CDR, plus each summary as JSON).
         #[arg(long)]
         mcap: Option<PathBuf>,
         /// Write every message as JSON lines to this file, or - for standard output.
         #[arg(long)]
         jsonl: Option<PathBuf>,
+        /// Serve each skin's stream again on TCP (skin i on PORT+i; port 0: any free
+        /// port, printed), for `vistaf-host monitor tcp:HOST:PORT` to attach to.
+        #[arg(long)]
+        serve: Option<String>,
         /// The frame of every skin's messages (default vistaf_<serial>).
         #[arg(long)]
         frame_id: Option<String>,
@@ -184,15 +192,23 @@ fn run(cli: Cli) -> Result<()> {
         }
         Cmd::Bridge {
             ports,
+            ros2,
             mcap,
             jsonl,
+            serve,
             frame_id,
             maps,
             maps_hz,
             run,
         } => {
             let maps = (maps, Duration::from_secs_f64(1.0 / maps_hz));
-            bridge(&ports, &run, mcap.as_deref(), jsonl.as_deref(), frame_id, maps)
+            let sinks = Outputs {
+                ros2,
+                mcap: mcap.as_deref(),
+                jsonl: jsonl.as_deref(),
+                serve: serve.as_deref(),
+            };
+            bridge(&ports, &run, &sinks, frame_id, maps)
         }
         Cmd::Decode { file, json: _ } => decode(&file),
         Cmd::Info { port, timeout_ms } => {
@@ -337,17 +353,37 @@ fn limits(run: &RunArgs) -> Limits {
     }
 }
 
+/// Where `bridge` publishes.
+struct Outputs<'a> {
+    ros2: bool,
+    mcap: Option<&'a std::path::Path>,
+    jsonl: Option<&'a std::path::Path>,
+    serve: Option<&'a str>,
+}
+
+#[cfg(feature = "ros2")]
+fn ros2_sink() -> Result<Box<dyn vistaf_host::bridge::Sink>> {
+    Ok(Box::new(vistaf_host::bridge::dds::DdsSink::new()?))
+}
+
+#[cfg(not(feature = "ros2"))]
+fn ros2_sink() -> Result<Box<dyn vistaf_host::bridge::Sink>> {
+    bail!(
+        "this vistaf-host was built without ROS 2; build it with \
+         `cargo build --release -p vistaf-host --features ros2`"
+    )
+}
+
 /// `bridge`: every skin to every consumer, until the limits or the end of every link.
 fn bridge(
     ports: &[String],
     run: &RunArgs,
-    mcap: Option<&std::path::Path>,
-    jsonl: Option<&std::path::Path>,
+    out: &Outputs<'_>,
     frame_id: Option<String>,
     (maps, maps_every): (Vec<MapKind>, Duration),
 ) -> Result<()> {
-    if mcap.is_none() && jsonl.is_none() {
-        bail!("nothing to bridge to: give --mcap FILE and/or --jsonl FILE|-");
+    if !out.ros2 && out.mcap.is_none() && out.jsonl.is_none() && out.serve.is_none() {
+        bail!("nothing to bridge to: give --ros2, --mcap FILE, --jsonl FILE|- and/or --serve ADDR");
     }
     let replay = ports
         .iter()
@@ -361,11 +397,23 @@ fn bridge(
     }
     let stamps = if replay { Stamps::Device } else { Stamps::Host };
     let mut b = Bridge::new(links.len(), stamps, frame_id);
-    if let Some(path) = mcap {
+    if out.ros2 {
+        b = b.sink(ros2_sink()?);
+    }
+    if let Some(path) = out.mcap {
         b = b.sink(Box::new(McapSink::create(path)?));
     }
-    if let Some(path) = jsonl {
+    if let Some(path) = out.jsonl {
         b = b.jsonl(Recorder::create(path)?);
+    }
+    if let Some(addr) = out.serve {
+        let serve = Serve::bind(addr, links.len())?;
+        for (i, (c, _)) in links.iter().enumerate() {
+            if let Some(at) = serve.local_addr(i) {
+                eprintln!("{}: served on tcp:{at}", c.name());
+            }
+        }
+        b = b.serve(serve);
     }
     let outcome = vistaf_host::stream::stream_with(links, &limits(run), &mut b);
     let finished = b.finish();

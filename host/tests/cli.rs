@@ -127,20 +127,12 @@ fn record_from_a_capture_writes_every_summary() {
     let cap = temp("rec.bin");
     std::fs::write(&cap, &s.bytes).unwrap();
     let csv = temp("rec.csv");
-    let out = bin()
-        .args([
-            "record",
-            &format!("file:{}", cap.display()),
-            "--out",
-            csv.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    common::host_ok(&[
+        "record",
+        &format!("file:{}", cap.display()),
+        "--out",
+        csv.to_str().unwrap(),
+    ]);
     let text = std::fs::read_to_string(&csv).unwrap();
     let seqs: Vec<u32> = text
         .lines()

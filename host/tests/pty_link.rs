@@ -103,3 +103,57 @@ fn a_silent_port_times_out_with_a_clear_error() {
         "{err}"
     );
 }
+
+/// A monitor attaches to a running bridge: the bridge holds the skin's port and serves
+/// its stream on TCP; `record tcp:…` reads the same summaries, the skin's Hello first.
+#[test]
+fn a_reader_attaches_to_a_running_bridge() {
+    use std::io::{BufRead, BufReader};
+    use std::process::{Command, Stdio};
+
+    let (mut master, slave) = TTYPort::pair().unwrap();
+    let path = slave.name().unwrap();
+    let mut bridge = Command::new(env!("CARGO_BIN_EXE_vistaf-host"))
+        .args(["bridge", &format!("serial:{path}"), "--no-handshake"])
+        .args(["--serve", "127.0.0.1:0", "--duration-s", "20"])
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut err = BufReader::new(bridge.stderr.take().unwrap()).lines();
+    let served = err
+        .by_ref()
+        .map_while(Result::ok)
+        .find_map(|l| l.split("served on ").nth(1).map(str::to_string))
+        .expect("the bridge says where it serves");
+    // The skin: its Hello, then a summary every 20 ms until the reader has enough.
+    let device = std::thread::spawn(move || {
+        master
+            .write_all(&common::frame(&common::hello("VSK-ATTACH", 3)))
+            .unwrap();
+        for seq in 0..400 {
+            let frame = common::frame(&DeviceMsg::Summary(common::summary(seq)));
+            if master.write_all(&frame).is_err() {
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    });
+    let stdout = common::host_ok(&["record", &served, "--out", "-", "--frames", "30"]);
+    let lines: Vec<serde_json::Value> = stdout
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines[0]["type"], "hello");
+    assert_eq!(lines[0]["body"]["serial"], "VSK-ATTACH");
+    let seqs: Vec<u64> = lines
+        .iter()
+        .filter(|l| l["type"] == "summary")
+        .map(|l| l["seq"].as_u64().unwrap())
+        .collect();
+    assert_eq!(seqs.len(), 30);
+    assert!(seqs.windows(2).all(|w| w[1] == w[0] + 1), "{seqs:?}");
+    let _ = bridge.kill();
+    let _ = bridge.wait();
+    drop(slave);
+    device.join().unwrap();
+}

@@ -200,16 +200,14 @@ fn the_bridge_s_mcap_decodes_with_the_official_readers_to_what_the_device_sent()
     let capture = temp("bridge.bin");
     std::fs::write(&capture, &bytes).unwrap();
     let mcap = temp("bridge.mcap");
-    let out = Command::new(env!("CARGO_BIN_EXE_vistaf-host"))
-        .args(["bridge", &format!("file:{}", capture.display())])
-        .args(["--mcap", mcap.to_str().unwrap(), "--frame-id", "palm"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    common::host_ok(&[
+        "bridge",
+        &format!("file:{}", capture.display()),
+        "--mcap",
+        mcap.to_str().unwrap(),
+        "--frame-id",
+        "palm",
+    ]);
 
     let script = workspace().join("tests/interop/mcap_dump.py");
     let msgs = json_lines(&python, &[script.to_str().unwrap(), mcap.to_str().unwrap()]);

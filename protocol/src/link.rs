@@ -6,6 +6,7 @@
 //! | `/dev/ttyACM0`, `serial:/dev/ttyGS0@921600` | serial port (default [`DEFAULT_BAUD`]) | serial port |
 //! | `file:capture.bin`, or a path to an existing regular file | frames written to the file | a captured stream, read |
 //! | `-` (the device also takes `stdout`) | frames on standard output | a stream on standard input |
+//! | `tcp:HOST:PORT` | refused (the host's only) | a running bridge's re-served stream (`bridge --serve`) |
 //!
 //! Parsing checks the form only (and whether a bare path is an existing regular file);
 //! opening is each side's business.
@@ -31,6 +32,8 @@ pub enum LinkSpec {
     File(PathBuf),
     /// Standard input (host) or standard output (device).
     Stdio,
+    /// A TCP address, `HOST:PORT`: a running bridge serving a skin's stream (host only).
+    Tcp(String),
 }
 
 /// Why a link spec was refused.
@@ -46,7 +49,7 @@ impl fmt::Display for LinkSpecError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "bad link '{}': {} (expected /dev/ttyX, serial:PATH[@BAUD], file:PATH or -)",
+            "bad link '{}': {} (expected /dev/ttyX, serial:PATH[@BAUD], file:PATH, tcp:HOST:PORT or -)",
             self.spec, self.why
         )
     }
@@ -60,6 +63,7 @@ impl fmt::Display for LinkSpec {
             LinkSpec::Serial { path, baud } => write!(f, "serial:{path}@{baud}"),
             LinkSpec::File(p) => write!(f, "file:{}", p.display()),
             LinkSpec::Stdio => f.write_str("-"),
+            LinkSpec::Tcp(addr) => write!(f, "tcp:{addr}"),
         }
     }
 }
@@ -80,6 +84,13 @@ impl core::str::FromStr for LinkSpec {
                 return Err(bad("missing file path after 'file:'"));
             }
             return Ok(LinkSpec::File(PathBuf::from(path)));
+        }
+        if let Some(addr) = s.strip_prefix("tcp:") {
+            let port = addr.rsplit_once(':').map(|(h, p)| (h, p.parse::<u16>()));
+            return match port {
+                Some((host, Ok(_))) if !host.is_empty() => Ok(LinkSpec::Tcp(addr.to_string())),
+                _ => Err(bad("expected tcp:HOST:PORT with a port from 0 to 65535")),
+            };
         }
         let serial = s.strip_prefix("serial:");
         let body = serial.unwrap_or(s);
@@ -144,7 +155,16 @@ mod tests {
             manifest.parse::<LinkSpec>().unwrap(),
             LinkSpec::File(PathBuf::from(manifest))
         );
-        for s in ["-", "serial:/dev/ttyGS0@115200", "file:cap.bin"] {
+        assert_eq!(
+            "tcp:127.0.0.1:7000".parse::<LinkSpec>().unwrap(),
+            LinkSpec::Tcp("127.0.0.1:7000".into())
+        );
+        for s in [
+            "-",
+            "serial:/dev/ttyGS0@115200",
+            "file:cap.bin",
+            "tcp:[::1]:7000",
+        ] {
             let spec: LinkSpec = s.parse().unwrap();
             assert_eq!(spec.to_string().parse::<LinkSpec>().unwrap(), spec, "{s}");
         }
@@ -159,6 +179,9 @@ mod tests {
             ("serial:@9600", "empty port"),
             ("file:", "missing file path"),
             ("serial:", "empty"),
+            ("tcp:localhost", "tcp:HOST:PORT"),
+            ("tcp::7000", "tcp:HOST:PORT"),
+            ("tcp:localhost:99999", "tcp:HOST:PORT"),
             ("", "empty"),
         ] {
             let err = spec.parse::<LinkSpec>().unwrap_err().to_string();

@@ -74,6 +74,10 @@ pub fn open_link(spec: &LinkSpec) -> Result<LinkEnds> {
                 .with_context(|| format!("link file {}", path.display()))?;
             Ok((Box::new(f), None))
         }
+        LinkSpec::Tcp(addr) => bail!(
+            "tcp:{addr}: a TCP link is the host's (a bridge's --serve); the skin speaks on a \
+             serial port, a file or stdout"
+        ),
         LinkSpec::Serial { path, baud } => {
             let port = serialport::new(path, *baud)
                 .timeout(std::time::Duration::from_millis(100))

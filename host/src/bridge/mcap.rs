@@ -163,7 +163,7 @@ impl Sink for McapSink {
             (msg.type_name, "ros2msg", &msg.definition),
             "cdr",
         )?;
-        self.write(channel, msg.stamp_ns, &msg.cdr)
+        self.write(channel, msg.stamp_ns, &msg.cdr())
     }
 
     fn summary_json(

@@ -1,6 +1,7 @@
 //! `vistaf-host bridge`: one reader of every skin, each message fanned out to every
-//! consumer at once (an MCAP file, JSON lines, a ROS 2 publisher), so one program owns the
-//! ports and the others read what it publishes.
+//! consumer at once (a ROS 2 publisher, an MCAP file, JSON lines, the stream served again
+//! on TCP for monitors), so one program owns the ports and the others read what it
+//! publishes.
 //!
 //! Every summary is stamped with its capture time on the host's clock when the skin's clock
 //! has been read ([`crate::clock`]); before the first exchange, with its receive time less
@@ -8,7 +9,10 @@
 //! map onto: its messages keep the device's clock (s since the device's epoch), so a
 //! recording converted from a capture plots on the time line it was captured on.
 
+#[cfg(feature = "ros2")]
+pub mod dds;
 pub mod mcap;
+pub mod serve;
 
 use serde_json::Value;
 use vistaf_protocol::DeviceMsg;
@@ -19,6 +23,7 @@ use crate::multi::DeviceStats;
 use crate::record::{message_json, unix_s, Recorder};
 use crate::ros2::{HostCounts, Outgoing, SkinTopics};
 use crate::stream::{name_of, Consumer};
+use serve::Serve;
 
 /// A consumer of what the bridge publishes.
 pub trait Sink {
@@ -60,6 +65,7 @@ pub struct Bridge {
     stamps: Stamps,
     sinks: Vec<Box<dyn Sink>>,
     jsonl: Option<Recorder>,
+    serve: Option<Serve>,
     published: u64,
 }
 
@@ -82,6 +88,7 @@ impl Bridge {
             stamps,
             sinks: Vec::new(),
             jsonl: None,
+            serve: None,
             published: 0,
         }
     }
@@ -95,6 +102,12 @@ impl Bridge {
     /// Also writes every message as a JSON line.
     pub fn jsonl(mut self, rec: Recorder) -> Bridge {
         self.jsonl = Some(rec);
+        self
+    }
+
+    /// Also serves each skin's stream again on TCP, for monitors to attach to.
+    pub fn serve(mut self, serve: Serve) -> Bridge {
+        self.serve = Some(serve);
         self
     }
 
@@ -153,6 +166,9 @@ impl Consumer for Bridge {
         let link = name_of(stats, device);
         if let Some(rec) = self.jsonl.as_mut() {
             rec.record(link, received)?;
+        }
+        if let Some(serve) = self.serve.as_mut() {
+            serve.send(device, &received.msg);
         }
         let stamp = self.stamp_of(received);
         let frame_id = self.frame_id.clone();
@@ -216,5 +232,11 @@ impl Consumer for Bridge {
             _ => Vec::new(),
         };
         self.publish(&out)
+    }
+
+    fn tick(&mut self, _stats: &[DeviceStats]) {
+        if let Some(serve) = self.serve.as_mut() {
+            serve.accept();
+        }
     }
 }

@@ -16,7 +16,6 @@
 //! (right), y down its columns, z away from the camera, out of the palm. A press pushes the
 //! skin towards the camera, so the force on the skin is along −z.
 
-pub mod cdr;
 pub mod msgs;
 
 use vistaf_protocol::msg::MAP_NO_DATA;
@@ -27,7 +26,34 @@ use msgs::{
     Temperature, WrenchStamped,
 };
 
-/// A message ready to go out: topic, type, CDR bytes and time.
+/// Any of the message types a skin publishes; serializes as the message itself.
+#[derive(Debug, Clone, PartialEq)]
+pub enum AnyMsg {
+    /// A force.
+    Wrench(WrenchStamped),
+    /// A contact centre.
+    Point(PointStamped),
+    /// A temperature.
+    Temperature(Temperature),
+    /// A map.
+    Image(ImageF32),
+    /// Health.
+    Diagnostics(DiagnosticArray),
+}
+
+impl serde::Serialize for AnyMsg {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            AnyMsg::Wrench(m) => m.serialize(s),
+            AnyMsg::Point(m) => m.serialize(s),
+            AnyMsg::Temperature(m) => m.serialize(s),
+            AnyMsg::Image(m) => m.serialize(s),
+            AnyMsg::Diagnostics(m) => m.serialize(s),
+        }
+    }
+}
+
+/// A message ready to go out: topic, type, the message and its time.
 #[derive(Debug, Clone)]
 pub struct Outgoing {
     /// Topic name, ROS style (`/vistaf/<serial>/wrench`).
@@ -36,24 +62,42 @@ pub struct Outgoing {
     pub type_name: &'static str,
     /// The type's definition (`ros2msg`).
     pub definition: fn() -> String,
-    /// The message, CDR.
-    pub cdr: Vec<u8>,
+    /// The message.
+    pub msg: AnyMsg,
     /// The header's stamp, ns since the Unix epoch (or on the device's clock for a replay
     /// without a clock map).
     pub stamp_ns: i64,
 }
 
 impl Outgoing {
-    fn of<M: RosMessage>(topic: String, stamp_ns: i64, m: &M) -> Outgoing {
+    fn of<M: RosMessage + Into<AnyMsg>>(topic: String, stamp_ns: i64, m: M) -> Outgoing {
         Outgoing {
             topic,
             type_name: M::NAME,
             definition: M::definition,
-            cdr: m.encode(),
+            msg: m.into(),
             stamp_ns,
         }
     }
+
+    /// The message in CDR with its encapsulation header, as MCAP stores it.
+    pub fn cdr(&self) -> Vec<u8> {
+        msgs::cdr(&self.msg)
+    }
 }
+
+macro_rules! any_msg_from {
+    ($($t:ident => $v:ident),*) => {
+        $(impl From<$t> for AnyMsg {
+            fn from(m: $t) -> AnyMsg {
+                AnyMsg::$v(m)
+            }
+        })*
+    };
+}
+
+any_msg_from!(WrenchStamped => Wrench, PointStamped => Point, Temperature => Temperature,
+    ImageF32 => Image, DiagnosticArray => Diagnostics);
 
 /// A name made fit for a ROS topic token: letters, digits and `_`, not starting with a
 /// digit.
@@ -107,7 +151,7 @@ impl SkinTopics {
         let mut out = vec![Outgoing::of(
             self.topic("wrench"),
             stamp_ns,
-            &WrenchStamped {
+            WrenchStamped {
                 header: self.header(stamp_ns),
                 force_n: [0.0, 0.0, -f64::from(si.force_n)],
                 torque_nm: [0.0; 3],
@@ -117,7 +161,7 @@ impl SkinTopics {
             out.push(Outgoing::of(
                 self.topic("contact"),
                 stamp_ns,
-                &PointStamped {
+                PointStamped {
                     header: self.header(stamp_ns),
                     point_m: [f64::from(x) * 1e-3, f64::from(y) * 1e-3, 0.0],
                 },
@@ -127,7 +171,7 @@ impl SkinTopics {
             Outgoing::of(
                 self.topic(leaf),
                 stamp_ns,
-                &Temperature {
+                Temperature {
                     header: self.header(stamp_ns),
                     temperature_c: f64::from(c),
                     variance_c2: 0.0,
@@ -168,7 +212,7 @@ impl SkinTopics {
         Some(Outgoing::of(
             self.topic(leaf),
             stamp_ns,
-            &ImageF32 {
+            ImageF32 {
                 header: self.header(stamp_ns),
                 width: u32::from(m.width),
                 height: u32::from(m.height),
@@ -208,7 +252,7 @@ impl SkinTopics {
         Outgoing::of(
             "/diagnostics".to_string(),
             stamp_ns,
-            &DiagnosticArray {
+            DiagnosticArray {
                 header: self.header(stamp_ns),
                 status: vec![DiagnosticStatus {
                     level,

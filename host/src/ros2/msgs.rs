@@ -1,8 +1,16 @@
 //! The standard ROS 2 message types a skin publishes, each with its `.msg` definition (as
-//! MCAP's `ros2msg` schema encoding and ROS 2 bags carry it) and its CDR encoding, so a
-//! stock ROS 2 node or Foxglove reads them without a package of ours.
+//! MCAP's `ros2msg` schema encoding and ROS 2 bags carry it) and its serde form, whose CDR
+//! (by `cdr-encoding`, the serializer RustDDS uses) is the message's bytes in an MCAP file
+//! and on DDS alike, so a stock ROS 2 node or Foxglove reads them without a package of ours.
+//!
+//! The serde forms follow the `.msg` fields in order: CDR has no field names, only the
+//! order and the types (a fixed array is its elements, a sequence or string has a length).
 
-use super::cdr::CdrWriter;
+use byteorder::LittleEndian;
+use serde::ser::{Serialize, Serializer};
+
+/// The CDR encapsulation header: plain CDR, little-endian.
+const CDR_LE: [u8; 4] = [0x00, 0x01, 0x00, 0x00];
 
 const SEPARATOR: &str =
     "================================================================================\n";
@@ -21,14 +29,27 @@ float64 y\n\
 float64 z\n";
 
 /// A ROS 2 message type: its full name, its definition with its dependencies, its bytes.
-pub trait RosMessage {
+pub trait RosMessage: Serialize + Sized {
     /// The type's name, `package/msg/Type`.
     const NAME: &'static str;
     /// The definition: the type's own fields, then each type it uses after a separator
     /// line and `MSG: package/Type`.
     fn definition() -> String;
-    /// The message in CDR.
-    fn encode(&self) -> Vec<u8>;
+    /// The message in CDR, with its encapsulation header (as MCAP and ROS 2 bags store it).
+    fn encode(&self) -> Vec<u8> {
+        cdr(self)
+    }
+}
+
+/// `value` in little-endian CDR after the encapsulation header. The message types here have
+/// no map or other form CDR cannot carry, so serializing cannot fail; were it to, the
+/// message is the header alone, which no reader takes for data.
+pub fn cdr<T: Serialize>(value: &T) -> Vec<u8> {
+    let mut out = CDR_LE.to_vec();
+    if let Ok(body) = cdr_encoding::to_vec::<_, LittleEndian>(value) {
+        out.extend(body);
+    }
+    out
 }
 
 fn definition(own: &str, deps: &[&str]) -> String {
@@ -49,10 +70,9 @@ pub struct Header {
     pub frame_id: String,
 }
 
-impl Header {
-    fn write(&self, w: &mut CdrWriter) {
-        let (sec, nanosec) = split_ns(self.stamp_ns);
-        w.i32(sec).u32(nanosec).string(&self.frame_id);
+impl Serialize for Header {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        (split_ns(self.stamp_ns), &self.frame_id).serialize(s)
     }
 }
 
@@ -90,15 +110,6 @@ impl RosMessage for WrenchStamped {
             ],
         )
     }
-
-    fn encode(&self) -> Vec<u8> {
-        let mut w = CdrWriter::new();
-        self.header.write(&mut w);
-        for v in self.force_n.iter().chain(&self.torque_nm) {
-            w.f64(*v);
-        }
-        w.finish()
-    }
 }
 
 /// `geometry_msgs/PointStamped`: a point, m, in the header's frame.
@@ -123,15 +134,6 @@ impl RosMessage for PointStamped {
             ],
         )
     }
-
-    fn encode(&self) -> Vec<u8> {
-        let mut w = CdrWriter::new();
-        self.header.write(&mut w);
-        for v in self.point_m {
-            w.f64(v);
-        }
-        w.finish()
-    }
 }
 
 /// `sensor_msgs/Temperature`: °C, with its variance (0: unknown).
@@ -153,13 +155,6 @@ impl RosMessage for Temperature {
             "std_msgs/Header header\nfloat64 temperature\nfloat64 variance\n",
             &[HEADER_DEF, TIME_DEF],
         )
-    }
-
-    fn encode(&self) -> Vec<u8> {
-        let mut w = CdrWriter::new();
-        self.header.write(&mut w);
-        w.f64(self.temperature_c).f64(self.variance_c2);
-        w.finish()
     }
 }
 
@@ -186,19 +181,6 @@ impl RosMessage for ImageF32 {
              uint8 is_bigendian\nuint32 step\nuint8[] data\n",
             &[HEADER_DEF, TIME_DEF],
         )
-    }
-
-    fn encode(&self) -> Vec<u8> {
-        let mut w = CdrWriter::new();
-        self.header.write(&mut w);
-        let data: Vec<u8> = self.pixels.iter().flat_map(|v| v.to_le_bytes()).collect();
-        w.u32(self.height)
-            .u32(self.width)
-            .string("32FC1")
-            .u8(0)
-            .u32(self.width.saturating_mul(4))
-            .bytes(&data);
-        w.finish()
     }
 }
 
@@ -255,22 +237,61 @@ impl RosMessage for DiagnosticArray {
             ],
         )
     }
+}
 
-    fn encode(&self) -> Vec<u8> {
-        let mut w = CdrWriter::new();
-        self.header.write(&mut w);
-        w.len(self.status.len());
-        for s in &self.status {
-            w.u8(s.level as u8)
-                .string(&s.name)
-                .string(&s.message)
-                .string(&s.hardware_id)
-                .len(s.values.len());
-            for (k, v) in &s.values {
-                w.string(k).string(v);
-            }
-        }
-        w.finish()
+impl Serialize for WrenchStamped {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        (&self.header, self.force_n, self.torque_nm).serialize(s)
+    }
+}
+
+impl Serialize for PointStamped {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        (&self.header, self.point_m).serialize(s)
+    }
+}
+
+impl Serialize for Temperature {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        (&self.header, self.temperature_c, self.variance_c2).serialize(s)
+    }
+}
+
+impl Serialize for ImageF32 {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let data: Vec<u8> = self.pixels.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let step = self.width.saturating_mul(4);
+        let is_bigendian = 0u8;
+        (
+            &self.header,
+            self.height,
+            self.width,
+            "32FC1",
+            is_bigendian,
+            step,
+            data,
+        )
+            .serialize(s)
+    }
+}
+
+impl Serialize for DiagnosticStatus {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let level = self.level as u8;
+        (
+            level,
+            &self.name,
+            &self.message,
+            &self.hardware_id,
+            &self.values,
+        )
+            .serialize(s)
+    }
+}
+
+impl Serialize for DiagnosticArray {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        (&self.header, &self.status).serialize(s)
     }
 }
 

@@ -100,3 +100,18 @@ pub fn hello(serial: &str, calibration_id: u32) -> DeviceMsg {
         calibration_id,
     })
 }
+
+/// Runs `vistaf-host` with `args`; its standard output, after checking it succeeded (its
+/// standard error is the failure's message).
+pub fn host_ok(args: &[&str]) -> String {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_vistaf-host"))
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "vistaf-host {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
