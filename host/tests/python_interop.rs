@@ -52,9 +52,10 @@ fn hello() -> DeviceMsg {
     common::hello("VSK-0042", 0xb545_9c92)
 }
 
-fn status() -> DeviceMsg {
+/// The device's status report `i`, one per second of uptime.
+fn status(i: u64) -> DeviceMsg {
     DeviceMsg::Status(Status {
-        uptime_ms: 5_000,
+        uptime_ms: 5_000 + 1_000 * i,
         state: RunState::Streaming,
         max_rate_hz: 0,
         frames_captured: 150,
@@ -134,7 +135,7 @@ fn the_python_reader_decodes_what_the_rust_decoder_does() {
     let mut bytes = common::frame(&hello());
     bytes.extend(&golden);
     bytes.extend(&noisy.bytes);
-    bytes.extend(common::frame(&status()));
+    bytes.extend(common::frame(&status(0)));
     let path = temp("python-reader.bin");
     std::fs::write(&path, &bytes).unwrap();
 
@@ -188,7 +189,7 @@ fn the_bridge_s_mcap_decodes_with_the_official_readers_to_what_the_device_sent()
     let mut bytes = common::frame(&hello());
     for (i, s) in summaries.iter().enumerate() {
         if i % 30 == 0 {
-            bytes.extend(common::frame(&status()));
+            bytes.extend(common::frame(&status(i as u64 / 30)));
         }
         bytes.extend(common::frame(&DeviceMsg::Summary(*s)));
         if i == 10 {
@@ -308,4 +309,11 @@ fn the_bridge_s_mcap_decodes_with_the_official_readers_to_what_the_device_sent()
     let value = |k: &str| values.iter().find(|v| v["key"] == k).unwrap()["value"].clone();
     assert_eq!(value("calibration_id"), "b5459c92");
     assert_eq!(value("frames_dropped"), "1");
+    // 30 summaries between reports a second apart.
+    let later = diag[1]["body"]["status"][0]["values"].as_array().unwrap();
+    let rate = later
+        .iter()
+        .find(|v| v["key"] == "summary_rate_hz")
+        .unwrap();
+    assert_eq!(rate["value"], "30.0");
 }

@@ -55,6 +55,8 @@ struct Skin {
     counts: HostCounts,
     last_stamp_ns: Option<i64>,
     last_seq: Option<u32>,
+    /// Summaries since the last `Status`, and that status's uptime, ms.
+    since_status: (u64, Option<u64>),
 }
 
 /// The bridge's consumer: names each skin by the serial of its `Hello` (by its link until
@@ -193,6 +195,7 @@ impl Consumer for Bridge {
                 let stamp = stamp.unwrap_or_default();
                 skin.last_stamp_ns = Some(stamp);
                 skin.last_seq = Some(s.seq);
+                skin.since_status.0 += 1;
                 skin.counts.last_flags = s
                     .flags
                     .iter()
@@ -223,6 +226,14 @@ impl Consumer for Bridge {
                 Vec::new()
             }
             DeviceMsg::Status(st) => {
+                // The rate on the device's clock: the summaries between two reports.
+                let (n, last_ms) =
+                    std::mem::replace(&mut skin.since_status, (0, Some(st.uptime_ms)));
+                if let Some(dt_ms) = last_ms.and_then(|t| st.uptime_ms.checked_sub(t)) {
+                    if dt_ms > 0 {
+                        skin.counts.summary_rate_hz = n as f64 * 1e3 / dt_ms as f64;
+                    }
+                }
                 // A replay's status goes on the time line of the summaries around it.
                 let at = stamp
                     .or(skin.last_stamp_ns)

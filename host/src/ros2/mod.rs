@@ -245,6 +245,7 @@ impl SkinTopics {
             v("frames_processed", st.frames_processed.to_string()),
             v("frames_dropped", st.frames_dropped.to_string()),
             v("bad_frames", st.bad_frames.to_string()),
+            v("summary_rate_hz", format!("{:.1}", host.summary_rate_hz)),
             v("summaries_missing", host.summaries_missing.to_string()),
             v("link_frames_dropped", host.link_frames_dropped.to_string()),
             v("clock_uncertainty_ms", host.clock_uncertainty_ms.clone()),
@@ -267,12 +268,14 @@ impl SkinTopics {
 }
 
 /// What the host knows of a skin beside its `Status`, for `/diagnostics`.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct HostCounts {
     /// The latest summary's flags, `|`-separated.
     pub last_flags: String,
     /// The loaded calibration's id.
     pub calibration_id: u32,
+    /// Summaries received per second since the previous `Status`.
+    pub summary_rate_hz: f64,
     /// Summaries lost on the link (sequence gaps).
     pub summaries_missing: u64,
     /// Frames the host's decoder dropped.
