@@ -181,3 +181,35 @@ fn calibrate_fits_a_labelled_set_and_the_result_analyzes() {
     ok(&out);
     std::fs::remove_file(cal).unwrap();
 }
+
+/// `analyze … | head -1`: the reader hangs up after one line; the analysis goes on and its
+/// summary is written.
+#[test]
+fn analyze_whose_reader_hangs_up_still_writes_its_summary() {
+    use std::io::{BufRead, BufReader};
+    let out_dir = tmp("hangup");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_vistaf-skin"))
+        .args([
+            "analyze",
+            "--set",
+            &fixture("press-sphere"),
+            "--force-calibration",
+        ])
+        .args(["--out", out_dir.to_str().unwrap()])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let first = BufReader::new(child.stdout.take().unwrap())
+        .lines()
+        .next()
+        .unwrap()
+        .unwrap();
+    assert!(first.starts_with('{'), "{first}");
+    let out = child.wait_with_output().unwrap();
+    ok(&out);
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out_dir.join("summary.json")).unwrap())
+            .unwrap();
+    assert_eq!(summary["frames"].as_array().unwrap().len(), 4);
+}

@@ -99,8 +99,7 @@ pub fn run(a: &Args) -> Result<()> {
     };
     let analyzer = Analyzer::new(&reference, calib, a.pipe.pipeline, opts)
         .context("preparing the reference")?;
-    let stdout = std::io::stdout();
-    let mut out = stdout.lock();
+    let mut out = Lines::new(std::io::stdout().lock());
     let mut results = Vec::new();
     for (name, path) in &frames {
         let img = load_png_rgb(path)?;
@@ -110,13 +109,38 @@ pub fn run(a: &Args) -> Result<()> {
             .with_context(|| format!("{}", path.display()))?;
         let latency = t.elapsed().as_micros();
         let j = result_json(name, &d, latency);
-        writeln!(out, "{j}").context("writing stdout")?;
+        out.line(&j)?;
         results.push((name.clone(), d, j));
     }
     if let Some(dir) = &a.out {
         write_outputs(dir, &analyzer, &results)?;
     }
     Ok(())
+}
+
+/// JSON lines on standard output, for as long as someone reads them: a reader that hangs
+/// up (`| head -2`) ends the printing, not the analysis, and `--out` is still written.
+struct Lines<W: Write> {
+    out: Option<W>,
+}
+
+impl<W: Write> Lines<W> {
+    fn new(out: W) -> Lines<W> {
+        Lines { out: Some(out) }
+    }
+
+    fn line(&mut self, j: &serde_json::Value) -> Result<()> {
+        let Some(out) = self.out.as_mut() else {
+            return Ok(());
+        };
+        match writeln!(out, "{j}") {
+            Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {
+                self.out = None;
+                Ok(())
+            }
+            other => other.context("writing stdout"),
+        }
+    }
 }
 
 fn write_outputs(

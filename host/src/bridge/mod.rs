@@ -167,7 +167,16 @@ impl Consumer for Bridge {
     ) -> Result<(), HostError> {
         let link = name_of(stats, device);
         if let Some(rec) = self.jsonl.as_mut() {
-            rec.record(link, received)?;
+            match rec.record(link, received) {
+                // `--jsonl - | head`: the reader left; the other consumers go on.
+                Err(HostError::Record { cause, .. })
+                    if cause.kind() == std::io::ErrorKind::BrokenPipe =>
+                {
+                    eprintln!("JSON lines: the reader hung up; bridging on without it");
+                    self.jsonl = None;
+                }
+                other => other?,
+            }
         }
         if let Some(serve) = self.serve.as_mut() {
             serve.send(device, &received.msg);
