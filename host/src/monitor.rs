@@ -1,5 +1,7 @@
-//! The live readout of `vistaf-host monitor`: one line per skin, redrawn in place on a
-//! terminal, appended otherwise.
+//! The live readout of `vistaf-host monitor`: one line per skin, named by its serial,
+//! flags first, cut to the terminal's width (what matters most comes first, so an 80-column
+//! terminal shows flags, force, depth and temperatures), redrawn in place on a terminal,
+//! appended otherwise.
 
 use std::io::{IsTerminal, Write};
 use std::time::{Duration, Instant};
@@ -16,6 +18,7 @@ pub const SILENT_AFTER: Duration = Duration::from_secs(2);
 #[derive(Debug)]
 pub struct Monitor {
     last: Vec<Option<Summary>>,
+    names: Vec<Option<String>>,
     heard: Vec<Instant>,
     rate: Vec<(Instant, u64, f64)>,
     drawn: Option<Instant>,
@@ -29,12 +32,20 @@ impl Monitor {
     pub fn new(devices: usize, live: bool) -> Monitor {
         Monitor {
             last: vec![None; devices],
+            names: vec![None; devices],
             heard: vec![Instant::now(); devices],
             rate: vec![(Instant::now(), 0, 0.0); devices],
             drawn: None,
             live,
             tty: std::io::stdout().is_terminal(),
             lines_drawn: 0,
+        }
+    }
+
+    /// Names skin `device` (by the serial of its `Hello`).
+    pub fn name(&mut self, device: usize, serial: &str) {
+        if let Some(n) = self.names.get_mut(device) {
+            *n = Some(serial.to_string());
         }
     }
 
@@ -79,9 +90,29 @@ impl Monitor {
         if self.tty && self.lines_drawn > 0 {
             text.push_str(&format!("\x1b[{}A", self.lines_drawn));
         }
+        let width = self
+            .tty
+            .then(terminal_size::terminal_size)
+            .flatten()
+            .map(|(w, _)| usize::from(w.0));
+        let names: Vec<&str> = stats
+            .iter()
+            .enumerate()
+            .map(|(i, st)| {
+                self.names
+                    .get(i)
+                    .and_then(|n| n.as_deref())
+                    .unwrap_or(&st.name)
+            })
+            .collect();
+        let name_width = names.iter().map(|n| n.chars().count()).max().unwrap_or(0);
         for (i, st) in stats.iter().enumerate() {
-            let body = self.line(i, st, now);
-            text.push_str(&format!("{}: {body}", st.name));
+            let line = fit(
+                &format!("{:<name_width$}", names[i]),
+                &self.parts(i, st, now),
+                width,
+            );
+            text.push_str(&line);
             text.push_str(if self.tty { "\x1b[K\n" } else { "\n" });
         }
         self.lines_drawn = stats.len();
@@ -90,49 +121,61 @@ impl Monitor {
         let _ = out.flush();
     }
 
-    /// Skin `i`'s line after its name: its newest summary, or that it fell silent.
-    fn line(&self, i: usize, st: &DeviceStats, now: Instant) -> String {
-        let hz = self.rate.get(i).map_or(0.0, |r| r.2);
+    /// Skin `i`'s readout, most important first: its state or flags, force, depth,
+    /// temperatures, area, rate, losses.
+    fn parts(&self, i: usize, st: &DeviceStats, now: Instant) -> Vec<String> {
         let silent = self
             .heard
             .get(i)
             .map_or(Duration::ZERO, |t| now.saturating_duration_since(*t));
         if silent >= SILENT_AFTER {
-            return format!("no data for {} s", silent.as_secs());
+            return vec![format!("NO DATA for {} s", silent.as_secs())];
         }
         let Some(s) = self.last.get(i).copied().flatten() else {
-            return "waiting for summaries…".to_string();
+            return vec!["waiting for summaries…".to_string()];
         };
         let si = s.si();
         let flags: Vec<&str> = s.flags.iter().map(|f| f.name()).collect();
-        format!(
-            "#{:<7} F {:7.3} N  d {:6.3} mm  A {:7.2} mm²  T {}{}  \
-             {:5.1} Hz  lost {}  dropped {}  {}",
-            s.seq,
-            si.force_n,
-            si.peak_depth_mm,
-            si.contact_area_mm2,
-            if si.temp_mean_c.is_nan() {
-                "— (not measured)".to_string()
-            } else {
-                format!(
-                    "{:5.2} °C [{:5.2}…{:5.2}]",
-                    si.temp_mean_c, si.temp_min_c, si.temp_max_c
-                )
-            },
-            si.contact_temp_c
-                .map(|t| format!(" contact {t:5.2} °C"))
-                .unwrap_or_default(),
-            hz,
-            st.seq.missing,
-            st.drops.total(),
+        let mut parts = vec![
             if flags.is_empty() {
                 "ok".to_string()
             } else {
                 flags.join(",")
-            }
-        )
+            },
+            format!("F {:6.2} N", si.force_n),
+            format!("d {:5.3} mm", si.peak_depth_mm),
+        ];
+        if !si.temp_mean_c.is_nan() {
+            parts.push(format!("T {:5.2} °C", si.temp_mean_c));
+        }
+        if let Some(t) = si.contact_temp_c {
+            parts.push(format!("contact {t:5.2} °C"));
+        }
+        let hz = self.rate.get(i).map_or(0.0, |r| r.2);
+        parts.push(format!("A {:6.2} mm²", si.contact_area_mm2));
+        parts.push(format!("{hz:4.0} Hz"));
+        parts.push(format!(
+            "lost {} dropped {}",
+            st.seq.missing,
+            st.drops.total()
+        ));
+        parts
     }
+}
+
+/// `name` and as many of `parts` as fit `width` columns (all of them without a width),
+/// two spaces apart.
+fn fit(name: &str, parts: &[String], width: Option<usize>) -> String {
+    let mut line = name.to_string();
+    for p in parts {
+        let len = line.chars().count() + 2 + p.chars().count();
+        if width.is_some_and(|w| len > w) {
+            break;
+        }
+        line.push_str("  ");
+        line.push_str(p);
+    }
+    line
 }
 
 #[cfg(test)]
@@ -146,14 +189,39 @@ mod tests {
         m.heard(0);
         m.summary(0, &Summary::default());
         let t = m.heard[0];
-        assert!(m
-            .line(0, &st, t + Duration::from_millis(500))
-            .starts_with("#0"));
+        assert_eq!(m.parts(0, &st, t + Duration::from_millis(500))[0], "ok");
         assert_eq!(
-            m.line(0, &st, t + Duration::from_secs(3)),
-            "no data for 3 s"
+            m.parts(0, &st, t + Duration::from_secs(3)),
+            ["NO DATA for 3 s"]
         );
         m.heard(0);
-        assert!(m.line(0, &st, Instant::now()).starts_with("#0"));
+        assert_eq!(m.parts(0, &st, Instant::now())[0], "ok");
+    }
+
+    #[test]
+    fn a_line_fits_80_columns_with_flags_and_force_first() {
+        use vistaf_protocol::{Flag, QualityFlags};
+        let mut m = Monitor::new(1, false);
+        m.heard(0);
+        m.summary(
+            0,
+            &Summary {
+                force_mn: 12_345,
+                peak_depth_um: 1_497,
+                temp_mean_centi_c: 2_542,
+                contact_temp_centi_c: Some(4_007),
+                flags: QualityFlags::NONE.with(Flag::PhaseSlope),
+                ..Default::default()
+            },
+        );
+        let parts = m.parts(0, &DeviceStats::default(), Instant::now());
+        let line = fit("VSK-DEMO", &parts, Some(80));
+        assert!(line.chars().count() <= 80, "{line}");
+        assert!(
+            line.starts_with("VSK-DEMO  phase_slope  F  12.35 N  d 1.497 mm  T 25.42 °C"),
+            "{line}"
+        );
+        // Without a terminal, nothing is cut.
+        assert!(fit("VSK-DEMO", &parts, None).ends_with("lost 0 dropped 0"));
     }
 }

@@ -160,6 +160,7 @@ impl Consumer for Readout {
         self.monitor.heard(device);
         match &received.msg {
             DeviceMsg::Summary(s) => self.monitor.summary(device, s),
+            DeviceMsg::Hello(h) => self.monitor.name(device, &h.serial),
             DeviceMsg::Error(e) => eprintln!(
                 "{}: device error {:?}: {}",
                 name_of(stats, device),
