@@ -50,7 +50,7 @@ impl Link {
                     .open_native()
                     .map_err(|e| HostError::Open {
                         link: name.clone(),
-                        cause: e.into(),
+                        cause: with_ports_named(e.into()),
                     })?;
                 Link::from_serial(name, port)
             }
@@ -172,6 +172,45 @@ impl Link {
                 cause: e,
             })
     }
+}
+
+/// This machine's serial ports, one line each: the path, and for a USB port its vendor and
+/// product ids, maker, product and serial (what tells one skin from another).
+pub fn port_list() -> Vec<String> {
+    let Ok(ports) = serialport::available_ports() else {
+        return Vec::new();
+    };
+    ports
+        .into_iter()
+        .map(|p| match p.port_type {
+            serialport::SerialPortType::UsbPort(u) => format!(
+                "{}  USB {:04x}:{:04x} {} {} serial {}",
+                p.port_name,
+                u.vid,
+                u.pid,
+                u.manufacturer.unwrap_or_default(),
+                u.product.unwrap_or_default(),
+                u.serial_number.unwrap_or_else(|| "?".into())
+            ),
+            serialport::SerialPortType::PciPort => format!("{}  PCI", p.port_name),
+            serialport::SerialPortType::BluetoothPort => format!("{}  Bluetooth", p.port_name),
+            serialport::SerialPortType::Unknown => format!("{}  (not USB)", p.port_name),
+        })
+        .collect()
+}
+
+/// A port that is not there: the error names the ports that are.
+fn with_ports_named(e: io::Error) -> io::Error {
+    if e.kind() != io::ErrorKind::NotFound {
+        return e;
+    }
+    let ports = port_list();
+    let here = if ports.is_empty() {
+        "no serial ports on this machine".to_string()
+    } else {
+        format!("serial ports here: {}", ports.join("; "))
+    };
+    io::Error::new(e.kind(), format!("{e} ({here})"))
 }
 
 /// Most bytes [`drain`] throws away: a backlog larger than this is a device streaming

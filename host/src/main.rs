@@ -113,6 +113,47 @@ enum Cmd {
         #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
         rest: Vec<String>,
     },
+    /// Limit the summary rate (0: every frame).
+    Rate {
+        /// Serial link.
+        port: String,
+        /// Summaries per second at most; 0 sends every frame's.
+        hz: u16,
+    },
+    /// Set the LED ring.
+    Led {
+        /// Serial link.
+        port: String,
+        /// Colour, R,G,B (0–255 each).
+        #[arg(long, value_parser = rgb, default_value = "255,255,255")]
+        rgb: vistaf_protocol::Rgb,
+        /// Brightness, 0–255 (the reference build uses 30).
+        #[arg(long, default_value_t = 30)]
+        brightness: u8,
+        /// Which LEDs are lit: bit i lights LED i (the reference build: 0xAAAAAA).
+        #[arg(long, value_parser = hex_mask, default_value = "0xAAAAAA")]
+        mask: u32,
+    },
+    /// Resume streaming summaries.
+    Start {
+        /// Serial link.
+        port: String,
+    },
+    /// Pause streaming summaries (the device keeps processing, so its reference stays fresh).
+    Stop {
+        /// Serial link.
+        port: String,
+    },
+    /// Ask for one map of the next frame and print it as JSON, in mm or °C.
+    Map {
+        /// Serial link.
+        port: String,
+        /// depth or temperature.
+        #[arg(value_parser = map_kind)]
+        kind: MapKind,
+    },
+    /// List the serial ports of this machine (USB vendor, product, serial).
+    ListPorts,
     /// Measure the round-trip time to the device.
     Ping {
         /// Serial link.
@@ -239,6 +280,37 @@ fn run(cli: Cli) -> Result<()> {
         Cmd::Demo { .. } => bail!(
             "the demo is its own program: cargo run --release -p vistaf-demo (or vistaf-demo --help)"
         ),
+        Cmd::Rate { port, hz } => command(&port, "rate set", |c| c.set_rate(hz, DEFAULT_TIMEOUT)),
+        Cmd::Led {
+            port,
+            rgb,
+            brightness,
+            mask,
+        } => command(&port, "LED ring set", |c| {
+            c.set_led(
+                vistaf_protocol::SetLed {
+                    rgb,
+                    brightness,
+                    lit_mask: mask,
+                },
+                DEFAULT_TIMEOUT,
+            )
+        }),
+        Cmd::Start { port } => command(&port, "streaming", |c| c.start(DEFAULT_TIMEOUT)),
+        Cmd::Stop { port } => command(&port, "stopped", |c| c.stop(DEFAULT_TIMEOUT)),
+        Cmd::Map { port, kind } => {
+            let mut c = open_client(&port)?;
+            c.handshake(DEFAULT_TIMEOUT)?;
+            let map = c.request_map(kind, Duration::from_secs(5))?;
+            println!("{}", vistaf_host::record::map_json(&map));
+            Ok(())
+        }
+        Cmd::ListPorts => {
+            for line in vistaf_host::link::port_list() {
+                println!("{line}");
+            }
+            Ok(())
+        }
         Cmd::Ping { port, count } => {
             let mut c = open_client(&port)?;
             for nonce in 0..count {
@@ -252,6 +324,41 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// Greets the skin on `port`, sends it one command, and says `done` when it is acknowledged.
+fn command(
+    port: &str,
+    done: &str,
+    send: impl FnOnce(&mut Client) -> Result<(), HostError>,
+) -> Result<()> {
+    let mut c = open_client(port)?;
+    c.handshake(DEFAULT_TIMEOUT)?;
+    send(&mut c)?;
+    println!("{}: {done}", c.name());
+    Ok(())
+}
+
+/// An `R,G,B` colour for `--rgb`.
+fn rgb(s: &str) -> Result<vistaf_protocol::Rgb, String> {
+    let v: Vec<u8> = s
+        .split(',')
+        .map(|p| p.trim().parse::<u8>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("{s:?}: R,G,B with each 0–255"))?;
+    match v[..] {
+        [r, g, b] => Ok(vistaf_protocol::Rgb { r, g, b }),
+        _ => Err(format!("{s:?}: R,G,B with each 0–255")),
+    }
+}
+
+/// A bit mask for `--mask`, hexadecimal with `0x` or decimal.
+fn hex_mask(s: &str) -> Result<u32, String> {
+    match s.strip_prefix("0x").or_else(|| s.strip_prefix("0X")) {
+        Some(h) => u32::from_str_radix(h, 16),
+        None => s.parse(),
+    }
+    .map_err(|_| format!("{s:?}: a 32-bit mask, like 0xAAAAAA"))
 }
 
 fn open_client(port: &str) -> Result<Client> {

@@ -146,8 +146,32 @@ struct SummaryLine<'a> {
     summary: SummaryRecord,
 }
 
-/// A message as a JSON object: summaries as [`SummaryRecord`]s, everything else in its
-/// wire form.
+/// A map in SI units: depth cells in mm, temperature cells in °C, `null` where the device
+/// trusts no value; the cell pitch in mm.
+pub fn map_json(m: &vistaf_protocol::Map) -> Value {
+    use vistaf_protocol::{msg::MAP_NO_DATA, MapKind};
+    let (kind, unit, scale) = match m.kind {
+        MapKind::Depth => ("depth", "mm", 1e-3),
+        MapKind::Temperature => ("temperature", "°C", 1e-2),
+    };
+    let cells: Vec<Option<f64>> = m
+        .cells
+        .iter()
+        .map(|&c| (c != MAP_NO_DATA).then(|| f64::from(c) * scale))
+        .collect();
+    json!({
+        "seq": m.seq,
+        "kind": kind,
+        "unit": unit,
+        "width": m.width,
+        "height": m.height,
+        "cell_pitch_mm": f64::from(m.cell_pitch_centi_mm) / 100.0,
+        "cells": cells,
+    })
+}
+
+/// A message as a JSON object: summaries as [`SummaryRecord`]s, maps in SI units
+/// ([`map_json`]), everything else in its wire form.
 pub fn message_json(device: &str, received: &Received) -> Value {
     let at = unix_s(received.at);
     match &received.msg {
@@ -163,7 +187,7 @@ pub fn message_json(device: &str, received: &Received) -> Value {
         other => {
             let (kind, body) = match other {
                 DeviceMsg::Hello(h) => ("hello", json!(h)),
-                DeviceMsg::Map(m) => ("map", json!(m)),
+                DeviceMsg::Map(m) => ("map", map_json(m)),
                 DeviceMsg::Status(st) => ("status", json!(st)),
                 DeviceMsg::Error(e) => ("error", json!(e)),
                 DeviceMsg::Pong { nonce } => ("pong", json!({ "nonce": nonce })),

@@ -157,3 +157,89 @@ fn a_reader_attaches_to_a_running_bridge() {
     drop(slave);
     device.join().unwrap();
 }
+
+/// A device on a pseudo-terminal that answers each command with `answer`'s messages until
+/// the host hangs up.
+fn device_answering(
+    mut master: TTYPort,
+    answer: impl Fn(vistaf_protocol::HostMsg) -> Vec<DeviceMsg> + Send + 'static,
+) -> std::thread::JoinHandle<()> {
+    std::thread::spawn(move || {
+        use std::io::Read;
+        let mut dec = vistaf_protocol::HostDecoder::new();
+        let mut buf = [0u8; 256];
+        master.set_timeout(Duration::from_millis(50)).unwrap();
+        let deadline = Instant::now() + Duration::from_secs(30);
+        while Instant::now() < deadline {
+            let n = match master.read(&mut buf) {
+                Ok(n) => n,
+                Err(e) if e.kind() == std::io::ErrorKind::TimedOut => continue,
+                Err(_) => return,
+            };
+            let mut out = Vec::new();
+            dec.push(&buf[..n], |m| {
+                if let Ok(m) = m {
+                    out.extend(answer(m));
+                }
+            });
+            for m in out {
+                if master.write_all(&common::frame(&m)).is_err() {
+                    return;
+                }
+            }
+        }
+    })
+}
+
+/// `rate`, `stop`, `start`, `led` and `map` as one-shot subcommands: each greets the skin,
+/// sends its command, and reports the answer; the map comes in SI units.
+#[test]
+fn control_subcommands_command_the_skin() {
+    use vistaf_protocol::{Command as Cmd, HostMsg, Map, MapKind};
+    let (master, slave) = TTYPort::pair().unwrap();
+    let path = slave.name().unwrap();
+    let seen = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+    let log = seen.clone();
+    let device = device_answering(master, move |m| {
+        log.lock().unwrap().push(m);
+        match m {
+            HostMsg::GetInfo => vec![common::hello("VSK-CTL", 1)],
+            HostMsg::SetRate { .. } => vec![DeviceMsg::Ack(Cmd::SetRate)],
+            HostMsg::Stop => vec![DeviceMsg::Ack(Cmd::Stop)],
+            HostMsg::Start => vec![DeviceMsg::Ack(Cmd::Start)],
+            HostMsg::SetLed(_) => vec![DeviceMsg::Ack(Cmd::SetLed)],
+            HostMsg::RequestMap(kind) => vec![
+                DeviceMsg::Ack(Cmd::RequestMap),
+                DeviceMsg::Map(Map {
+                    seq: 5,
+                    kind,
+                    width: 2,
+                    height: 1,
+                    cell_pitch_centi_mm: 125,
+                    cells: heapless::Vec::from_slice(&[1500, vistaf_protocol::msg::MAP_NO_DATA])
+                        .unwrap(),
+                }),
+            ],
+            _ => Vec::new(),
+        }
+    });
+    let link = format!("serial:{path}");
+    assert!(common::host_ok(&["rate", &link, "10"]).contains("rate set"));
+    assert!(common::host_ok(&["stop", &link]).contains("stopped"));
+    assert!(common::host_ok(&["start", &link]).contains("streaming"));
+    common::host_ok(&["led", &link, "--rgb", "210,245,125", "--mask", "0xAAAAAA"]);
+    let map: serde_json::Value =
+        serde_json::from_str(common::host_ok(&["map", &link, "depth"]).trim()).unwrap();
+    assert_eq!(map["unit"], "mm");
+    assert_eq!(map["cells"], serde_json::json!([1.5, null]));
+    assert_eq!(map["cell_pitch_mm"], 1.25);
+    let got = seen.lock().unwrap().clone();
+    assert!(got.contains(&HostMsg::SetRate { max_rate_hz: 10 }));
+    assert!(got.contains(&HostMsg::RequestMap(MapKind::Depth)));
+    assert!(got.iter().any(|m| matches!(
+        m,
+        HostMsg::SetLed(l) if l.rgb.g == 245 && l.lit_mask == 0x00AA_AAAA && l.brightness == 30
+    )));
+    drop(slave);
+    drop(device);
+}
