@@ -115,17 +115,7 @@ fn with_temperature(
     });
     // The thresholds are fractions of the map's own deepest value (the reported peak has
     // the band's blur taken out and may lie above every pixel of the map).
-    let peak_um = window.map_or(0, |[x0, y0, x1, y1]| {
-        (y0..y1)
-            .filter_map(|y| {
-                d.depth_um[y * d.width_px + x0..y * d.width_px + x1]
-                    .iter()
-                    .max()
-            })
-            .copied()
-            .max()
-            .unwrap_or(0)
-    }) as f32;
+    let peak_um = d.map_peak_um as f32;
     let (half, core) = (
         (peak_um * 0.5).round() as i32,
         (peak_um * 0.75).round() as i32,

@@ -19,7 +19,8 @@
 //! paraboloid, a partial restoration where the kernels reach a punch's rim. The loss is
 //! bounded to `[0, s₁]`: at a maximum a blur cannot raise the peak.
 
-/// The blur-corrected peak of a window's depth map (`w` pixels wide), µm: at the deepest
+/// The blur-corrected peak of a window's depth map (`w` pixels wide, deepest value
+/// `peak_um`), µm: at the deepest
 /// point of `s₁ = K∗b`, `s₁ + 2·(s₁ − K∗s₁)`, `K` the separable triangle of two boxes of
 /// lengths `(lx, ly)`, its weights renormalised where the window crops it.
 ///
@@ -27,8 +28,13 @@
 /// deepest (no shallower point can hold its maximum), and only that box grown by two kernel
 /// reaches is blurred: `K∗s₁` reads one reach around it, so every value used sees the map
 /// as the whole window would.
-pub fn corrected_peak_um(depth_um: &[i32], w: usize, (lx, ly): (usize, usize)) -> i32 {
-    let Some(bbox) = half_peak_box(depth_um, w) else {
+pub fn corrected_peak_um(
+    depth_um: &[i32],
+    w: usize,
+    peak_um: i32,
+    (lx, ly): (usize, usize),
+) -> i32 {
+    let Some(bbox) = half_peak_box(depth_um, w, peak_um) else {
         return 0;
     };
     let h = depth_um.len() / w;
@@ -57,9 +63,11 @@ pub fn corrected_peak_um(depth_um: &[i32], w: usize, (lx, ly): (usize, usize)) -
 }
 
 /// The half-open column and row spans of a map's pixels at least half as deep as its
-/// deepest (`None` without depth).
-fn half_peak_box(z: &[i32], w: usize) -> Option<((usize, usize), (usize, usize))> {
-    let peak = z.iter().copied().max().filter(|&p| p > 0 && w > 0)?;
+/// deepest, `peak` (`None` without depth).
+fn half_peak_box(z: &[i32], w: usize, peak: i32) -> Option<((usize, usize), (usize, usize))> {
+    if peak <= 0 || w == 0 || z.is_empty() {
+        return None;
+    }
     let (mut xs, mut ys) = ((usize::MAX, 0), (usize::MAX, 0));
     for (i, _) in z.iter().enumerate().filter(|&(_, &d)| 2 * d >= peak) {
         let (x, y) = (i % w, i / w);
@@ -160,6 +168,11 @@ fn weighted_mean(z: &[i32], w: usize, (cx, cy): (usize, usize), kx: &[i64], ky: 
 mod tests {
     use super::*;
 
+    /// The blur-corrected peak of `z`, its deepest value found here.
+    fn corrected(z: &[i32], w: usize, blur: (usize, usize)) -> i32 {
+        corrected_peak_um(z, w, z.iter().copied().max().unwrap_or(0), blur)
+    }
+
     /// A paraboloid of curvature `k` µm/px² and apex depth `d` µm at `(cx, cy)` on a
     /// `w × h` window.
     fn paraboloid(w: usize, h: usize, (cx, cy): (f64, f64), d: f64, k: f64) -> Vec<i32> {
@@ -176,7 +189,7 @@ mod tests {
     fn a_paraboloid_gets_back_half_the_variance_times_its_curvature() {
         let (d, k) = (800.0, 10.0);
         let z = paraboloid(31, 31, (15.0, 15.0), d, k);
-        let got = corrected_peak_um(&z, 31, (5, 7));
+        let got = corrected(&z, 31, (5, 7));
         let want = d + 0.5 * k * (4.0 + 8.0);
         assert!((f64::from(got) - want).abs() <= 1.0, "{got} vs {want}");
     }
@@ -188,7 +201,7 @@ mod tests {
     fn an_apex_on_the_window_edge_is_corrected_alike() {
         let (d, k) = (600.0, 8.0);
         let z = paraboloid(20, 31, (0.0, 15.0), d, k);
-        let got = corrected_peak_um(&z, 20, (6, 6));
+        let got = corrected(&z, 20, (6, 6));
         let loss = 0.5 * k * 2.0 * 35.0 / 6.0;
         let want = d + loss;
         assert!(
@@ -206,13 +219,13 @@ mod tests {
             .into_iter()
             .map(|v| v.max(0))
             .collect();
-        let alone = corrected_peak_um(&z, w, (5, 5));
+        let alone = corrected(&z, w, (5, 5));
         for y in 10..30 {
             for x in 90..110 {
                 z[y * w + x] = 700;
             }
         }
-        assert_eq!(corrected_peak_um(&z, w, (5, 5)), alone);
+        assert_eq!(corrected(&z, w, (5, 5)), alone);
         assert!(alone > 800, "{alone}");
     }
 
@@ -242,14 +255,14 @@ mod tests {
     #[test]
     fn a_plateau_loses_nothing_and_a_lone_deep_pixel_is_averaged_away() {
         let w = 31;
-        assert_eq!(corrected_peak_um(&vec![500; w * w], w, (7, 7)), 500);
+        assert_eq!(corrected(&vec![500; w * w], w, (7, 7)), 500);
         let mut spike = vec![0; w * w];
         spike[15 * w + 15] = 400;
         // K∗b at the spike is its weight, 7·7 of 49², and the loss at most that again twice.
         let s1 = 400 * 49 / 2401;
-        let got = corrected_peak_um(&spike, w, (7, 7));
+        let got = corrected(&spike, w, (7, 7));
         assert!((s1..=3 * s1).contains(&got), "{got}");
-        assert_eq!(corrected_peak_um(&vec![0; w * w], w, (7, 7)), 0);
-        assert_eq!(corrected_peak_um(&[], w, (7, 7)), 0);
+        assert_eq!(corrected(&vec![0; w * w], w, (7, 7)), 0);
+        assert_eq!(corrected(&[], w, (7, 7)), 0);
     }
 }

@@ -21,7 +21,8 @@ pub struct Features {
 /// Features of a working-resolution depth map (µm), in integer sums: shared by both paths.
 ///
 /// `depth_um` may be a window of the working image whose top-left pixel is `origin`;
-/// `contact` is its peak's component ([`peak_component`]), whose centre is the contact's.
+/// `peak` is its deepest value and `contact` its peak's component ([`peak_component`]),
+/// whose centre is the contact's.
 pub fn summarize(
     depth_um: &[i32],
     contact: &[usize],
@@ -29,9 +30,9 @@ pub fn summarize(
     origin: (usize, usize),
     factor: usize,
     mm_per_px: f32,
-    thr_um: i32,
+    (peak, thr_um): (i32, i32),
 ) -> Features {
-    let peak = depth_um.iter().copied().max().unwrap_or(0).max(0);
+    let peak = peak.max(0);
     if peak <= thr_um {
         return Features::default();
     }
@@ -71,18 +72,16 @@ pub fn summarize(
 }
 
 /// The pixels of the contact holding the peak: its 8-connected component deeper than half
-/// the peak (and than `thr_um`), as indices into `depth_um` (`w` wide). Empty without depth.
-pub fn peak_component(depth_um: &[i32], w: usize, thr_um: i32) -> Vec<usize> {
-    let Some(peak) = depth_um
-        .iter()
-        .copied()
-        .max()
-        .filter(|&p| p > thr_um.max(0))
-    else {
+/// the peak (and than `thr_um`), as indices into `depth_um` (`w` wide, deepest value
+/// `peak`). Empty without depth.
+pub fn peak_component(depth_um: &[i32], w: usize, (peak, thr_um): (i32, i32)) -> Vec<usize> {
+    if peak <= thr_um.max(0) {
+        return Vec::new();
+    }
+    let Some(start) = depth_um.iter().position(|&d| d == peak) else {
         return Vec::new();
     };
     let (h, half) = (depth_um.len() / w.max(1), peak / 2);
-    let start = depth_um.iter().position(|&d| d == peak).unwrap_or(0);
     let mut seen = vec![false; depth_um.len()];
     let (mut stack, mut out) = (vec![start], Vec::new());
     seen[start] = true;

@@ -96,6 +96,11 @@ mod tests {
     use super::super::features::peak_component;
     use super::*;
 
+    /// The peak's half-depth component of `z` (`w` wide).
+    fn component(z: &[i32], w: usize) -> Vec<usize> {
+        peak_component(z, w, (z.iter().copied().max().unwrap_or(0), 0))
+    }
+
     /// A map of `f(r)` (µm, r in px from the window's centre) on a `w × w` window.
     fn radial(w: usize, f: impl Fn(f32) -> f32) -> (Vec<i32>, (f32, f32)) {
         let c = w as f32 / 2.0;
@@ -120,7 +125,7 @@ mod tests {
                 2.0 * d / std::f32::consts::PI * (a / r).asin()
             }
         });
-        let got = reciprocal_load_mm2(&z, 161, &peak_component(&z, 161, 0), c, 0.1);
+        let got = reciprocal_load_mm2(&z, 161, &component(&z, 161), c, 0.1);
         let want = 2.0 * (a * 0.1) * (d / 1000.0);
         assert!((got - want).abs() < 0.03 * want, "{got} vs {want}");
     }
@@ -142,7 +147,7 @@ mod tests {
             };
             w * um_per_px
         });
-        let got = reciprocal_load_mm2(&z, 201, &peak_component(&z, 201, 0), c, 0.1);
+        let got = reciprocal_load_mm2(&z, 201, &component(&z, 201), c, 0.1);
         let want = 4.0 / 3.0 * (a * 0.1) * (d_px * 0.1);
         assert!((got - want).abs() < 0.03 * want, "{got} vs {want}");
     }
@@ -153,13 +158,13 @@ mod tests {
     fn another_blob_does_not_widen_the_disc() {
         let (a, d) = (10.0f32, 400.0f32);
         let (mut z, c) = radial(121, |r| if r <= a { d } else { 0.0 });
-        let alone = reciprocal_load_mm2(&z, 121, &peak_component(&z, 121, 0), c, 0.1);
+        let alone = reciprocal_load_mm2(&z, 121, &component(&z, 121), c, 0.1);
         for y in 2..6 {
             for x in 2..6 {
                 z[y * 121 + x] = 390;
             }
         }
-        let with = reciprocal_load_mm2(&z, 121, &peak_component(&z, 121, 0), c, 0.1);
+        let with = reciprocal_load_mm2(&z, 121, &component(&z, 121), c, 0.1);
         assert_eq!(alone, with);
     }
 

@@ -278,6 +278,8 @@ struct FrameResult {
 /// A contact's share of the result.
 struct ContactResult {
     feats: Features,
+    /// The depth map's deepest value, µm.
+    map_peak_um: i32,
     /// What the force model read.
     inputs: ForceInputs,
     flags: QualityFlags,
@@ -305,6 +307,7 @@ impl FrameResult {
             reliable,
             contact: false,
             peak_depth_mm: 0.0,
+            map_peak_um: 0,
             contact_area_mm2: 0.0,
             volume_mm3: 0.0,
             centroid_px: None,
@@ -335,6 +338,7 @@ impl FrameResult {
         Measurement {
             contact: true,
             peak_depth_mm: c.feats.peak_mm,
+            map_peak_um: c.map_peak_um,
             contact_area_mm2: c.feats.area_mm2,
             volume_mm3: c.feats.volume_mm3,
             centroid_px: c.feats.centroid_px,
@@ -439,7 +443,11 @@ impl<M: PhaseMap> Found<'_, M> {
         if pass.is_dipole() {
             return None;
         }
-        let contact = peak_component(&pass.depth_um, bw, threshold_um);
+        // The map's deepest value, read once for the component, the features, the apex and
+        // the temperature's contact region.
+        let map_peak_um = pass.depth_um.iter().copied().max().unwrap_or(0);
+        let peak = (map_peak_um, threshold_um);
+        let contact = peak_component(&pass.depth_um, bw, peak);
         let mut feats = summarize(
             &pass.depth_um,
             &contact,
@@ -447,13 +455,13 @@ impl<M: PhaseMap> Found<'_, M> {
             (x0, y0),
             self.factor,
             ctx.mm_per_px,
-            threshold_um,
+            peak,
         );
         if feats.peak_mm == 0.0 {
             return None;
         }
         let blur = self.map.blur_box_lengths();
-        let peak_um = apex::corrected_peak_um(&pass.depth_um, bw, blur);
+        let peak_um = apex::corrected_peak_um(&pass.depth_um, bw, map_peak_um, blur);
         feats.peak_mm = peak_um as f32 / 1000.0;
         let px_mm = ctx.mm_per_px * self.factor as f32;
         let inputs = self.force_inputs(&feats, &pass, &contact, (x0, y0, bw), px_mm);
@@ -473,6 +481,7 @@ impl<M: PhaseMap> Found<'_, M> {
         }
         Some(ContactResult {
             feats,
+            map_peak_um,
             inputs,
             flags,
             force_n,
