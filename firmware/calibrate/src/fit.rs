@@ -227,33 +227,21 @@ fn score_all<M>(
 fn choose<M: Clone>(
     scored: Vec<(M, CandidateScore)>,
 ) -> Option<(M, CandidateScore, Vec<CandidateScore>)> {
-    choose_preferring(scored, |_| false)
-}
-
-/// The parsimony rule among the candidates within one standard error of the best CV RMSE
-/// that `preferred` accepts, when there are any; else among all within it.
-fn choose_preferring<M: Clone>(
-    scored: Vec<(M, CandidateScore)>,
-    preferred: impl Fn(&M) -> bool,
-) -> Option<(M, CandidateScore, Vec<CandidateScore>)> {
     let best = scored
         .iter()
         .map(|s| &s.1)
         .filter(|s| s.cv_rmse.is_finite())
         .min_by(|a, b| a.cv_rmse.total_cmp(&b.cv_rmse))?;
     let limit = best.cv_rmse + best.cv_se;
-    let parsimonious = |only_preferred: bool| {
-        scored
-            .iter()
-            .filter(|(m, s)| s.cv_rmse <= limit && (!only_preferred || preferred(m)))
-            .min_by(|a, b| {
-                a.1.params
-                    .cmp(&b.1.params)
-                    .then(a.1.cv_rmse.total_cmp(&b.1.cv_rmse))
-            })
-            .cloned()
-    };
-    let (m, s) = parsimonious(true).or_else(|| parsimonious(false))?;
+    let (m, s) = scored
+        .iter()
+        .filter(|(_, s)| s.cv_rmse <= limit)
+        .min_by(|a, b| {
+            a.1.params
+                .cmp(&b.1.params)
+                .then(a.1.cv_rmse.total_cmp(&b.1.cv_rmse))
+        })
+        .cloned()?;
     Some((m, s, scored.into_iter().map(|x| x.1).collect()))
 }
 
