@@ -149,27 +149,19 @@ impl ClockEstimator {
         ClockEstimator::default()
     }
 
-    /// Adds an exchange and refits. An exchange whose device times run backwards or whose
-    /// host times do is dropped (a device restarted, a broken answer).
+    /// Adds an exchange and refits. An exchange whose own times run backwards (a broken
+    /// answer) is dropped; one whose device times run back past the last exchange's (the
+    /// device restarted) starts the estimate over.
     pub fn add(&mut self, e: Exchange) {
-        let sane = e.device_sent_us >= e.device_received_us
-            && e.host_received_s >= e.host_sent_s
-            && self
-                .exchanges
-                .back()
-                .is_none_or(|last| e.device_received_us >= last.device_sent_us);
-        if !sane {
-            if self
-                .exchanges
-                .back()
-                .is_some_and(|last| e.device_received_us < last.device_sent_us)
-            {
-                // The device's clock went back: it restarted. Start over.
-                self.exchanges.clear();
-                self.exchanges.push_back(e);
-                self.map = fit(&self.exchanges);
-            }
+        if e.device_sent_us < e.device_received_us || e.host_received_s < e.host_sent_s {
             return;
+        }
+        let restarted = self
+            .exchanges
+            .back()
+            .is_some_and(|last| e.device_received_us < last.device_sent_us);
+        if restarted {
+            self.exchanges.clear();
         }
         if self.exchanges.len() == WINDOW {
             self.exchanges.pop_front();
@@ -211,35 +203,32 @@ fn best_of_groups(exchanges: &VecDeque<Exchange>) -> Vec<Exchange> {
 /// the offset alone, the drift bounded by [`DRIFT_BOUND`].
 fn fit(exchanges: &VecDeque<Exchange>) -> Option<ClockMap> {
     let kept = best_of_groups(exchanges);
-    let best_round_trip_s = kept
+    let best = kept
         .iter()
-        .map(Exchange::round_trip_s)
-        .min_by(f64::total_cmp)?;
+        .min_by(|a, b| a.round_trip_s().total_cmp(&b.round_trip_s()))?;
+    let best_round_trip_s = best.round_trip_s();
     let n = kept.len() as f64;
     let d_mean = kept.iter().map(Exchange::device_mid_s).sum::<f64>() / n;
     let h_mean = kept.iter().map(Exchange::host_mid_s).sum::<f64>() / n;
-    let sxx: f64 = kept
-        .iter()
-        .map(|e| (e.device_mid_s() - d_mean).powi(2))
-        .sum();
     let span = kept.last()?.device_mid_s() - kept.first()?.device_mid_s();
-    // Half a round trip bounds each kept exchange's error; their mean is the bound of
-    // the line's offset.
-    let half_trip = kept.iter().map(|e| 0.5 * e.round_trip_s()).sum::<f64>() / n;
     if kept.len() < 3 || span < MIN_SPAN_S {
         // Offset from the best exchange alone; drift unknown within its bound.
-        let best = kept
-            .iter()
-            .min_by(|a, b| a.round_trip_s().total_cmp(&b.round_trip_s()))?;
         return Some(ClockMap {
             device_at_s: best.device_mid_s(),
             host_at_s: best.host_mid_s(),
             rate: 1.0,
-            uncertainty_s: 0.5 * best.round_trip_s(),
+            uncertainty_s: 0.5 * best_round_trip_s,
             rate_uncertainty: DRIFT_BOUND,
             best_round_trip_s,
         });
     }
+    // Half a round trip bounds each kept exchange's error; their mean is the bound of
+    // the line's offset.
+    let half_trip = kept.iter().map(|e| 0.5 * e.round_trip_s()).sum::<f64>() / n;
+    let sxx: f64 = kept
+        .iter()
+        .map(|e| (e.device_mid_s() - d_mean).powi(2))
+        .sum();
     let sxy: f64 = kept
         .iter()
         .map(|e| (e.device_mid_s() - d_mean) * (e.host_mid_s() - h_mean))

@@ -11,7 +11,7 @@ use serde_json::{json, Value};
 use vistaf_protocol::{DeviceMsg, Summary};
 
 use crate::client::Received;
-use crate::clock::MappedTime;
+use crate::clock::{unix_s, MappedTime};
 use crate::error::HostError;
 
 /// Output format, chosen from the file extension.
@@ -33,8 +33,6 @@ impl Format {
         }
     }
 }
-
-pub use crate::clock::unix_s;
 
 /// A summary in SI units with flag names: the one form every output of the host (CSV,
 /// JSON lines, session files) is written from. Temperatures that were not measured are

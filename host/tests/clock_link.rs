@@ -10,8 +10,8 @@ use std::time::{Duration, Instant, SystemTime};
 
 use serialport::{SerialPort, TTYPort};
 use vistaf_host::client::{Client, Next};
+use vistaf_host::clock::unix_s;
 use vistaf_host::link::{Link, LinkSpec};
-use vistaf_host::record::unix_s;
 use vistaf_protocol::*;
 
 /// A device clock 200 ppm fast, its epoch an hour before the test.

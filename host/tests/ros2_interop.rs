@@ -16,7 +16,7 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, SystemTime};
 
 use serialport::{SerialPort, TTYPort};
-use vistaf_host::record::unix_s;
+use vistaf_host::clock::unix_s;
 use vistaf_protocol::*;
 
 const SUMMARIES: u32 = 120;

@@ -15,12 +15,13 @@ pub mod mcap;
 pub mod serve;
 
 use serde_json::Value;
-use vistaf_protocol::DeviceMsg;
+use vistaf_protocol::{DeviceMsg, Hello, Map, Status, Summary};
 
 use crate::client::Received;
+use crate::clock::{unix_s, MappedTime};
 use crate::error::HostError;
 use crate::multi::DeviceStats;
-use crate::record::{message_json, unix_s, Recorder};
+use crate::record::{message_json, Recorder};
 use crate::ros2::{HostCounts, Outgoing, SkinTopics};
 use crate::stream::{name_of, Consumer};
 use serve::Serve;
@@ -158,6 +159,74 @@ impl Bridge {
     }
 }
 
+impl Bridge {
+    /// Writes `received` as a JSON line, if asked; a reader that hung up (`--jsonl - |
+    /// head`) is let go and the other consumers go on.
+    fn record_jsonl(&mut self, link: &str, received: &Received) -> Result<(), HostError> {
+        let Some(rec) = self.jsonl.as_mut() else {
+            return Ok(());
+        };
+        match rec.record(link, received) {
+            Err(HostError::Record { cause, .. })
+                if cause.kind() == std::io::ErrorKind::BrokenPipe =>
+            {
+                eprintln!("JSON lines: the reader hung up; bridging on without it");
+                self.jsonl = None;
+                Ok(())
+            }
+            other => other,
+        }
+    }
+}
+
+impl Skin {
+    /// Named by its `Hello`'s serial, with the calibration it runs.
+    fn hello(&mut self, h: &Hello, frame_id: Option<&str>) {
+        self.topics = Some(SkinTopics::new(&h.serial, frame_id));
+        self.counts.calibration_id = h.calibration_id;
+    }
+
+    /// A summary stamped `stamp`: its messages, and what the diagnostics keep of it.
+    fn summary(&mut self, s: &Summary, stamp: i64, captured: Option<MappedTime>) -> Vec<Outgoing> {
+        self.last_stamp_ns = Some(stamp);
+        self.last_seq = Some(s.seq);
+        self.since_status.0 += 1;
+        let flags: Vec<&str> = s.flags.iter().map(|f| f.name()).collect();
+        self.counts.last_flags = flags.join("|");
+        self.counts.clock_uncertainty_ms = captured
+            .map(|c| format!("{:.3}", c.uncertainty_s * 1e3))
+            .unwrap_or_default();
+        self.topics
+            .as_ref()
+            .map_or_else(Vec::new, |t| t.summary(s, stamp))
+    }
+
+    /// A map, stamped as the summary of its frame when that was the last one.
+    fn map(&self, m: &Map, stamp: Option<i64>) -> Option<Outgoing> {
+        let at = match (self.last_seq, self.last_stamp_ns) {
+            (Some(seq), Some(t)) if seq == m.seq => Some(t),
+            _ => stamp.or(self.last_stamp_ns),
+        };
+        self.topics.as_ref()?.map(m, at.unwrap_or_default())
+    }
+
+    /// A health report: the summary rate on the device's clock (the summaries between two
+    /// reports) and the diagnostics. A replay's report goes on the time line of the
+    /// summaries around it.
+    fn status(&mut self, st: &Status, stamp: Option<i64>) -> Option<Outgoing> {
+        let (n, last_ms) = std::mem::replace(&mut self.since_status, (0, Some(st.uptime_ms)));
+        if let Some(dt_ms) = last_ms.and_then(|t| st.uptime_ms.checked_sub(t)) {
+            if dt_ms > 0 {
+                self.counts.summary_rate_hz = n as f64 * 1e3 / dt_ms as f64;
+            }
+        }
+        let at = stamp
+            .or(self.last_stamp_ns)
+            .unwrap_or_else(|| i64::try_from(st.uptime_ms).unwrap_or(0) * 1_000_000);
+        Some(self.topics.as_ref()?.diagnostics(st, &self.counts, at))
+    }
+}
+
 impl Consumer for Bridge {
     fn message(
         &mut self,
@@ -166,23 +235,12 @@ impl Consumer for Bridge {
         received: &Received,
     ) -> Result<(), HostError> {
         let link = name_of(stats, device);
-        if let Some(rec) = self.jsonl.as_mut() {
-            match rec.record(link, received) {
-                // `--jsonl - | head`: the reader left; the other consumers go on.
-                Err(HostError::Record { cause, .. })
-                    if cause.kind() == std::io::ErrorKind::BrokenPipe =>
-                {
-                    eprintln!("JSON lines: the reader hung up; bridging on without it");
-                    self.jsonl = None;
-                }
-                other => other?,
-            }
-        }
+        self.record_jsonl(link, received)?;
         if let Some(serve) = self.serve.as_mut() {
             serve.send(device, &received.msg);
         }
         let stamp = self.stamp_of(received);
-        let frame_id = self.frame_id.clone();
+        let frame_id = self.frame_id.as_deref();
         let Some(skin) = self.skins.get_mut(device) else {
             return Ok(());
         };
@@ -190,64 +248,29 @@ impl Consumer for Bridge {
             skin.counts.summaries_missing = st.seq.missing;
             skin.counts.link_frames_dropped = st.drops.total();
         }
-        let topics = skin
-            .topics
-            .get_or_insert_with(|| SkinTopics::new(link, frame_id.as_deref()))
-            .clone();
-        let out = match &received.msg {
+        if skin.topics.is_none() {
+            skin.topics = Some(SkinTopics::new(link, frame_id));
+        }
+        let out: Vec<Outgoing> = match &received.msg {
             DeviceMsg::Hello(h) => {
-                skin.topics = Some(SkinTopics::new(&h.serial, frame_id.as_deref()));
-                skin.counts.calibration_id = h.calibration_id;
+                skin.hello(h, frame_id);
                 Vec::new()
             }
             DeviceMsg::Summary(s) => {
                 let stamp = stamp.unwrap_or_default();
-                skin.last_stamp_ns = Some(stamp);
-                skin.last_seq = Some(s.seq);
-                skin.since_status.0 += 1;
-                skin.counts.last_flags = s
-                    .flags
-                    .iter()
-                    .map(|f| f.name())
-                    .collect::<Vec<_>>()
-                    .join("|");
-                skin.counts.clock_uncertainty_ms = received
-                    .captured
-                    .map(|c| format!("{:.3}", c.uncertainty_s * 1e3))
-                    .unwrap_or_default();
-                let json = message_json(link, received);
-                let topic = topics.topic("summary");
-                for sink in &mut self.sinks {
-                    sink.summary_json(&topic, stamp, &json)?;
+                if let Some(t) = &skin.topics {
+                    let (topic, json) = (t.topic("summary"), message_json(link, received));
+                    for sink in &mut self.sinks {
+                        sink.summary_json(&topic, stamp, &json)?;
+                    }
                 }
-                topics.summary(s, stamp)
+                skin.summary(s, stamp, received.captured)
             }
-            DeviceMsg::Map(m) => {
-                // A map comes from the frame of the summary it names: stamped as that one.
-                let at = match (skin.last_seq, skin.last_stamp_ns) {
-                    (Some(seq), Some(t)) if seq == m.seq => Some(t),
-                    _ => stamp.or(skin.last_stamp_ns),
-                };
-                topics.map(m, at.unwrap_or_default()).into_iter().collect()
-            }
+            DeviceMsg::Map(m) => skin.map(m, stamp).into_iter().collect(),
+            DeviceMsg::Status(st) => skin.status(st, stamp).into_iter().collect(),
             DeviceMsg::Error(e) => {
                 eprintln!("{link}: device error {:?}: {}", e.code, e.detail);
                 Vec::new()
-            }
-            DeviceMsg::Status(st) => {
-                // The rate on the device's clock: the summaries between two reports.
-                let (n, last_ms) =
-                    std::mem::replace(&mut skin.since_status, (0, Some(st.uptime_ms)));
-                if let Some(dt_ms) = last_ms.and_then(|t| st.uptime_ms.checked_sub(t)) {
-                    if dt_ms > 0 {
-                        skin.counts.summary_rate_hz = n as f64 * 1e3 / dt_ms as f64;
-                    }
-                }
-                // A replay's status goes on the time line of the summaries around it.
-                let at = stamp
-                    .or(skin.last_stamp_ns)
-                    .unwrap_or_else(|| i64::try_from(st.uptime_ms).unwrap_or(0) * 1_000_000);
-                vec![topics.diagnostics(st, &skin.counts, at)]
             }
             _ => Vec::new(),
         };
