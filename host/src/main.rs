@@ -270,13 +270,9 @@ fn run(cli: Cli) -> Result<()> {
             println!("calibration:  {:#010x}", hello.calibration_id);
             Ok(())
         }
-        Cmd::Reference { port, timeout_ms } => {
-            let mut c = open_client(&port)?;
-            c.handshake(DEFAULT_TIMEOUT)?;
-            c.capture_reference(Duration::from_millis(timeout_ms))?;
-            println!("{}: new reference captured", c.name());
-            Ok(())
-        }
+        Cmd::Reference { port, timeout_ms } => command(&port, "new reference captured", |c| {
+            c.capture_reference(Duration::from_millis(timeout_ms))
+        }),
         Cmd::Demo { .. } => bail!(
             "the demo is its own program: cargo run --release -p vistaf-demo (or vistaf-demo --help)"
         ),

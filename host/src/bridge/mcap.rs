@@ -95,11 +95,15 @@ impl McapSink {
         self.messages
     }
 
-    fn writer(&mut self) -> Result<&mut Writer<BufWriter<File>>, HostError> {
-        let path = self.path.clone();
-        self.writer
-            .as_mut()
-            .ok_or_else(|| record_error(&path, std::io::Error::other("the recording is finished")))
+    /// The open writer, and the file's path for its errors.
+    fn open(&mut self) -> Result<(&mut Writer<BufWriter<File>>, &Path), HostError> {
+        match self.writer.as_mut() {
+            Some(w) => Ok((w, &self.path)),
+            None => Err(record_error(
+                &self.path,
+                std::io::Error::other("the recording is finished"),
+            )),
+        }
     }
 
     /// The channel of `topic` (created with its schema on first use) and its next
@@ -115,22 +119,21 @@ impl McapSink {
             return Ok((*id, *seq));
         }
         let (name, encoding, text) = schema;
-        let path = self.path.clone();
         let schema_id = match self.schemas.get(name) {
             Some(id) => *id,
             None => {
-                let id = self
-                    .writer()?
+                let (w, path) = self.open()?;
+                let id = w
                     .add_schema(name, encoding, text().as_bytes())
-                    .map_err(|e| mcap_error(&path, e))?;
+                    .map_err(|e| mcap_error(path, e))?;
                 self.schemas.insert(name.to_string(), id);
                 id
             }
         };
-        let id = self
-            .writer()?
+        let (w, path) = self.open()?;
+        let id = w
             .add_channel(schema_id, topic, message_encoding, &BTreeMap::new())
-            .map_err(|e| mcap_error(&path, e))?;
+            .map_err(|e| mcap_error(path, e))?;
         self.channels.insert(topic.to_string(), (id, 0));
         Ok((id, 0))
     }
@@ -143,14 +146,14 @@ impl McapSink {
             log_time: time_ns,
             publish_time: time_ns,
         };
-        let path = self.path.clone();
-        self.writer()?
-            .write_to_known_channel(&header, data)
-            .map_err(|e| mcap_error(&path, e))?;
+        let (w, path) = self.open()?;
+        w.write_to_known_channel(&header, data)
+            .map_err(|e| mcap_error(path, e))?;
         self.messages += 1;
         if self.flushed.elapsed() >= FLUSH_EVERY {
             self.flushed = Instant::now();
-            self.writer()?.flush().map_err(|e| mcap_error(&path, e))?;
+            let (w, path) = self.open()?;
+            w.flush().map_err(|e| mcap_error(path, e))?;
         }
         Ok(())
     }
@@ -181,9 +184,8 @@ impl Sink for McapSink {
     }
 
     fn finish(&mut self) -> Result<(), HostError> {
-        let path = self.path.clone();
         if let Some(mut w) = self.writer.take() {
-            w.finish().map_err(|e| mcap_error(&path, e))?;
+            w.finish().map_err(|e| mcap_error(&self.path, e))?;
         }
         Ok(())
     }

@@ -94,12 +94,16 @@ impl Serve {
         let Some(skin) = self.skins.get_mut(device) else {
             return;
         };
+        let hello = matches!(msg, DeviceMsg::Hello(_));
+        if skin.readers.is_empty() && !hello {
+            return;
+        }
         let mut buf = [0u8; DEVICE_FRAME_MAX];
         let Ok(n) = encode(msg, &mut buf) else {
             return;
         };
         let frame = &buf[..n];
-        if matches!(msg, DeviceMsg::Hello(_)) {
+        if hello {
             skin.hello = Some(frame.to_vec());
         }
         // A partial write leaves a cut frame, which the reader's decoder drops and counts

@@ -28,17 +28,14 @@ float64 x\n\
 float64 y\n\
 float64 z\n";
 
-/// A ROS 2 message type: its full name, its definition with its dependencies, its bytes.
-pub trait RosMessage: Serialize + Sized {
+/// A ROS 2 message type: its full name and its definition with its dependencies; its serde
+/// form is its bytes ([`cdr`]).
+pub trait RosMessage: Serialize {
     /// The type's name, `package/msg/Type`.
     const NAME: &'static str;
     /// The definition: the type's own fields, then each type it uses after a separator
     /// line and `MSG: package/Type`.
     fn definition() -> String;
-    /// The message in CDR, with its encapsulation header (as MCAP and ROS 2 bags store it).
-    fn encode(&self) -> Vec<u8> {
-        cdr(self)
-    }
 }
 
 /// `value` in little-endian CDR after the encapsulation header. The message types here have
@@ -319,7 +316,7 @@ mod tests {
             force_n: [0.0, 0.0, 3.0],
             torque_nm: [0.0; 3],
         };
-        let b = m.encode();
+        let b = cdr(&m);
         // Body: sec, nanosec, the frame's length and "skin\0" end at 17, padded to 24 for
         // the six doubles; z of the force is the third.
         assert_eq!(b.len(), 4 + 24 + 48);
