@@ -7,20 +7,10 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 imp=${1:-fixed}; w=${2:-640}; h=${3:-480}; mode=${4:-press}; temp=${5:-}
-target=aarch64-unknown-linux-gnu
-bash scripts/cross-setup.sh >/dev/null
-plugin=target/qemu-plugins/insn_count.so
-mkdir -p "$(dirname "$plugin")"
-if [ ! -f "$plugin" ] || [ scripts/qemu/insn_count.c -nt "$plugin" ]; then
-  gcc -O2 -shared -fPIC -fvisibility=hidden -o "$plugin" scripts/qemu/insn_count.c
-fi
+source scripts/qemu-count.sh
 cargo build --release -q --target "$target" -p vistaf-tests --bin pipeline-frames
 bin=target/$target/release/pipeline-frames
-count() {
-  qemu-aarch64 -L /usr/aarch64-linux-gnu -plugin "$plugin" -d plugin \
-    "$bin" "$imp" "$1" "$w" "$h" "$mode" $temp 2>&1 \
-    | sed -n 's/^guest instructions: \([0-9]*\)$/\1/p'
-}
+count() { qemu_count "$bin" "$imp" "$1" "$w" "$h" "$mode" $temp; }
 one=$(count 1); eleven=$(count 11)
 if [ -z "$one" ] || [ -z "$eleven" ]; then
   echo "instructions-aarch64: qemu printed no count (is qemu-user built with plugin support?)" >&2

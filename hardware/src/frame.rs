@@ -22,6 +22,53 @@ pub fn size_refused(width: u32, height: u32) -> String {
     )
 }
 
+/// How a decoded pixel's three bytes encode its colour.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Colour {
+    /// sRGB: R, G, B.
+    #[default]
+    Rgb,
+    /// Y, Cb, Cr, BT.601, full range (JPEG/JFIF; a grey frame's Y).
+    YCbCrFull,
+    /// Y, Cb, Cr, BT.601, limited range: Y 16…235, Cb and Cr 16…240 (YUYV from a UVC
+    /// camera).
+    YCbCrLimited,
+}
+
+impl Colour {
+    /// sRGB bytes of one pixel `p` in this encoding (integer BT.601, 8.8 fixed point).
+    #[inline(always)]
+    pub fn to_rgb(self, p: [u8; 3]) -> [u8; 3] {
+        let clamp = |x: i32| ((x + 128) >> 8).clamp(0, 255) as u8;
+        let (y, cb, cr) = (
+            i32::from(p[0]),
+            i32::from(p[1]) - 128,
+            i32::from(p[2]) - 128,
+        );
+        match self {
+            Colour::Rgb => p,
+            // R = Y + 1.402 Cr, G = Y − 0.344 Cb − 0.714 Cr, B = Y + 1.772 Cb.
+            Colour::YCbCrFull => {
+                let c = y * 256;
+                [
+                    clamp(c + 359 * cr),
+                    clamp(c - 88 * cb - 183 * cr),
+                    clamp(c + 454 * cb),
+                ]
+            }
+            // The same on Y, Cb, Cr stretched from 219 and 224 levels to 255.
+            Colour::YCbCrLimited => {
+                let c = (y - 16).max(0) * 298;
+                [
+                    clamp(c + 409 * cr),
+                    clamp(c - 100 * cb - 208 * cr),
+                    clamp(c + 516 * cb),
+                ]
+            }
+        }
+    }
+}
+
 /// Pixel layout of a captured frame.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum PixelFormat {
@@ -124,6 +171,21 @@ impl Frame {
         }
     }
 
+    /// An uncompressed frame whose bytes are not its size's: an error naming both.
+    pub fn check_len(&self) -> Result<(), FrameError> {
+        match self.format.frame_len(self.width, self.height) {
+            Some(want) if self.data.len() != want => Err(FrameError::WrongLength {
+                seq: self.seq,
+                width: self.width,
+                height: self.height,
+                format: self.format,
+                got: self.data.len(),
+                want,
+            }),
+            _ => Ok(()),
+        }
+    }
+
     /// Converts to 8-bit RGB, keeping this frame (copies its bytes when already RGB).
     pub fn to_rgb(&self) -> Result<RgbImage, FrameError> {
         self.clone().into_rgb()
@@ -133,18 +195,7 @@ impl Frame {
     /// bytes are taken over without a copy.
     pub fn into_rgb(self) -> Result<RgbImage, FrameError> {
         let (w, h) = (self.width, self.height);
-        if let Some(want) = self.format.frame_len(w, h) {
-            if self.data.len() != want {
-                return Err(FrameError::WrongLength {
-                    seq: self.seq,
-                    width: w,
-                    height: h,
-                    format: self.format,
-                    got: self.data.len(),
-                    want,
-                });
-            }
-        }
+        self.check_len()?;
         let wrong_len = || FrameError::WrongLength {
             seq: self.seq,
             width: w,
@@ -165,8 +216,8 @@ impl Frame {
                 let mut rgb = Vec::with_capacity(w as usize * h as usize * 3);
                 for q in self.data.chunks_exact(4) {
                     let (u, v) = (q[1], q[3]);
-                    rgb.extend_from_slice(&yuv_to_rgb(q[0], u, v));
-                    rgb.extend_from_slice(&yuv_to_rgb(q[2], u, v));
+                    rgb.extend_from_slice(&Colour::YCbCrLimited.to_rgb([q[0], u, v]));
+                    rgb.extend_from_slice(&Colour::YCbCrLimited.to_rgb([q[2], u, v]));
                 }
                 RgbImage::from_raw(w, h, rgb).ok_or_else(wrong_len)?
             }
@@ -210,28 +261,21 @@ impl Frame {
     }
 }
 
-/// BT.601 limited-range YCbCr → RGB, integer arithmetic (8.8 fixed point).
-pub fn yuv_to_rgb(y: u8, u: u8, v: u8) -> [u8; 3] {
-    let c = (i32::from(y) - 16).max(0) * 298;
-    let d = i32::from(u) - 128;
-    let e = i32::from(v) - 128;
-    let clamp = |x: i32| ((x + 128) >> 8).clamp(0, 255) as u8;
-    [
-        clamp(c + 409 * e),
-        clamp(c - 100 * d - 208 * e),
-        clamp(c + 516 * d),
-    ]
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
-    fn yuv_primaries() {
-        assert_eq!(yuv_to_rgb(16, 128, 128), [0, 0, 0]);
-        assert_eq!(yuv_to_rgb(235, 128, 128), [255, 255, 255]);
-        let red = yuv_to_rgb(81, 90, 240);
+    fn ycbcr_primaries_convert_to_rgb() {
+        let full = Colour::YCbCrFull;
+        assert_eq!(full.to_rgb([0, 128, 128]), [0, 0, 0]);
+        assert_eq!(full.to_rgb([255, 128, 128]), [255, 255, 255]);
+        let red = full.to_rgb([76, 85, 255]);
+        assert!(red[0] >= 253 && red[1] <= 2 && red[2] <= 2, "{red:?}");
+        let lim = Colour::YCbCrLimited;
+        assert_eq!(lim.to_rgb([16, 128, 128]), [0, 0, 0]);
+        assert_eq!(lim.to_rgb([235, 128, 128]), [255, 255, 255]);
+        let red = lim.to_rgb([81, 90, 240]);
         assert!(red[0] > 250 && red[1] < 5 && red[2] < 5, "{red:?}");
     }
 

@@ -7,6 +7,9 @@
 //!   f0000.png ...   frames
 //! ```
 //!
+//! Frames are PNG, or as a camera sent them: JPEG (`.jpg`, an MJPEG camera's frame byte for
+//! byte) or raw YUYV (`.yuyv`, whose size the manifest's `width_px` and `height_px` give).
+//!
 //! [`FrameSet::open`] validates the manifest and every referenced file's header before
 //! anything is processed, and refuses a bad set with an error naming the file and the
 //! problem. File names are plain relative names inside the set: absolute paths, `..`, and
@@ -18,10 +21,15 @@
 
 use std::fs;
 use std::path::{Component, Path, PathBuf};
+use std::time::Duration;
 
 use image::RgbImage;
 use serde::{Deserialize, Serialize};
 use serde_json::{Map, Value};
+
+use crate::decode::Decoded;
+use crate::encode::Encoding;
+use crate::frame::{Frame, PixelFormat};
 
 /// The format tag every manifest carries.
 pub const FORMAT: &str = "vistaf-frames/1";
@@ -77,9 +85,27 @@ pub struct Manifest {
     pub reference: String,
     /// The frames, in order.
     pub frames: Vec<FrameEntry>,
+    /// Frame width, pixels: needed by raw YUYV frames, which do not say it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub width_px: Option<u32>,
+    /// Frame height, pixels (with `width_px`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub height_px: Option<u32>,
     /// Keys this version does not know, kept verbatim.
     #[serde(flatten)]
     pub extra: Map<String, Value>,
+}
+
+/// How a frame file of a set holds its image, by its name's extension.
+fn file_format(name: &str) -> PixelFormat {
+    let lower = name.to_ascii_lowercase();
+    if lower.ends_with(".jpg") || lower.ends_with(".jpeg") {
+        PixelFormat::Mjpeg
+    } else if lower.ends_with(".yuyv") {
+        PixelFormat::Yuyv
+    } else {
+        PixelFormat::Rgb8
+    }
 }
 
 /// Why a frame set was refused. Every variant names the file it is about.
@@ -333,20 +359,7 @@ impl FrameSet {
                 why: "a link that points outside the set",
             });
         }
-        let reader = image::ImageReader::open(&path)
-            .map_err(io_err(&path))?
-            .with_guessed_format()
-            .map_err(io_err(&path))?;
-        if reader.format() != Some(image::ImageFormat::Png) {
-            return Err(FrameSetError::Image {
-                path,
-                detail: "not a PNG file".into(),
-            });
-        }
-        let (w, h) = reader.into_dimensions().map_err(|e| FrameSetError::Image {
-            path: path.clone(),
-            detail: e.to_string(),
-        })?;
+        let (w, h) = self.header_size(&path, name)?;
         if !crate::frame::size_ok(w, h) {
             return Err(FrameSetError::Image {
                 path,
@@ -367,6 +380,42 @@ impl FrameSet {
         Ok((w, h))
     }
 
+    /// The size a frame file says it has: a PNG's or JPEG's header, or for raw YUYV the
+    /// manifest's, checked against the file's length.
+    fn header_size(&self, path: &Path, name: &str) -> Result<(u32, u32), FrameSetError> {
+        let bad = |detail: String| FrameSetError::Image {
+            path: path.to_path_buf(),
+            detail,
+        };
+        match file_format(name) {
+            PixelFormat::Yuyv => {
+                let m = &self.manifest;
+                let (Some(w), Some(h)) = (m.width_px, m.height_px) else {
+                    return Err(bad(
+                        "a raw YUYV frame needs the manifest's width_px and height_px".into(),
+                    ));
+                };
+                let len = fs::metadata(path).map_err(io_err(path))?.len();
+                let want = 2 * u64::from(w) * u64::from(h);
+                if len != want {
+                    return Err(bad(format!("{len} bytes, a {w}×{h} YUYV frame has {want}")));
+                }
+                Ok((w, h))
+            }
+            PixelFormat::Mjpeg => jpeg_size(&fs::read(path).map_err(io_err(path))?, path),
+            _ => {
+                let reader = image::ImageReader::open(path)
+                    .map_err(io_err(path))?
+                    .with_guessed_format()
+                    .map_err(io_err(path))?;
+                if reader.format() != Some(image::ImageFormat::Png) {
+                    return Err(bad("not a PNG file".into()));
+                }
+                reader.into_dimensions().map_err(|e| bad(e.to_string()))
+            }
+        }
+    }
+
     /// The set's directory.
     pub fn dir(&self) -> &Path {
         &self.dir
@@ -375,6 +424,17 @@ impl FrameSet {
     /// Frame size, pixels (every frame has the reference's size).
     pub fn size(&self) -> (u32, u32) {
         (self.width, self.height)
+    }
+
+    /// How the set's frames hold their images (the first frame's, or the reference's in a
+    /// set without frames): PNG ([`PixelFormat::Rgb8`]), JPEG or raw YUYV.
+    pub fn frame_format(&self) -> PixelFormat {
+        let name = self
+            .manifest
+            .frames
+            .first()
+            .map_or(&self.manifest.reference, |f| &f.file);
+        file_format(name)
     }
 
     /// Number of frames (not counting the reference).
@@ -392,20 +452,108 @@ impl FrameSet {
         self.dir.join(name)
     }
 
-    /// Decodes the reference frame.
+    /// Decodes the reference frame to RGB.
     pub fn load_reference(&self) -> Result<RgbImage, FrameSetError> {
-        self.load_checked(&self.manifest.reference)
+        self.rgb(&self.manifest.reference)
     }
 
-    /// Decodes frame `index`.
+    /// Decodes frame `index` to RGB.
     ///
     /// # Panics
     /// If `index >= self.len()`.
     pub fn load_frame(&self, index: usize) -> Result<RgbImage, FrameSetError> {
-        self.load_checked(&self.manifest.frames[index].file)
+        self.rgb(&self.manifest.frames[index].file)
     }
 
-    fn load_checked(&self, name: &str) -> Result<RgbImage, FrameSetError> {
+    /// The reference as the camera sent it (a PNG's pixels as RGB), sequence number 0.
+    pub fn reference_frame(&self) -> Result<Frame, FrameSetError> {
+        self.camera_frame(&self.manifest.reference, Duration::ZERO, 0)
+    }
+
+    /// Frame `index` as the camera sent it (a PNG's pixels as RGB), at its recorded time
+    /// (or 30 frames/s without one), sequence number `index`.
+    ///
+    /// # Panics
+    /// If `index >= self.len()`.
+    pub fn frame(&self, index: usize) -> Result<Frame, FrameSetError> {
+        let e = &self.manifest.frames[index];
+        self.camera_frame(&e.file, self.t_of(index), index as u64)
+    }
+
+    /// Capture time of frame `index`: its `t_ms`, or 30 frames/s without one.
+    pub fn t_of(&self, index: usize) -> Duration {
+        let ms = self.manifest.frames[index]
+            .t_ms
+            .unwrap_or(index as f64 * 1000.0 / 30.0);
+        Duration::from_secs_f64(ms.max(0.0) / 1000.0)
+    }
+
+    fn camera_frame(&self, name: &str, t: Duration, seq: u64) -> Result<Frame, FrameSetError> {
+        let path = self.dir.join(name);
+        let format = file_format(name);
+        if format == PixelFormat::Rgb8 {
+            return Ok(Frame::from_rgb(self.checked_png(name)?, t, seq));
+        }
+        let data = fs::read(&path).map_err(io_err(&path))?;
+        Ok(Frame {
+            width: self.width,
+            height: self.height,
+            format,
+            data,
+            timestamp: t,
+            seq,
+        })
+    }
+
+    /// The reference decoded at `1/scale` (see [`crate::decode`]).
+    pub fn decoded_reference(&self, scale: u32) -> Result<Decoded, FrameSetError> {
+        let mut out = Decoded::default();
+        let f = self.reference_frame()?;
+        self.decode(&self.manifest.reference, &f, scale, &mut out)?;
+        Ok(out)
+    }
+
+    /// Frame `index` decoded at `1/scale` into `out` (its buffer reused).
+    ///
+    /// # Panics
+    /// If `index >= self.len()`.
+    pub fn decoded_frame(
+        &self,
+        index: usize,
+        scale: u32,
+        out: &mut Decoded,
+    ) -> Result<(), FrameSetError> {
+        let f = self.frame(index)?;
+        self.decode(&self.manifest.frames[index].file, &f, scale, out)
+    }
+
+    fn decode(
+        &self,
+        name: &str,
+        f: &Frame,
+        scale: u32,
+        out: &mut Decoded,
+    ) -> Result<(), FrameSetError> {
+        f.decode_into(scale, out).map_err(|e| FrameSetError::Image {
+            path: self.dir.join(name),
+            detail: e.to_string(),
+        })
+    }
+
+    fn rgb(&self, name: &str) -> Result<RgbImage, FrameSetError> {
+        if file_format(name) == PixelFormat::Rgb8 {
+            return self.checked_png(name);
+        }
+        let path = self.dir.join(name);
+        self.camera_frame(name, Duration::ZERO, 0)?
+            .into_rgb()
+            .map_err(|e| FrameSetError::Image {
+                path,
+                detail: e.to_string(),
+            })
+    }
+
+    fn checked_png(&self, name: &str) -> Result<RgbImage, FrameSetError> {
         let path = self.dir.join(name);
         let img = load_png_rgb(&path)?;
         if img.dimensions() != (self.width, self.height) {
@@ -419,6 +567,51 @@ impl FrameSet {
         }
         Ok(img)
     }
+}
+
+/// One frame file outside a set, as the camera sent it: a PNG (its pixels as RGB) or a
+/// JPEG (its bytes). Raw YUYV does not say its size: it is read from a set, whose
+/// manifest does.
+pub fn frame_file(path: &Path) -> Result<Frame, FrameSetError> {
+    let name = path.to_string_lossy();
+    let bad = |detail: String| FrameSetError::Image {
+        path: path.to_path_buf(),
+        detail,
+    };
+    match file_format(&name) {
+        PixelFormat::Mjpeg => {
+            let data = fs::read(path).map_err(io_err(path))?;
+            let (width, height) = jpeg_size(&data, path)?;
+            Ok(Frame {
+                width,
+                height,
+                format: PixelFormat::Mjpeg,
+                data,
+                timestamp: Duration::ZERO,
+                seq: 0,
+            })
+        }
+        PixelFormat::Yuyv => Err(bad(
+            "a raw YUYV frame does not say its size: read it from a frame set".into(),
+        )),
+        _ => Ok(Frame::from_rgb(load_png_rgb(path)?, Duration::ZERO, 0)),
+    }
+}
+
+/// A JPEG's size from its frame header (nothing else is decoded); `path` names it in
+/// errors.
+fn jpeg_size(bytes: &[u8], path: &Path) -> Result<(u32, u32), FrameSetError> {
+    let bad = |detail: String| FrameSetError::Image {
+        path: path.to_path_buf(),
+        detail,
+    };
+    let mut dec = jpeg_decoder::Decoder::new(bytes);
+    dec.read_info()
+        .map_err(|e| bad(format!("not a JPEG frame: {e}")))?;
+    let info = dec
+        .info()
+        .ok_or_else(|| bad("a JPEG without a frame header".into()))?;
+    Ok((u32::from(info.width), u32::from(info.height)))
 }
 
 /// Decodes an 8-bit RGB, RGBA (alpha ignored) or grey PNG to RGB.
@@ -467,34 +660,129 @@ pub fn png_bytes(img: &RgbImage) -> Result<Vec<u8>, image::ImageError> {
 
 /// Writes a frame set: reference first, frames as they come, manifest last (so a set whose
 /// writer was killed has no manifest and is refused rather than read half-written).
+///
+/// Images are written in the writer's [`Encoding`] (PNG by default; [`Self::encoded`]);
+/// camera frames ([`Self::create_from_frame`], [`Self::add_frame`]) byte for byte as the
+/// camera sent them.
 #[derive(Debug)]
 pub struct FrameSetWriter {
     dir: PathBuf,
     manifest: Manifest,
     size: (u32, u32),
+    encoding: Encoding,
+}
+
+/// The file extension of frames in `format`.
+fn extension(format: PixelFormat) -> &'static str {
+    match format {
+        PixelFormat::Mjpeg => "jpg",
+        PixelFormat::Yuyv => "yuyv",
+        PixelFormat::Rgb8 | PixelFormat::Gray8 => "png",
+    }
 }
 
 impl FrameSetWriter {
-    /// Creates `dir` (if needed) and writes the reference frame.
+    /// Creates `dir` (if needed) and writes the reference frame as PNG.
     pub fn create(
         dir: &Path,
         grating_period_mm: f64,
         reference: &RgbImage,
     ) -> Result<FrameSetWriter, FrameSetError> {
+        FrameSetWriter::encoded(dir, grating_period_mm, reference, Encoding::Rgb)
+    }
+
+    /// Creates `dir` (if needed) and writes the reference frame; every image is written
+    /// as a camera would send it in `encoding`.
+    pub fn encoded(
+        dir: &Path,
+        grating_period_mm: f64,
+        reference: &RgbImage,
+        encoding: Encoding,
+    ) -> Result<FrameSetWriter, FrameSetError> {
+        let (w, h) = reference.dimensions();
+        let mut writer = FrameSetWriter::empty(dir, grating_period_mm, (w, h), encoding)?;
+        let name = format!("reference.{}", extension(encoding.pixel_format()));
+        writer.write_image(&name, reference)?;
+        writer.manifest.reference = name;
+        Ok(writer)
+    }
+
+    /// Creates `dir` (if needed) and writes `reference` as the camera sent it; later
+    /// frames are expected in its format.
+    pub fn create_from_frame(
+        dir: &Path,
+        grating_period_mm: f64,
+        reference: &Frame,
+    ) -> Result<FrameSetWriter, FrameSetError> {
+        let encoding = match reference.format {
+            PixelFormat::Yuyv => Encoding::Yuyv,
+            // The quality is the camera's; it only matters for images encoded here.
+            PixelFormat::Mjpeg => Encoding::Mjpeg(90),
+            PixelFormat::Rgb8 | PixelFormat::Gray8 => Encoding::Rgb,
+        };
+        let size = (reference.width, reference.height);
+        let mut writer = FrameSetWriter::empty(dir, grating_period_mm, size, encoding)?;
+        let name = format!("reference.{}", extension(reference.format));
+        writer.write_frame(&name, reference)?;
+        writer.manifest.reference = name;
+        Ok(writer)
+    }
+
+    fn empty(
+        dir: &Path,
+        grating_period_mm: f64,
+        (w, h): (u32, u32),
+        encoding: Encoding,
+    ) -> Result<FrameSetWriter, FrameSetError> {
         fs::create_dir_all(dir).map_err(io_err(dir))?;
-        let writer = FrameSetWriter {
+        let yuyv = encoding == Encoding::Yuyv;
+        Ok(FrameSetWriter {
             dir: dir.to_path_buf(),
             manifest: Manifest {
                 format: FORMAT.to_string(),
                 grating_period_mm,
-                reference: "reference.png".to_string(),
+                reference: String::new(),
                 frames: Vec::new(),
+                width_px: yuyv.then_some(w),
+                height_px: yuyv.then_some(h),
                 extra: Map::new(),
             },
-            size: reference.dimensions(),
+            size: (w, h),
+            encoding,
+        })
+    }
+
+    /// Writes a camera frame's bytes (a PNG for RGB or grey pixels).
+    fn write_frame(&mut self, name: &str, f: &Frame) -> Result<(), FrameSetError> {
+        let path = self.dir.join(name);
+        if (f.width, f.height) != self.size {
+            return Err(FrameSetError::SizeMismatch {
+                path,
+                width: self.size.0,
+                height: self.size.1,
+                got_w: f.width,
+                got_h: f.height,
+            });
+        }
+        let bytes = match f.format {
+            PixelFormat::Mjpeg => f.data.clone(),
+            PixelFormat::Yuyv => {
+                self.manifest.width_px = Some(f.width);
+                self.manifest.height_px = Some(f.height);
+                f.data.clone()
+            }
+            PixelFormat::Rgb8 | PixelFormat::Gray8 => {
+                let img = f.to_rgb().map_err(|e| FrameSetError::Image {
+                    path: path.clone(),
+                    detail: e.to_string(),
+                })?;
+                png_bytes(&img).map_err(|e| FrameSetError::Image {
+                    path: path.clone(),
+                    detail: e.to_string(),
+                })?
+            }
         };
-        writer.write_png("reference.png", reference)?;
-        Ok(writer)
+        fs::write(&path, bytes).map_err(io_err(&path))
     }
 
     /// Top-level manifest keys beyond the format's (scene parameters, truth descriptions).
@@ -502,7 +790,7 @@ impl FrameSetWriter {
         &mut self.manifest.extra
     }
 
-    fn write_png(&self, name: &str, img: &RgbImage) -> Result<(), FrameSetError> {
+    fn write_image(&self, name: &str, img: &RgbImage) -> Result<(), FrameSetError> {
         let path = self.dir.join(name);
         if img.dimensions() != self.size {
             return Err(FrameSetError::SizeMismatch {
@@ -513,9 +801,13 @@ impl FrameSetWriter {
                 got_h: img.height(),
             });
         }
-        let bytes = png_bytes(img).map_err(|e| FrameSetError::Image {
+        let bytes = match self.encoding {
+            Encoding::Rgb => png_bytes(img).map_err(|e| e.to_string()),
+            e => e.encode(img),
+        }
+        .map_err(|detail| FrameSetError::Image {
             path: path.clone(),
-            detail: e.to_string(),
+            detail,
         })?;
         fs::write(&path, bytes).map_err(io_err(&path))
     }
@@ -525,15 +817,30 @@ impl FrameSetWriter {
         &self.dir
     }
 
-    /// Name the next frame will get (`f0000.png`, `f0001.png`, ...).
+    /// Name the next frame will get (`f0000.png`, `f0001.png`, ...; `.jpg` or `.yuyv`
+    /// in those encodings).
     pub fn next_name(&self) -> String {
-        format!("f{:04}.png", self.manifest.frames.len())
+        self.name_for(self.encoding.pixel_format())
     }
 
-    /// Appends a frame; `entry.file` is replaced by the next frame name.
+    fn name_for(&self, format: PixelFormat) -> String {
+        format!("f{:04}.{}", self.manifest.frames.len(), extension(format))
+    }
+
+    /// Appends a frame in the writer's encoding; `entry.file` is replaced by the next
+    /// frame name.
     pub fn add(&mut self, img: &RgbImage, mut entry: FrameEntry) -> Result<(), FrameSetError> {
         entry.file = self.next_name();
-        self.write_png(&entry.file, img)?;
+        self.write_image(&entry.file, img)?;
+        self.manifest.frames.push(entry);
+        Ok(())
+    }
+
+    /// Appends a camera frame byte for byte; `entry.file` is replaced by the next frame
+    /// name.
+    pub fn add_frame(&mut self, f: &Frame, mut entry: FrameEntry) -> Result<(), FrameSetError> {
+        entry.file = self.name_for(f.format);
+        self.write_frame(&entry.file, f)?;
         self.manifest.frames.push(entry);
         Ok(())
     }
@@ -558,14 +865,17 @@ pub fn write_manifest(dir: &Path, manifest: &Manifest) -> Result<(), FrameSetErr
     fs::write(&path, text).map_err(io_err(&path))
 }
 
-/// Copies a set to `dst`, re-encoding every image and rewriting the manifest with its
-/// unknown keys kept.
+/// Copies a set to `dst`: PNG images re-encoded, camera frames (JPEG, YUYV) byte for
+/// byte, the manifest rewritten with its unknown keys kept.
 pub fn copy_set(src: &FrameSet, dst: &Path) -> Result<FrameSet, FrameSetError> {
-    let mut w =
-        FrameSetWriter::create(dst, src.manifest.grating_period_mm, &src.load_reference()?)?;
+    let mut w = FrameSetWriter::create_from_frame(
+        dst,
+        src.manifest.grating_period_mm,
+        &src.reference_frame()?,
+    )?;
     w.manifest.extra = src.manifest.extra.clone();
     for (i, e) in src.manifest.frames.iter().enumerate() {
-        w.add(&src.load_frame(i)?, e.clone())?;
+        w.add_frame(&src.frame(i)?, e.clone())?;
     }
     w.finish()
 }

@@ -8,6 +8,8 @@
 //! | [`source::FrameSource`] | [`camera`] (V4L2, feature `v4l`) | [`source::SetReplay`]; the simulated skin (`vistaf-sim`) |
 //! | [`led::LedRing`] | [`led::SpiLedRing`] over rppal SPI (feature `rpi`) | [`led::MemoryLedRing`] |
 //!
+//! [`decode`] turns a frame's bytes into the pipeline's input at the size it needs, and
+//! [`encode`] an image into the bytes a camera sends;
 //! [`frameset`] reads and writes the `vistaf-frames/1` format; [`clock`] is the device's
 //! one time line, which frame timestamps from a camera or the simulated skin are read on.
 #![deny(missing_docs)]
@@ -15,6 +17,8 @@
 #[cfg(feature = "v4l")]
 pub mod camera;
 pub mod clock;
+pub mod decode;
+pub mod encode;
 pub mod frame;
 pub mod frameset;
 pub mod led;

@@ -127,10 +127,7 @@ impl SetReplay {
     }
 
     fn t_of(&self, i: usize) -> Duration {
-        let ms = self.set.manifest.frames[i]
-            .t_ms
-            .unwrap_or(i as f64 * 1000.0 / 30.0);
-        Duration::from_secs_f64(ms.max(0.0) / 1000.0)
+        self.set.t_of(i)
     }
 }
 
@@ -140,7 +137,7 @@ impl FrameSource for SetReplay {
         SourceFormat {
             width,
             height,
-            pixel: PixelFormat::Rgb8,
+            pixel: self.set.frame_format(),
             interval: None,
         }
     }
@@ -166,10 +163,12 @@ impl FrameSource for SetReplay {
                 std::thread::sleep(wait);
             }
         }
-        let img = self.set.load_frame(i)?;
+        let mut frame = self.set.frame(i)?;
+        frame.timestamp = t;
+        frame.seq = self.seq;
         self.next += 1;
         self.seq += 1;
-        Ok(Some(Frame::from_rgb(img, t, self.seq - 1)))
+        Ok(Some(frame))
     }
 }
 
@@ -188,14 +187,14 @@ pub fn record(
             detail: "ended before delivering a reference frame".into(),
         })?;
     let t0 = first.timestamp;
-    let mut w = FrameSetWriter::create(dir, grating_period_mm, &first.into_rgb()?)?;
+    let mut w = FrameSetWriter::create_from_frame(dir, grating_period_mm, &first)?;
     w.extra_mut()
         .insert("recorded_from".into(), source.name().into());
     for _ in 0..frames {
         let Some(f) = source.next_frame()? else { break };
         let t_ms = f.timestamp.saturating_sub(t0).as_secs_f64() * 1000.0;
-        w.add(
-            &f.into_rgb()?,
+        w.add_frame(
+            &f,
             FrameEntry {
                 t_ms: Some(t_ms),
                 ..Default::default()

@@ -24,8 +24,8 @@ import json
 import sys
 import zlib
 
-PROTOCOL_VERSION = 3
-SCHEMA_HASH = 0xDFB9_1EBD_46D6_C5EF
+PROTOCOL_VERSION = 4
+SCHEMA_HASH = 0x1D29_8C62_6DF8_9D22
 # Largest frame on the wire (a full map tile), bytes: anything longer is garbage.
 FRAME_MAX = 1700
 TEMP_NOT_MEASURED = -32768
@@ -161,6 +161,8 @@ def status(r):
               "link_frames_dropped", "reference_age_ms"]:
         m[k] = r.varint(32)
     m["camera_restarts"] = r.varint(16)
+    for k in ["latency_p50_us", "latency_p99_us"]:
+        m[k] = r.varint(32)
     return m
 
 

@@ -65,6 +65,8 @@ fn status(i: u64) -> DeviceMsg {
         link_frames_dropped: 0,
         reference_age_ms: 4_000,
         camera_restarts: 0,
+        latency_p50_us: 10_200 + 10 * i as u32,
+        latency_p99_us: 15_000,
     })
 }
 

@@ -194,6 +194,11 @@ pub struct Status {
     pub reference_age_ms: u32,
     /// Times the camera was reopened after a loss.
     pub camera_restarts: u16,
+    /// Median time from a frame's capture to its summary's last byte written to the link,
+    /// over the last 256 summaries, µs (0 before any).
+    pub latency_p50_us: u32,
+    /// The same, 99th percentile, µs.
+    pub latency_p99_us: u32,
 }
 
 /// What went wrong on the device.

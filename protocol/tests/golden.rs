@@ -57,6 +57,8 @@ fn device_samples() -> Vec<(&'static str, DeviceMsg)> {
                 link_frames_dropped: 2,
                 reference_age_ms: 60_000,
                 camera_restarts: 0,
+                latency_p50_us: 9_800,
+                latency_p99_us: 14_250,
             }),
         ),
         (
@@ -183,7 +185,7 @@ fn every_golden_file_has_a_sample() {
 /// bump `PROTOCOL_VERSION` and update the constant below together with the golden files.
 #[test]
 fn schema_hash_is_pinned() {
-    assert_eq!(PROTOCOL_VERSION, 3);
+    assert_eq!(PROTOCOL_VERSION, 4);
     assert_eq!(
         schema_hash(),
         PINNED_SCHEMA_HASH,
@@ -192,24 +194,24 @@ fn schema_hash_is_pinned() {
     );
 }
 
-const PINNED_SCHEMA_HASH: u64 = 0xdfb9_1ebd_46d6_c5ef;
+const PINNED_SCHEMA_HASH: u64 = 0x1d29_8c62_6df8_9d22;
 
 #[test]
 fn a_hello_of_another_version_is_named_not_misread() {
-    // A future Hello: version 4, a different hash, and a field this build does not know.
+    // A future Hello: version 5, a different hash, and a field this build does not know.
     let mut payload = Vec::new();
-    payload.extend(postcard::to_stdvec(&(0u32, 4u16, 0x1111_2222_3333_4444u64)).unwrap());
+    payload.extend(postcard::to_stdvec(&(0u32, 5u16, 0x1111_2222_3333_4444u64)).unwrap());
     payload.extend([0xff, 0xff, 0xff, 0xff, 0xff, 0xff]);
     let got = decoded(&payload);
     assert_eq!(
         got,
         vec![Err(FrameError::ProtocolMismatch {
-            protocol_version: 4,
+            protocol_version: 5,
             schema_hash: 0x1111_2222_3333_4444
         })]
     );
     let text = got[0].clone().unwrap_err().to_string();
-    assert!(text.contains("v4") && text.contains("v3"), "{text}");
+    assert!(text.contains("v5") && text.contains("v4"), "{text}");
 }
 
 /// A Hello of this very version and schema that does not decode (a serial that is not

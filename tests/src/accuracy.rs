@@ -15,6 +15,8 @@
 use std::path::Path;
 
 use vistaf_calibrate::{calibrate, Quiet};
+use vistaf_hardware::decode::Decoded;
+use vistaf_hardware::encode::Encoding;
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement};
 use vistaf_sim::contact::{Contact, Footprint, Indenter};
 use vistaf_sim::rng::Rng;
@@ -141,10 +143,71 @@ pub fn without(mut unit: SensorUnit, effects: &[String]) -> SensorUnit {
     unit
 }
 
+/// The camera the battery's units send their frames from: an encoding, and optionally
+/// another image size behind the same optics (the grating's period in pixels scaled with
+/// the width, so the field of view is the unit's).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Camera {
+    /// How frames are sent.
+    pub encoding: Encoding,
+    /// Image size, pixels (`None`: the unit's own).
+    pub size: Option<(u32, u32)>,
+}
+
+impl std::str::FromStr for Camera {
+    type Err = String;
+    /// `ENCODING[@WxH]`: `rgb`, `yuyv@640x480`, `mjpeg:90@1920x1080`.
+    fn from_str(s: &str) -> Result<Camera, String> {
+        let (enc, size) = s.split_once('@').map_or((s, None), |(e, z)| (e, Some(z)));
+        let encoding = enc.parse()?;
+        let size = size
+            .map(|z| {
+                let (w, h) = z
+                    .split_once('x')
+                    .ok_or_else(|| format!("camera size {z:?}: expected WxH"))?;
+                let n = |v: &str| {
+                    v.parse::<u32>()
+                        .map_err(|e| format!("camera size {z:?}: {e}"))
+                };
+                Ok::<_, String>((n(w)?, n(h)?))
+            })
+            .transpose()?;
+        Ok(Camera { encoding, size })
+    }
+}
+
+impl std::fmt::Display for Camera {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", self.encoding)?;
+        if let Some((w, h)) = self.size {
+            write!(f, "@{w}x{h}")?;
+        }
+        Ok(())
+    }
+}
+
+impl Camera {
+    /// `unit` behind this camera.
+    pub fn unit(&self, mut unit: SensorUnit) -> SensorUnit {
+        if let Some((w, h)) = self.size {
+            unit.period_px *= w as f32 / unit.width_px as f32;
+            unit.width_px = w;
+            unit.height_px = h;
+        }
+        unit
+    }
+}
+
 /// Calibrates unit `seed` on its kit (in `work`, removed afterwards) and scores its scenes,
-/// with the named effects switched off (none for the battery).
-pub fn run_unit(seed: u64, work: &Path, off: &[String]) -> Result<Vec<Scored>, Refused> {
-    let unit = without(SensorUnit::wide(seed), off);
+/// with the named effects switched off (none for the battery), its frames sent by `camera`
+/// (kit and scenes alike) and decoded as the device decodes them.
+pub fn run_unit(
+    seed: u64,
+    work: &Path,
+    off: &[String],
+    camera: Camera,
+) -> Result<Vec<Scored>, Refused> {
+    let unit = camera.unit(without(SensorUnit::wide(seed), off));
     let drifts = !off.iter().any(|e| e == "drift");
     let refused = |why: String| Refused { unit: seed, why };
     let dir = work.join(format!("unit-{seed}"));
@@ -152,6 +215,7 @@ pub fn run_unit(seed: u64, work: &Path, off: &[String]) -> Result<Vec<Scored>, R
         truth_maps: false,
         seed: seed.wrapping_mul(7),
         unit_seed: seed,
+        encoding: camera.encoding,
     };
     let sets = write_calibration_kit(&dir, &unit, &opts, |_, _, _| {})
         .map_err(|e| refused(format!("kit: {e}")))?;
@@ -159,9 +223,18 @@ pub fn run_unit(seed: u64, work: &Path, off: &[String]) -> Result<Vec<Scored>, R
     let _ = std::fs::remove_dir_all(&dir);
     let calib = calib.map_err(|e| refused(format!("{e:#}")))?;
     let r = Renderer::new(unit.clone());
+    let scale = calib.unit.scale_for(unit.width_px, unit.height_px);
+    let decode = |img: &image::RgbImage, out: &mut Decoded| {
+        camera
+            .encoding
+            .frame(img)
+            .and_then(|f| f.decode_into(scale, out).map_err(|e| e.to_string()))
+    };
     let (reference, _) = r.render(&SkinState::idle(ROOM_C), seed ^ 0x5eed);
+    let mut frame = Decoded::default();
+    decode(&reference, &mut frame).map_err(|e| refused(format!("reference: {e}")))?;
     let a = Analyzer::new(
-        &reference,
+        &frame,
         calib,
         Implementation::Fixed,
         AnalyzerOptions::default(),
@@ -176,8 +249,15 @@ pub fn run_unit(seed: u64, work: &Path, off: &[String]) -> Result<Vec<Scored>, R
             state.white_balance = [1.0; 3];
         }
         let (img, truth) = r.render(&state, seed.wrapping_mul(1000) + k as u64);
-        match a.analyze(&img) {
-            Ok(m) => out.push(score(seed, kind, &unit, &state, &truth, &m)),
+        decode(&img, &mut frame).map_err(|e| refused(format!("frame {k}: {e}")))?;
+        match a.analyze(&frame) {
+            Ok(mut m) => {
+                // Positions in the camera's pixels, as the truth gives them.
+                m.centroid_px = m
+                    .centroid_px
+                    .map(|(x, y)| (x * scale as f32, y * scale as f32));
+                out.push(score(seed, kind, &unit, &state, &truth, &m))
+            }
             Err(e) => return Err(refused(format!("frame {k}: {e}"))),
         }
     }
@@ -391,6 +471,7 @@ pub fn run_units(
     work: &Path,
     jobs: usize,
     off: &[String],
+    camera: Camera,
     done: impl Fn(u64) + Sync,
 ) -> Vec<UnitResult> {
     let next = std::sync::atomic::AtomicUsize::new(0);
@@ -401,7 +482,7 @@ pub fn run_units(
             s.spawn(|| loop {
                 let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                 let Some(&seed) = seeds.get(i) else { break };
-                let r = run_unit(seed, work, off);
+                let r = run_unit(seed, work, off, camera);
                 if let Ok(mut slot) = slots[i].lock() {
                     *slot = Some(r);
                 }

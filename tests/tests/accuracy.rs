@@ -12,7 +12,7 @@ use vistaf_tests::accuracy::{run_units, Kind};
 #[test]
 fn wide_units_calibrate_and_report_every_press_where_it_is() {
     let work = std::env::temp_dir().join(format!("vistaf-accuracy-test-{}", std::process::id()));
-    let results = run_units(&[2, 5, 11], &work, 2, &[], |_| {});
+    let results = run_units(&[2, 5, 11], &work, 2, &[], Default::default(), |_| {});
     let _ = std::fs::remove_dir_all(&work);
     for r in &results {
         let frames = r
@@ -33,7 +33,7 @@ fn wide_units_calibrate_and_report_every_press_where_it_is() {
 #[test]
 fn a_pigment_dark_enough_to_lower_contrast_is_still_calibrated() {
     let work = std::env::temp_dir().join(format!("vistaf-dark-pigment-{}", std::process::id()));
-    let results = run_units(&[7], &work, 2, &[], |_| {});
+    let results = run_units(&[7], &work, 2, &[], Default::default(), |_| {});
     let _ = std::fs::remove_dir_all(&work);
     let frames = results[0]
         .as_ref()

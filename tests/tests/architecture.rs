@@ -42,7 +42,7 @@ fn crates_depend_only_on_what_is_below_them_in_the_flow() {
         ("protocol", &[]),
         ("hardware", &[]),
         ("hardware/sim", &["vistaf-hardware"]),
-        ("firmware/pipeline", &["vistaf-protocol"]),
+        ("firmware/pipeline", &["vistaf-protocol", "vistaf-hardware"]),
         (
             "firmware/calibrate",
             &["vistaf-protocol", "vistaf-pipeline", "vistaf-hardware"],

@@ -164,6 +164,7 @@ fn sample_set() -> PathBuf {
             truth_maps: false,
             seed: 1,
             unit_seed: 0,
+            encoding: Default::default(),
         };
         vistaf_sim::sets::write_states(&dir, "press-sphere", &u, &states, &opts, |_, _| {})
             .unwrap();

@@ -45,6 +45,38 @@ impl FrameSource for Timed {
     }
 }
 
+/// Runs the service on `source` with `settings`, writing to one end of a new
+/// pseudo-terminal; the host's client on the other end, the flag that stops the service,
+/// and the service's thread.
+fn serve(
+    source: Timed,
+    settings: Settings,
+) -> (
+    Client,
+    Arc<AtomicBool>,
+    std::thread::JoinHandle<vistaf_firmware::service::Counters>,
+) {
+    let (master, slave) = TTYPort::pair().unwrap();
+    let path = slave.name().unwrap();
+    let reader = master.try_clone_native().unwrap();
+    let stop = Arc::new(AtomicBool::new(false));
+    let device_stop = stop.clone();
+    let device = std::thread::spawn(move || {
+        let mut led = MemoryLedRing::default();
+        run(
+            Box::new(source),
+            master,
+            Some(Box::new(reader)),
+            &mut led,
+            &settings,
+            device_stop,
+        )
+        .unwrap()
+    });
+    let link = Link::open(&format!("serial:{path}").parse::<LinkSpec>().unwrap()).unwrap();
+    (Client::new(link), stop, device)
+}
+
 #[test]
 fn summaries_cross_a_pty_in_order_and_match_the_scene() {
     let unit = SensorUnit {
@@ -82,31 +114,12 @@ fn summaries_cross_a_pty_in_order_and_match_the_scene() {
         inner: SimSource::new("press", unit, states, Some(30.0), 7),
         log: captured.clone(),
     };
-    let (master, slave) = TTYPort::pair().unwrap();
-    let path = slave.name().unwrap();
-    let reader = master.try_clone_native().unwrap();
     let settings = Settings {
         serial: "VSK-TEST".into(),
         force_calibration: true,
         ..Settings::new(Calibration::default_sim())
     };
-    let stop = Arc::new(AtomicBool::new(false));
-    let device_stop = stop.clone();
-    let device = std::thread::spawn(move || {
-        let mut led = MemoryLedRing::default();
-        run(
-            Box::new(source),
-            master,
-            Some(Box::new(reader)),
-            &mut led,
-            &settings,
-            device_stop,
-        )
-        .unwrap()
-    });
-
-    let mut host =
-        Client::new(Link::open(&format!("serial:{path}").parse::<LinkSpec>().unwrap()).unwrap());
+    let (mut host, stop, device) = serve(source, settings);
     let hello = host.handshake(Duration::from_secs(5)).unwrap();
     assert_eq!((hello.frame_width_px, hello.frame_height_px), (320, 240));
     assert_eq!(&hello.serial[..], "VSK-TEST");
@@ -204,4 +217,83 @@ fn summaries_cross_a_pty_in_order_and_match_the_scene() {
         lat[lat.len() * 95 / 100],
         lat[lat.len() - 1]
     );
+}
+
+/// The `Status` reports the device's capture-to-link latency (p50, p99 over the last
+/// summaries) at 60 and 120 frames/s through a real pseudo-terminal. What the device
+/// counts ends at its last byte written, so it is never more than what the host sees from
+/// the same capture to the summary's arrival; the figures are printed, not bounded (time on
+/// a shared machine is not a test).
+#[test]
+fn the_status_reports_capture_to_link_latency_at_60_and_120_frames_per_second() {
+    let unit = SensorUnit {
+        width_px: 320,
+        height_px: 240,
+        ..SensorUnit::reference()
+    };
+    for fps in [60.0f32, 120.0] {
+        let mut states = vec![SkinState::idle(ROOM_C); 3];
+        for i in 0..(2.5 * fps) as usize {
+            let mut s = SkinState::idle(ROOM_C);
+            s.contacts.push(Contact {
+                indenter: Indenter::Sphere { r_mm: SPHERE_R_MM },
+                center_mm: center_mm(&unit),
+                depth_mm: 0.5 + 0.01 * (i % 100) as f32,
+            });
+            states.push(s);
+        }
+        let captured: Arc<Mutex<Vec<(u64, Instant)>>> = Arc::default();
+        let source = Timed {
+            inner: SimSource::new("press", unit.clone(), states, Some(fps), 7),
+            log: captured.clone(),
+        };
+        let settings = Settings {
+            force_calibration: true,
+            ..Settings::new(Calibration::default_sim())
+        };
+        let (mut host, stop, device) = serve(source, settings);
+        host.handshake(Duration::from_secs(5)).unwrap();
+        let (mut status, mut host_ms) = (None, Vec::new());
+        let deadline = Instant::now() + Duration::from_secs(30);
+        while Instant::now() < deadline {
+            match host
+                .next(Some(Instant::now() + Duration::from_millis(300)))
+                .unwrap()
+            {
+                Next::Message(r) => match r.msg {
+                    DeviceMsg::Status(st) if st.latency_p50_us > 0 => status = Some(st),
+                    DeviceMsg::Summary(s) => {
+                        let log = captured.lock().unwrap();
+                        if let Some((_, t)) = log.iter().find(|(us, _)| *us == s.capture_us) {
+                            host_ms.push(t.elapsed().as_secs_f64() * 1e3);
+                        }
+                    }
+                    _ => {}
+                },
+                Next::End => break,
+                Next::Timeout if device.is_finished() => break,
+                Next::Timeout => {}
+            }
+        }
+        stop.store(true, std::sync::atomic::Ordering::Relaxed);
+        device.join().unwrap();
+        let st = status.expect("a Status with latencies");
+        let (p50, p99) = (
+            f64::from(st.latency_p50_us) / 1e3,
+            f64::from(st.latency_p99_us) / 1e3,
+        );
+        host_ms.sort_by(f64::total_cmp);
+        let host_max = host_ms.last().copied().unwrap_or(0.0);
+        assert!(p50 > 0.0 && p50 <= p99, "{fps} frames/s: {st:?}");
+        assert!(
+            p50 <= host_max,
+            "{fps}: device p50 {p50} ms, host max {host_max} ms"
+        );
+        println!(
+            "{fps} frames/s over a pty: Status latency p50 {p50:.2} ms, p99 {p99:.2} ms; \
+             host-side capture to arrival p50 {:.2} ms over {} summaries",
+            host_ms[host_ms.len() / 2],
+            host_ms.len()
+        );
+    }
 }

@@ -24,6 +24,7 @@ fn check_unit(seed: u64) {
         truth_maps: false,
         seed: 5,
         unit_seed: seed,
+        encoding: Default::default(),
     };
     let sets: Vec<FrameSet> = [
         ("depth", &depth),

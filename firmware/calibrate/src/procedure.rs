@@ -14,6 +14,7 @@
 //! a flagged number is not trusted, so it must not teach the model either.
 
 use sha2::{Digest, Sha256};
+use vistaf_hardware::decode::Decoded;
 use vistaf_hardware::frameset::FrameSet;
 use vistaf_pipeline::calibration::{
     Calibration, DepthModel, FitRange, Fitted, ForceFeature, ForceModel, SetRecord, ShapeSignature,
@@ -21,6 +22,7 @@ use vistaf_pipeline::calibration::{
 };
 use vistaf_pipeline::ftp::carrier;
 use vistaf_pipeline::image_ops::gray_down_f32;
+use vistaf_pipeline::input::decode_scale;
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement};
 use vistaf_protocol::Flag;
 
@@ -94,6 +96,8 @@ struct Run<'a, O: Observer> {
     sets: &'a [FrameSet],
     imp: Implementation,
     obs: &'a mut O,
+    /// Frames are decoded at `1/scale` ([`UnitGeometry::decode_scale`]).
+    scale: u32,
 }
 
 impl<O: Observer> Run<'_, O> {
@@ -113,14 +117,16 @@ impl<O: Observer> Run<'_, O> {
         let total: usize = self.sets.iter().map(|s| s.len()).sum();
         let mut done = 0;
         let mut out = Vec::new();
+        let mut frame = Decoded::default();
         for s in self.sets {
             let set = s.dir().display().to_string();
-            let an = Analyzer::new(&s.load_reference()?, calib.clone(), self.imp, opts).map_err(
-                |cause| CalibrateError::Pipeline {
+            let reference = s.decoded_reference(self.scale)?;
+            let an = Analyzer::new(&reference, calib.clone(), self.imp, opts).map_err(|cause| {
+                CalibrateError::Pipeline {
                     set: set.clone(),
                     cause,
-                },
-            )?;
+                }
+            })?;
             for (i, f) in s.manifest.frames.iter().enumerate() {
                 done += 1;
                 self.obs.progress(stage, done, total);
@@ -131,12 +137,13 @@ impl<O: Observer> Run<'_, O> {
                 let Some(y) = y.filter(|v| *v > 0.0 && only(*v)) else {
                     continue;
                 };
-                let d =
-                    an.analyze(&s.load_frame(i)?)
-                        .map_err(|cause| CalibrateError::Pipeline {
-                            set: set.clone(),
-                            cause,
-                        })?;
+                s.decoded_frame(i, self.scale, &mut frame)?;
+                let d = an
+                    .analyze(&frame)
+                    .map_err(|cause| CalibrateError::Pipeline {
+                        set: set.clone(),
+                        cause,
+                    })?;
                 if d.flags.is_empty() {
                     out.push((y, d));
                 } else {
@@ -202,14 +209,17 @@ fn temperature_model<O: Observer>(
             set: set.clone(),
             cause,
         };
-        let an = Analyzer::new(&s.load_reference()?, calib.clone(), run.imp, opts).map_err(pipe)?;
+        let reference = s.decoded_reference(run.scale)?;
+        let an = Analyzer::new(&reference, calib.clone(), run.imp, opts).map_err(pipe)?;
+        let mut frame = Decoded::default();
         for (i, f) in s.manifest.frames.iter().enumerate() {
             let Some(t) = f.temperature_c.filter(|_| no_contact(f)) else {
                 continue;
             };
             done += 1;
             run.obs.progress("colour → temperature", done, total);
-            let (d, sums) = an.colour_sums(&s.load_frame(i)?).map_err(pipe)?;
+            s.decoded_frame(i, run.scale, &mut frame)?;
+            let (d, sums) = an.colour_sums(&frame).map_err(pipe)?;
             let spoilt: Vec<&str> = COLOUR_FLAGS
                 .iter()
                 .filter(|f| d.flags.contains(**f))
@@ -304,7 +314,12 @@ pub fn calibrate<O: Observer>(
         }
     }
     let unit = unit_geometry(first)?;
-    let mut run = Run { sets, imp, obs };
+    let mut run = Run {
+        sets,
+        imp,
+        obs,
+        scale: unit.decode_scale,
+    };
     let sign = phase_sign(&mut run, &unit)?;
     let mut calib = identity(&unit, sign);
     calib.depth = depth_model(&mut run, &calib)?;
@@ -325,20 +340,35 @@ pub fn calibrate<O: Observer>(
 }
 
 /// The unit geometry (carrier period, orientation, image size) from the first set's
-/// reference.
+/// reference, and the scale its frames are decoded at: the camera's image is read at full
+/// size once, and at `1/decode_scale` from then on (see [`decode_scale`]).
 fn unit_geometry(first: &FrameSet) -> Result<UnitGeometry, CalibrateError> {
-    let reference = first.load_reference()?;
-    let (g, gw, gh) = gray_down_f32(&reference, 1);
-    let c = carrier::estimate(&g, gw, gh).map_err(|e| CalibrateError::Pipeline {
-        set: first.dir().display().to_string(),
-        cause: e.into(),
-    })?;
+    let carrier_of = |img: &Decoded| {
+        let (g, gw, gh) = gray_down_f32(img, 1);
+        carrier::estimate(&g, gw, gh).map_err(|e| CalibrateError::Pipeline {
+            set: first.dir().display().to_string(),
+            cause: e.into(),
+        })
+    };
+    let full = first.decoded_reference(1)?;
+    let scale = decode_scale(
+        full.width,
+        full.height,
+        f64::from(carrier_of(&full)?.period_px()),
+    );
+    let reference = if scale == 1 {
+        full
+    } else {
+        first.decoded_reference(scale)?
+    };
+    let c = carrier_of(&reference)?;
     Ok(UnitGeometry {
-        width_px: reference.width(),
-        height_px: reference.height(),
+        width_px: reference.width,
+        height_px: reference.height,
         period_px: f64::from(c.period_px()),
         angle_deg: f64::from(c.angle_deg()),
         grating_period_mm: first.manifest.grating_period_mm,
+        decode_scale: scale,
     })
 }
 

@@ -7,7 +7,7 @@
 //! either stays below Nyquist or aliases to above 1.5/P', outside the first-order band
 //! [0.5/P', 1.5/P'], and the box response attenuates it further.
 
-use image::RgbImage;
+use crate::input::{luma, Luma, Pixels};
 
 /// Fewest working pixels per grating period.
 pub const MIN_WORKING_PERIOD_PX: f32 = 6.0;
@@ -17,22 +17,20 @@ pub fn downsample_factor(period_px: f32) -> usize {
     ((period_px / MIN_WORKING_PERIOD_PX).floor() as usize).clamp(1, 8)
 }
 
-/// Luminance weights (BT.601) in Q8: 77 R + 150 G + 29 B = 256.
-const LUMA_Q8: [u32; 3] = [77, 150, 29];
-
 /// Input rows read for the saturation statistic: one in this many. Over-exposure is a
 /// fraction of the frame (0.2 %), which a sample of a quarter of the rows estimates well,
 /// at a quarter of the cost of a test on every pixel.
 pub const SATURATION_ROW_STEP: usize = 4;
 
 /// Integer luminance, area-downsampled by `f` (1…8): each output is the mean of an `f × f`
-/// block, in 8.8 fixed point (0…65 280). Partial blocks at the right and bottom edges are
+/// block, in 8.8 fixed point (0…65 280), read as the image's colour encoding gives it
+/// ([`crate::input::luma`]: weighted RGB, or Y). Partial blocks at the right and bottom edges are
 /// dropped. Also returns the fraction of pixels with a saturated channel
 /// ([`saturated_fraction`]).
 ///
 /// Two orders of the same integer sums, chosen by the target: pixels first on AArch64,
 /// rows first elsewhere (see the two functions; measured on AArch64 and x86-64 only).
-pub fn gray_down_q8(img: &RgbImage, f: usize) -> (Vec<u16>, usize, usize, f32) {
+pub fn gray_down_q8<'a>(img: impl Into<Pixels<'a>>, f: usize) -> (Vec<u16>, usize, usize, f32) {
     let mut gray = Vec::new();
     let (ow, oh, saturated) = gray_down_q8_into(img, f, &mut gray);
     (gray, ow, oh, saturated)
@@ -40,24 +38,41 @@ pub fn gray_down_q8(img: &RgbImage, f: usize) -> (Vec<u16>, usize, usize, f32) {
 
 /// [`gray_down_q8`] into a buffer the caller keeps from frame to frame (its contents are
 /// replaced); returns the output's width and height and the saturated fraction.
-pub fn gray_down_q8_into(img: &RgbImage, f: usize, out: &mut Vec<u16>) -> (usize, usize, f32) {
+pub fn gray_down_q8_into<'a>(
+    img: impl Into<Pixels<'a>>,
+    f: usize,
+    out: &mut Vec<u16>,
+) -> (usize, usize, f32) {
+    let img = img.into();
     out.clear();
     match f {
-        0 | 1 => gray_down_with::<1>(img, out),
-        2 => gray_down_with::<2>(img, out),
-        3 => gray_down_with::<3>(img, out),
-        4 => gray_down_with::<4>(img, out),
-        5 => gray_down_with::<5>(img, out),
-        6 => gray_down_with::<6>(img, out),
-        7 => gray_down_with::<7>(img, out),
-        _ => gray_down_with::<8>(img, out),
+        0 | 1 => gray_down_with::<1>(&img, out),
+        2 => gray_down_with::<2>(&img, out),
+        3 => gray_down_with::<3>(&img, out),
+        4 => gray_down_with::<4>(&img, out),
+        5 => gray_down_with::<5>(&img, out),
+        6 => gray_down_with::<6>(&img, out),
+        7 => gray_down_with::<7>(&img, out),
+        _ => gray_down_with::<8>(&img, out),
     };
     let f = f.clamp(1, 8);
     let (ow, oh) = (img.width() as usize / f, img.height() as usize / f);
     (ow, oh, saturated_fraction(img))
 }
 
-fn gray_down_with<const F: usize>(img: &RgbImage, out: &mut Vec<u16>) {
+/// The mean luminance of a block of `n` pixels whose weighted channel sums are `acc`
+/// (see [`Luma`]), 8.8 fixed point, rounded and clamped to 0…65 280.
+#[inline(always)]
+fn block_mean(acc: u32, n: u32, l: &Luma) -> u16 {
+    if l.gain_q8 == 256 && l.offset_q8 == 0 {
+        return ((acc + n / 2) / n) as u16;
+    }
+    let scaled = (u64::from(acc) * u64::from(l.gain_q8)) >> 8;
+    let v = scaled.saturating_sub(u64::from(l.offset_q8) * u64::from(n));
+    ((v + u64::from(n / 2)) / u64::from(n)).min(65_280) as u16
+}
+
+fn gray_down_with<const F: usize>(img: &Pixels<'_>, out: &mut Vec<u16>) {
     // The two orders give the same integers; each is the cheaper on one kind of core.
     if cfg!(target_arch = "aarch64") {
         gray_down_pixels_first::<F>(img, out)
@@ -70,10 +85,12 @@ fn gray_down_with<const F: usize>(img: &RgbImage, out: &mut Vec<u16>) {
 /// compiler vectorises on any core), then weighting each block once: three
 /// multiplications per output pixel instead of three per input pixel. The cheaper order
 /// where vectors have no 32-bit multiply (baseline x86-64).
-fn gray_down_rows_first<const F: usize>(img: &RgbImage, out: &mut Vec<u16>) {
+fn gray_down_rows_first<const F: usize>(img: &Pixels<'_>, out: &mut Vec<u16>) {
     let (w, h) = (img.width() as usize, img.height() as usize);
     let (ow, oh) = (w / F, h / F);
-    let raw: &[u8] = img.as_raw();
+    let raw: &[u8] = img.raw();
+    let luma = luma(img.colour());
+    let lw = luma.weights;
     // Every output is written once: no zeroed buffer first.
     out.reserve(ow * oh);
     let span = ow * F * 3;
@@ -97,8 +114,7 @@ fn gray_down_rows_first<const F: usize>(img: &RgbImage, out: &mut Vec<u16>) {
                 g += u32::from(px[1]);
                 b += u32::from(px[2]);
             }
-            let acc = LUMA_Q8[0] * r + LUMA_Q8[1] * g + LUMA_Q8[2] * b;
-            ((acc + n / 2) / n) as u16
+            block_mean(lw[0] * r + lw[1] * g + lw[2] * b, n, &luma)
         }));
     }
 }
@@ -108,22 +124,24 @@ fn gray_down_rows_first<const F: usize>(img: &RgbImage, out: &mut Vec<u16>) {
 /// bits. The pixel loop vectorises where loads de-interleave RGB (AArch64's `ld3`), which
 /// makes this the cheaper order there; on x86-64 it is the dearer one (both measured in
 /// `docs/pipeline.md`).
-fn gray_down_pixels_first<const F: usize>(img: &RgbImage, out: &mut Vec<u16>) {
+fn gray_down_pixels_first<const F: usize>(img: &Pixels<'_>, out: &mut Vec<u16>) {
     let (w, h) = (img.width() as usize, img.height() as usize);
     let (ow, oh) = (w / F, h / F);
-    let raw: &[u8] = img.as_raw();
+    let raw: &[u8] = img.raw();
+    let l = luma(img.colour());
     // Every output is written once: no zeroed buffer first.
     out.reserve(ow * oh);
     let span = ow * F;
     let mut luma = vec![0u16; span];
     let mut sum = vec![0u32; span];
     let n = (F * F) as u32;
-    const W: [u16; 3] = [LUMA_Q8[0] as u16, LUMA_Q8[1] as u16, LUMA_Q8[2] as u16];
+    // Each weight times 255 fits 16 bits (a weight is at most 256).
+    let wq = l.weights.map(|x| x as u16);
     for oy in 0..oh {
         for (k, y) in (oy * F..(oy + 1) * F).enumerate() {
             let (line, _) = raw[y * w * 3..(y * w + span) * 3].as_chunks::<3>();
             for (l, p) in luma.iter_mut().zip(line) {
-                *l = W[0] * u16::from(p[0]) + W[1] * u16::from(p[1]) + W[2] * u16::from(p[2]);
+                *l = wq[0] * u16::from(p[0]) + wq[1] * u16::from(p[1]) + wq[2] * u16::from(p[2]);
             }
             if k == 0 {
                 for (s, &l) in sum.iter_mut().zip(&luma) {
@@ -137,41 +155,45 @@ fn gray_down_pixels_first<const F: usize>(img: &RgbImage, out: &mut Vec<u16>) {
         }
         out.extend(
             sum.chunks_exact(F)
-                .map(|block| ((block.iter().sum::<u32>() + n / 2) / n) as u16),
+                .map(|block| block_mean(block.iter().sum::<u32>(), n, &l)),
         );
     }
 }
 
 /// Float luminance (0…255), area-downsampled by `f`: the reference path's twin of
 /// [`gray_down_q8`], with the same weights so both paths see the same image.
-pub fn gray_down_f32(img: &RgbImage, f: usize) -> (Vec<f32>, usize, usize) {
+pub fn gray_down_f32<'a>(img: impl Into<Pixels<'a>>, f: usize) -> (Vec<f32>, usize, usize) {
+    let img = img.into();
     let (w, h) = (img.width() as usize, img.height() as usize);
+    let l = luma(img.colour());
+    let (gain, offset) = (l.gain_q8 as f32 / 256.0, l.offset_q8 as f32 / 256.0);
     let (ow, oh) = (w / f, h / f);
     let mut out = vec![0.0f32; ow * oh];
     let inv = 1.0 / (f * f) as f32;
-    for (i, p) in img.pixels().enumerate() {
+    for (i, p) in img.raw().chunks_exact(3).enumerate() {
         let (x, y) = (i % w, i / w);
         let (ox, oy) = (x / f, y / f);
         if ox < ow && oy < oh {
-            let l = (LUMA_Q8[0] as f32 * f32::from(p[0])
-                + LUMA_Q8[1] as f32 * f32::from(p[1])
-                + LUMA_Q8[2] as f32 * f32::from(p[2]))
+            let weighted = (l.weights[0] as f32 * f32::from(p[0])
+                + l.weights[1] as f32 * f32::from(p[1])
+                + l.weights[2] as f32 * f32::from(p[2]))
                 / 256.0;
-            out[oy * ow + ox] += l * inv;
+            out[oy * ow + ox] += (weighted * gain - offset).clamp(0.0, 255.0) * inv;
         }
     }
     (out, ow, oh)
 }
 
 /// Fraction of pixels with a channel at 255 (over-exposure), over every
-/// [`SATURATION_ROW_STEP`]-th row.
-pub fn saturated_fraction(img: &RgbImage) -> f32 {
+/// [`SATURATION_ROW_STEP`]-th row; a Y, Cb, Cr image's sampled rows are converted to RGB.
+pub fn saturated_fraction<'a>(img: impl Into<Pixels<'a>>) -> f32 {
+    let img = img.into();
     let (w, h) = (img.width() as usize, img.height() as usize);
-    let raw: &[u8] = img.as_raw();
     let mut n = 0usize;
     let mut seen = 0usize;
+    let mut buf = Vec::new();
     for y in (0..h).step_by(SATURATION_ROW_STEP) {
-        let line = &raw[y * w * 3..(y + 1) * w * 3];
+        let line = img.rgb_row(y, 0, w, &mut buf);
         // Most rows hold no saturated byte, which the row's maximum (a loop the compiler
         // vectorises) tells at a fraction of the pixel test's cost.
         if line.iter().fold(0u8, |m, &b| m.max(b)) == 255 {
@@ -188,6 +210,8 @@ pub fn saturated_fraction(img: &RgbImage) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::input::Colour;
+    use image::RgbImage;
 
     #[test]
     fn factors_keep_six_to_twelve_px_per_period() {
@@ -240,6 +264,7 @@ mod tests {
             let v = rng.next();
             image::Rgb([v as u8, (v >> 8) as u8, (v >> 16) as u8])
         });
+        let weights = luma(Colour::Rgb).weights;
         let plain = |f: usize| -> Vec<u16> {
             let (ow, oh) = (37 / f, 29 / f);
             let n = (f * f) as u32;
@@ -250,7 +275,7 @@ mod tests {
                     for y in oy * f..(oy + 1) * f {
                         for x in ox * f..(ox + 1) * f {
                             let p = img.get_pixel(x as u32, y as u32);
-                            acc += (0..3).map(|c| LUMA_Q8[c] * u32::from(p[c])).sum::<u32>();
+                            acc += (0..3).map(|c| weights[c] * u32::from(p[c])).sum::<u32>();
                         }
                     }
                     ((acc + n / 2) / n) as u16
@@ -262,8 +287,8 @@ mod tests {
             let (mut rows, mut pixels) = (vec![7u16; 3], vec![9u16; 5]);
             rows.clear();
             pixels.clear();
-            gray_down_rows_first::<F>(img, &mut rows);
-            gray_down_pixels_first::<F>(img, &mut pixels);
+            gray_down_rows_first::<F>(&img.into(), &mut rows);
+            gray_down_pixels_first::<F>(&img.into(), &mut pixels);
             [rows, pixels]
         }
         let orders = [

@@ -34,6 +34,7 @@ pub mod evidence;
 pub mod fixed_point;
 pub mod ftp;
 pub mod image_ops;
+pub mod input;
 pub mod mask;
 pub mod measure;
 pub mod measurement;

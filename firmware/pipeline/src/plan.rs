@@ -15,7 +15,7 @@
 //! [`FixedFtp`] (integer arithmetic per frame, the device path). Both hand the measurement a
 //! [`PhaseMap`](crate::phase::PhaseMap), and [`measure::measure`] turns either into the same features.
 
-use image::RgbImage;
+use crate::input::Pixels;
 
 use crate::calibration::{Calibration, CalibrationError};
 use crate::ftp::band::BandWindow;
@@ -101,7 +101,7 @@ pub struct AnalyzerOptions {
 /// temperature, and a reading outside the calibration is flagged.
 fn with_temperature(
     mut d: Measurement,
-    frame: &RgbImage,
+    frame: Pixels<'_>,
     thermo: &Thermometer,
     phase: impl Fn(usize, &[u16], &mut [u16]),
 ) -> Measurement {
@@ -157,7 +157,7 @@ pub trait FtpPath: std::fmt::Debug + Send + Sync {
     /// difference as the measurement read it, working in `scratch`.
     fn measure(
         &self,
-        frame: &RgbImage,
+        frame: Pixels<'_>,
         ctx: &Context<'_>,
         scratch: &mut Scratch,
     ) -> (Measurement, WrappedPhase);
@@ -181,7 +181,7 @@ impl FtpPath for FloatFtp {
     }
     fn measure(
         &self,
-        frame: &RgbImage,
+        frame: Pixels<'_>,
         ctx: &Context<'_>,
         _: &mut Scratch,
     ) -> (Measurement, WrappedPhase) {
@@ -199,7 +199,7 @@ impl FtpPath for FixedFtp {
     }
     fn measure(
         &self,
-        frame: &RgbImage,
+        frame: Pixels<'_>,
         ctx: &Context<'_>,
         scratch: &mut Scratch,
     ) -> (Measurement, WrappedPhase) {
@@ -231,12 +231,13 @@ impl std::fmt::Debug for Analyzer {
 
 impl Analyzer {
     /// Prepares a pipeline for `reference` (a no-contact frame).
-    pub fn new(
-        reference: &RgbImage,
+    pub fn new<'i>(
+        reference: impl Into<Pixels<'i>>,
         calib: Calibration,
         imp: Implementation,
         opts: AnalyzerOptions,
     ) -> Result<Analyzer, PipelineError> {
+        let reference = reference.into();
         let working = carrier::working(reference, opts.factor)?;
         let c = working.full;
         if !opts.force_calibration {
@@ -304,7 +305,11 @@ impl Analyzer {
 
     /// The frame's force-side result and its colour sums per block (for calibrating
     /// colour → temperature; no model needed).
-    pub fn colour_sums(&self, frame: &RgbImage) -> Result<(Measurement, Vec<Sums>), PipelineError> {
+    pub fn colour_sums<'i>(
+        &self,
+        frame: impl Into<Pixels<'i>>,
+    ) -> Result<(Measurement, Vec<Sums>), PipelineError> {
+        let frame = frame.into();
         self.run(frame, &mut Scratch::default(), |d, wrapped| {
             let (s, _) = self.thermo.sums(
                 frame,
@@ -320,7 +325,7 @@ impl Analyzer {
     /// and the wrapped phase difference as the measurement read it.
     fn run<R>(
         &self,
-        frame: &RgbImage,
+        frame: Pixels<'_>,
         scratch: &mut Scratch,
         then: impl FnOnce(Measurement, &WrappedPhase) -> R,
     ) -> Result<R, PipelineError> {
@@ -334,7 +339,7 @@ impl Analyzer {
         &self.thermo
     }
 
-    fn check_size(&self, frame: &RgbImage) -> Result<(), PipelineError> {
+    fn check_size(&self, frame: Pixels<'_>) -> Result<(), PipelineError> {
         if frame.dimensions() != self.size {
             return Err(PipelineError::SizeMismatch {
                 w: self.size.0,
@@ -357,16 +362,17 @@ impl Analyzer {
 
     /// Analyses one frame (with a scratch of its own: a stream of frames is better served
     /// by [`Analyzer::analyze_with`]).
-    pub fn analyze(&self, frame: &RgbImage) -> Result<Measurement, PipelineError> {
+    pub fn analyze<'i>(&self, frame: impl Into<Pixels<'i>>) -> Result<Measurement, PipelineError> {
         self.analyze_with(frame, &mut Scratch::default())
     }
 
     /// Analyses one frame, working in the caller's `scratch` (kept from frame to frame).
-    pub fn analyze_with(
+    pub fn analyze_with<'i>(
         &self,
-        frame: &RgbImage,
+        frame: impl Into<Pixels<'i>>,
         scratch: &mut Scratch,
     ) -> Result<Measurement, PipelineError> {
+        let frame = frame.into();
         self.run(frame, scratch, |d, wrapped| {
             with_temperature(d, frame, &self.thermo, |y, r, row| {
                 wrapped.frame_row(y, r, row)

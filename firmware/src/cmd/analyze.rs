@@ -10,16 +10,18 @@ use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use serde_json::json;
-use vistaf_hardware::frameset::{load_png_rgb, FrameSet};
+use vistaf_hardware::decode::Decoded;
+use vistaf_hardware::frame::Frame;
+use vistaf_hardware::frameset::{frame_file, FrameSet};
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Measurement};
 
 /// What to analyse.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Reference (no-contact) frame, PNG.
+    /// Reference (no-contact) frame, PNG or JPEG.
     #[arg(long, requires = "frame", conflicts_with = "set")]
     pub reference: Option<PathBuf>,
-    /// Frame to analyse, PNG.
+    /// Frame to analyse, PNG or JPEG.
     #[arg(long)]
     pub frame: Option<PathBuf>,
     /// A frame set (its reference and every frame).
@@ -38,19 +40,21 @@ pub struct Args {
     pub out: Option<PathBuf>,
 }
 
-/// One result as a JSON object.
-pub fn result_json(file: &str, d: &Measurement, latency_us: u128) -> serde_json::Value {
+/// One result as a JSON object; positions in the camera's pixels (the pipeline's, times
+/// `scale`, the scale the frame was decoded at).
+pub fn result_json(file: &str, d: &Measurement, latency_us: u128, scale: u32) -> serde_json::Value {
     // NaN is not JSON: an unmeasured temperature is null.
     let t = d.temperature.as_ref();
     let finite = |v: f32| v.is_finite().then_some(v);
+    let px = |v: f32| v * scale as f32;
     json!({
         "file": file,
         "depth_mm": d.peak_depth_mm,
         "force_n": d.force_n,
         "contact_area_mm2": d.contact_area_mm2,
         "volume_mm3": d.volume_mm3,
-        "contact_x_px": d.centroid_px.map(|c| c.0),
-        "contact_y_px": d.centroid_px.map(|c| c.1),
+        "contact_x_px": d.centroid_px.map(|c| px(c.0)),
+        "contact_y_px": d.centroid_px.map(|c| px(c.1)),
         "integrated_phase_rad_mm2": d.integrated_phase_rad_mm2,
         "reciprocal_load_mm2": d.reciprocal_load_mm2,
         "temperature_c": t.and_then(|t| t.contact_c.or(finite(t.mean_c))),
@@ -58,8 +62,8 @@ pub fn result_json(file: &str, d: &Measurement, latency_us: u128) -> serde_json:
         "temp_min_c": t.and_then(|t| finite(t.min_c)),
         "temp_max_c": t.and_then(|t| finite(t.max_c)),
         "contact_temp_c": t.and_then(|t| t.contact_c),
-        "hottest_x_px": t.and_then(|t| t.hottest_px.map(|p| p.0)),
-        "hottest_y_px": t.and_then(|t| t.hottest_px.map(|p| p.1)),
+        "hottest_x_px": t.and_then(|t| t.hottest_px.map(|p| px(p.0))),
+        "hottest_y_px": t.and_then(|t| t.hottest_px.map(|p| px(p.1))),
         "flags": d.flags.iter().map(|f| f.name()).collect::<Vec<_>>(),
         "noise_rad": d.noise_rad,
         "offset_rad": d.offset_rad,
@@ -67,50 +71,94 @@ pub fn result_json(file: &str, d: &Measurement, latency_us: u128) -> serde_json:
     })
 }
 
-/// Runs the command.
+/// Where the frames come from: a set, or two files.
+enum Frames {
+    Set(FrameSet),
+    Files { reference: PathBuf, frame: PathBuf },
+}
+
+impl Frames {
+    fn open(a: &Args) -> Result<Frames> {
+        Ok(match (&a.set, &a.reference, &a.frame) {
+            (Some(dir), _, _) => Frames::Set(FrameSet::open(dir)?),
+            (None, Some(r), Some(f)) => Frames::Files {
+                reference: r.clone(),
+                frame: f.clone(),
+            },
+            _ => bail!("give --set DIR, or --reference REF.png --frame F.png"),
+        })
+    }
+
+    fn reference(&self) -> Result<Frame> {
+        Ok(match self {
+            Frames::Set(set) => set.reference_frame()?,
+            Frames::Files { reference, .. } => frame_file(reference)?,
+        })
+    }
+
+    /// The frames' names, in order.
+    fn names(&self) -> Vec<String> {
+        match self {
+            Frames::Set(set) => set.manifest.frames.iter().map(|f| f.file.clone()).collect(),
+            Frames::Files { frame, .. } => vec![frame.file_name().map_or_else(
+                || frame.display().to_string(),
+                |n| n.to_string_lossy().into(),
+            )],
+        }
+    }
+
+    /// Frame `i` as the camera sent it.
+    fn frame(&self, i: usize) -> Result<Frame> {
+        Ok(match self {
+            Frames::Set(set) => set.frame(i)?,
+            Frames::Files { frame, .. } => frame_file(frame)?,
+        })
+    }
+
+    fn path(&self, i: usize) -> PathBuf {
+        match self {
+            Frames::Set(set) => set.path_of(&set.manifest.frames[i].file),
+            Frames::Files { frame, .. } => frame.clone(),
+        }
+    }
+}
+
+/// Runs the command. Each frame is read from its file first; `latency_us` then counts
+/// from its bytes as the camera sent them: decoding (at the calibration's scale) and the
+/// pipeline.
 pub fn run(a: &Args) -> Result<()> {
     let calib = a.pipe.calibration()?;
-    let (reference, frames): (image::RgbImage, Vec<(String, PathBuf)>) =
-        match (&a.set, &a.reference, &a.frame) {
-            (Some(dir), _, _) => {
-                let set = FrameSet::open(dir)?;
-                let frames = set
-                    .manifest
-                    .frames
-                    .iter()
-                    .map(|f| (f.file.clone(), set.path_of(&f.file)))
-                    .collect();
-                (set.load_reference()?, frames)
-            }
-            (None, Some(r), Some(f)) => (
-                load_png_rgb(r)?,
-                vec![(
-                    f.file_name()
-                        .map_or_else(|| f.display().to_string(), |n| n.to_string_lossy().into()),
-                    f.clone(),
-                )],
-            ),
-            _ => bail!("give --set DIR, or --reference REF.png --frame F.png"),
-        };
+    let frames = Frames::open(a)?;
+    let reference = frames.reference()?;
+    let scale = calib.unit.scale_for(reference.width, reference.height);
+    let decode = |f: &Frame, out: &mut Decoded, what: &Path| {
+        f.decode_into(scale, out)
+            .with_context(|| what.display().to_string())
+    };
+    let mut img = Decoded::default();
+    decode(&reference, &mut img, Path::new("reference"))?;
     let opts = AnalyzerOptions {
         factor: a.downsample,
         force_calibration: a.pipe.force_calibration,
         ..Default::default()
     };
-    let analyzer = Analyzer::new(&reference, calib, a.pipe.pipeline, opts)
-        .context("preparing the reference")?;
+    let analyzer =
+        Analyzer::new(&img, calib, a.pipe.pipeline, opts).context("preparing the reference")?;
     let mut out = Lines::new(std::io::stdout().lock());
     let mut results = Vec::new();
-    for (name, path) in &frames {
-        let img = load_png_rgb(path)?;
+    let mut scratch = vistaf_pipeline::Scratch::default();
+    for (i, name) in frames.names().into_iter().enumerate() {
+        let path = frames.path(i);
+        let frame = frames.frame(i)?;
         let t = Instant::now();
+        decode(&frame, &mut img, &path)?;
         let d = analyzer
-            .analyze(&img)
+            .analyze_with(&img, &mut scratch)
             .with_context(|| format!("{}", path.display()))?;
         let latency = t.elapsed().as_micros();
-        let j = result_json(name, &d, latency);
+        let j = result_json(&name, &d, latency, scale);
         out.line(&j)?;
-        results.push((name.clone(), d, j));
+        results.push((name, d, j));
     }
     if let Some(dir) = &a.out {
         write_outputs(dir, &analyzer, &results)?;

@@ -4,6 +4,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, Context, Result};
 use image::RgbImage;
+use vistaf_hardware::encode::Encoding;
 use vistaf_sim::{scene, sets, Renderer, SensorUnit, SkinState};
 
 use super::progress;
@@ -32,6 +33,14 @@ pub struct Args {
     /// Override the unit's image height, pixels.
     #[arg(long)]
     pub height: Option<u32>,
+    /// Override the unit's grating period in the image, pixels (a camera of more pixels
+    /// behind the same optics sees a coarser grating).
+    #[arg(long)]
+    pub period_px: Option<f32>,
+    /// How frames are written: rgb (PNG), yuyv (raw, as a UVC camera sends it at small
+    /// sizes) or mjpeg:QUALITY (4:2:2 JPEG, as it sends larger ones).
+    #[arg(long, default_value = "rgb", value_name = "rgb|yuyv|mjpeg:Q")]
+    pub encode: Encoding,
     /// Do not write 16-bit truth maps.
     #[arg(long)]
     pub no_truth: bool,
@@ -56,6 +65,9 @@ fn unit_of(a: &Args) -> SensorUnit {
     }
     if let Some(h) = a.height {
         u.height_px = h;
+    }
+    if let Some(p) = a.period_px {
+        u.period_px = p;
     }
     u
 }
@@ -87,6 +99,7 @@ pub fn run(a: &Args) -> Result<()> {
         truth_maps: !a.no_truth,
         seed: a.seed,
         unit_seed: a.unit_seed,
+        encoding: a.encode,
     };
     if a.calibration_kit {
         let pb = progress(0, "kit");
@@ -150,6 +163,7 @@ fn fixtures(dir: &Path) -> Result<()> {
             truth_maps: true,
             seed: 100 + k as u64,
             unit_seed: 0,
+            encoding: Default::default(),
         };
         let set = sets::write_states(&out, scene_name, &unit, &states, &opts, |_, _| {})?;
         println!("{}: {} frames", set.dir().display(), set.len());

@@ -7,10 +7,12 @@ use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use image::RgbImage;
 use vistaf_hardware::clock::micros;
+use vistaf_hardware::decode::Decoded;
+use vistaf_hardware::frame::Frame;
 use vistaf_hardware::led::{LedConfig, LedRing};
 use vistaf_hardware::source::SourceFormat;
+use vistaf_pipeline::input::Pixels;
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Scratch};
 use vistaf_protocol::msg::truncated;
 use vistaf_protocol::{
@@ -56,6 +58,45 @@ pub enum CameraEvent {
     Back,
 }
 
+/// A camera frame decoded for the pipeline (on the capture thread, while the pipeline
+/// works on the frame before), with what the service keeps of the camera's frame.
+#[derive(Debug, Clone)]
+pub struct DecodedFrame {
+    /// The camera's capture time, µs on the device's clock.
+    pub capture_us: u64,
+    /// The source's sequence number.
+    pub seq: u64,
+    /// The camera's image size, pixels.
+    pub size: (u32, u32),
+    /// When decoding began: a summary's latency counts from here.
+    pub started: Instant,
+    /// The pixels, or why the bytes did not decode.
+    pub pixels: Result<Decoded, vistaf_hardware::frame::FrameError>,
+}
+
+impl DecodedFrame {
+    /// Decodes `frame` at `1/scale` into `buf` (a buffer handed back by
+    /// [`Service::on_decoded`], or a new one), decoding from `started`.
+    pub fn decode(frame: &Frame, scale: u32, started: Instant, mut buf: Decoded) -> DecodedFrame {
+        let pixels = frame.decode_into(scale, &mut buf).map(|()| buf);
+        DecodedFrame {
+            capture_us: u64::try_from(frame.timestamp.as_micros()).unwrap_or(u64::MAX),
+            seq: frame.seq,
+            size: (frame.width, frame.height),
+            started,
+            pixels,
+        }
+    }
+}
+
+/// The scale a source's frames are decoded at under `settings`' calibration.
+pub fn decode_scale(settings: &Settings, format: &SourceFormat) -> u32 {
+    settings
+        .calibration
+        .unit
+        .scale_for(format.width, format.height)
+}
+
 /// The service's state between events.
 pub struct Service<'a, C: Clock> {
     settings: &'a Settings,
@@ -78,8 +119,47 @@ pub struct Service<'a, C: Clock> {
     seq: u32,
     /// The pipeline's buffers, kept from frame to frame.
     scratch: Scratch,
+    /// A decoded frame's buffer, kept from frame to frame.
+    decoded: Decoded,
+    /// Frames are decoded at `1/scale` (the calibration's, for this camera's size).
+    scale: u32,
     /// Before this, no reference is attempted (the last attempt failed).
     reference_retry_at: Option<Instant>,
+    /// Capture to link of the last summaries sent.
+    latency: Latencies,
+}
+
+/// The last [`Latencies::KEPT`] capture-to-link latencies, µs, for the `Status`'s
+/// percentiles.
+#[derive(Debug, Clone, Default)]
+struct Latencies {
+    kept: Vec<u32>,
+    next: usize,
+}
+
+impl Latencies {
+    const KEPT: usize = 256;
+
+    fn add(&mut self, us: u32) {
+        if self.kept.len() < Self::KEPT {
+            self.kept.push(us);
+        } else {
+            self.kept[self.next] = us;
+        }
+        self.next = (self.next + 1) % Self::KEPT;
+    }
+
+    /// The 50th and 99th percentiles (nearest rank), µs; 0 before any.
+    fn p50_p99(&self) -> (u32, u32) {
+        let mut v = self.kept.clone();
+        v.sort_unstable();
+        let rank = |p: usize| {
+            v.get((v.len() * p).div_ceil(100).saturating_sub(1))
+                .copied()
+                .unwrap_or(0)
+        };
+        (rank(50), rank(99))
+    }
 }
 
 impl<C: Clock> std::fmt::Debug for Service<'_, C> {
@@ -107,7 +187,6 @@ impl<'a, C: Clock> Service<'a, C> {
             clock,
             led,
             edge,
-            format,
             started: now,
             counters: Counters::default(),
             keeper: ReferenceKeeper::new(settings.reference, now),
@@ -119,8 +198,20 @@ impl<'a, C: Clock> Service<'a, C> {
             camera_lost: false,
             seq: 0,
             scratch: Scratch::default(),
+            decoded: Decoded::default(),
+            scale: decode_scale(settings, &format),
+            format,
             reference_retry_at: None,
+            latency: Latencies::default(),
         }
+    }
+
+    /// A summary of the frame captured at `capture_us` (device clock, µs) has been written
+    /// to the link, its last byte now: the latency the `Status` reports.
+    pub fn on_sent(&mut self, capture_us: u64) {
+        let now = micros(self.clock.now());
+        let us = now.saturating_sub(capture_us);
+        self.latency.add(u32::try_from(us).unwrap_or(u32::MAX));
     }
 
     /// What goes out first: `Hello`, and the LED ring lit (a failing ring is reported on
@@ -266,30 +357,52 @@ impl<'a, C: Clock> Service<'a, C> {
         Some(self.status(state))
     }
 
-    /// A frame from the source: a reference when the keeper needs one, else a summary (at
-    /// the rate asked for) and the maps asked for. A frame of the wrong size or one that
-    /// cannot be decoded is counted and skipped.
-    pub fn on_frame(&mut self, frame: vistaf_hardware::Frame) -> Vec<DeviceMsg> {
-        let capture_us = u64::try_from(frame.timestamp.as_micros()).unwrap_or(u64::MAX);
-        let img: RgbImage = match frame.into_rgb() {
-            Ok(i) if i.dimensions() == (self.format.width, self.format.height) => i,
-            _ => {
+    /// A frame from the source, decoded here: see [`Service::on_decoded`].
+    pub fn on_frame(&mut self, frame: Frame) -> Vec<DeviceMsg> {
+        let buf = std::mem::take(&mut self.decoded);
+        let d = DecodedFrame::decode(&frame, self.scale, self.clock.now(), buf);
+        self.on_decoded(d)
+    }
+
+    /// A decoded frame: a reference when the keeper needs one, else a summary (at the rate
+    /// asked for) and the maps asked for. A frame of the wrong size or one that did not
+    /// decode is counted and skipped. A summary's latency counts from the frame's bytes as
+    /// the camera sent them: decoding is part of it.
+    pub fn on_decoded(&mut self, frame: DecodedFrame) -> Vec<DeviceMsg> {
+        let fits = frame.size == (self.format.width, self.format.height);
+        let img = match frame.pixels {
+            Ok(img) if fits => img,
+            Ok(img) => {
+                self.decoded = img;
+                self.counters.bad += 1;
+                return Vec::new();
+            }
+            Err(_) => {
                 self.counters.bad += 1;
                 return Vec::new();
             }
         };
-        if self.keeper.analyzer().is_none() {
+        let out = if self.keeper.analyzer().is_none() {
             self.counters.referencing += 1;
-            return self.take_reference(&img);
-        }
-        self.measure(&img, capture_us)
+            self.take_reference(Pixels::from(&img))
+        } else {
+            self.measure(Pixels::from(&img), frame.capture_us, frame.started)
+        };
+        self.decoded = img;
+        out
+    }
+
+    /// The buffer of the last decoded frame, for the next decode (empty when there is
+    /// none).
+    pub fn take_buffer(&mut self) -> Decoded {
+        std::mem::take(&mut self.decoded)
     }
 
     /// Offers the frame to the reference keeper; a reference taken is announced by a
     /// `Status`. A reference that cannot be used (no grating in view: a lens cap, the light
     /// off; a calibration for another unit) is reported, and tried again from the frames
     /// after [`REFERENCE_RETRY`]: the service waits for a usable image instead of exiting.
-    fn take_reference(&mut self, img: &RgbImage) -> Vec<DeviceMsg> {
+    fn take_reference(&mut self, img: Pixels<'_>) -> Vec<DeviceMsg> {
         let now = self.clock.now();
         if self.reference_retry_at.is_some_and(|t| now < t) {
             return Vec::new();
@@ -316,14 +429,14 @@ impl<'a, C: Clock> Service<'a, C> {
         }
     }
 
-    /// Measures a frame against the reference and says what it found.
-    fn measure(&mut self, img: &RgbImage, capture_us: u64) -> Vec<DeviceMsg> {
+    /// Measures a frame against the reference and says what it found; its latency counts
+    /// from `t0`.
+    fn measure(&mut self, img: Pixels<'_>, capture_us: u64, t0: Instant) -> Vec<DeviceMsg> {
         let mut out = Vec::new();
         let Some(analyzer) = self.keeper.analyzer() else {
             return out;
         };
         let mm_per_px = analyzer.mm_per_px();
-        let t0 = self.clock.now();
         let Ok(mut d) = analyzer.analyze_with(img, &mut self.scratch) else {
             self.counters.bad += 1;
             return out;
@@ -382,6 +495,7 @@ impl<'a, C: Clock> Service<'a, C> {
     fn status(&self, state: RunState) -> DeviceMsg {
         let now = self.clock.now();
         let edge = &self.edge;
+        let (p50, p99) = self.latency.p50_p99();
         DeviceMsg::Status(Status {
             uptime_ms: now.saturating_duration_since(self.started).as_millis() as u64,
             state,
@@ -394,6 +508,8 @@ impl<'a, C: Clock> Service<'a, C> {
             reference_age_ms: self.keeper.age(now).as_millis().min(u128::from(u32::MAX)) as u32,
             camera_restarts: u16::try_from(EdgeCounters::get(&edge.camera_restarts))
                 .unwrap_or(u16::MAX),
+            latency_p50_us: p50,
+            latency_p99_us: p99,
         })
     }
 }

@@ -13,8 +13,8 @@
 
 use std::time::{Duration, Instant};
 
-use image::RgbImage;
 use vistaf_pipeline::image_ops::gray_down_q8;
+use vistaf_pipeline::input::{luma, Pixels};
 use vistaf_pipeline::{Analyzer, Measurement, PipelineError};
 
 use crate::config::ReferencePolicy;
@@ -102,9 +102,9 @@ impl ReferenceKeeper {
     /// the image has settled. `Ok(true)` when a reference was taken.
     pub fn offer(
         &mut self,
-        img: &RgbImage,
+        img: Pixels<'_>,
         now: Instant,
-        make: impl FnOnce(&RgbImage) -> Result<Analyzer, PipelineError>,
+        make: impl FnOnce(Pixels<'_>) -> Result<Analyzer, PipelineError>,
     ) -> Result<bool, PipelineError> {
         let (g, _, _, _) = gray_down_q8(img, STABILITY_FACTOR);
         let s = &mut self.settling;
@@ -138,7 +138,7 @@ impl ReferenceKeeper {
     }
 
     /// Judges the reference on a measured frame `d` of image `img`.
-    pub fn judge(&mut self, d: &Measurement, img: &RgbImage, now: Instant) -> Verdict {
+    pub fn judge(&mut self, d: &Measurement, img: Pixels<'_>, now: Instant) -> Verdict {
         let policy = self.policy;
         let Some(r) = self.current.as_mut() else {
             return Verdict::Fresh;
@@ -174,15 +174,27 @@ impl ReferenceKeeper {
     }
 }
 
-/// Mean of a sparse sample of the image's channels (every 31st byte), 0–255: enough to
-/// see the light change.
-fn brightness(img: &RgbImage) -> f32 {
-    let raw: &[u8] = img.as_raw();
-    let (sum, n) = raw
-        .iter()
-        .step_by(31)
-        .fold((0u64, 0u64), |(s, n), &v| (s + u64::from(v), n + 1));
-    sum as f32 / n.max(1) as f32
+/// Mean luminance of a sparse sample of the image's pixels (every 11th), 0–255 in 8.8
+/// steps: enough to see the light change, in any colour encoding.
+fn brightness(img: Pixels<'_>) -> f32 {
+    let l = luma(img.colour());
+    let (sum, n) =
+        img.raw()
+            .as_chunks::<3>()
+            .0
+            .iter()
+            .step_by(11)
+            .fold((0u64, 0u64), |(s, n), p| {
+                let w: u32 = l
+                    .weights
+                    .iter()
+                    .zip(p)
+                    .map(|(w, &b)| w * u32::from(b))
+                    .sum();
+                (s + u64::from(w), n + 1)
+            });
+    let mean = sum as f32 / n.max(1) as f32 * l.gain_q8 as f32 / 256.0 - l.offset_q8 as f32;
+    mean.max(0.0) / 256.0
 }
 
 /// Mean absolute difference of two Q8 luminance images, 8-bit steps.

@@ -8,14 +8,14 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use crossbeam_channel::{bounded, Receiver, RecvTimeoutError, Sender, TrySendError};
-use vistaf_hardware::frame::Frame;
+use vistaf_hardware::decode::Decoded;
 use vistaf_hardware::led::LedRing;
 use vistaf_hardware::source::FrameSource;
 use vistaf_protocol::frame::DEVICE_FRAME_MAX;
 use vistaf_protocol::{encode, DeviceMsg, HostDecoder, HostMsg};
 
 use super::clock::SystemClock;
-use super::machine::{CameraEvent, EdgeCounters, Service};
+use super::machine::{decode_scale, CameraEvent, DecodedFrame, EdgeCounters, Service};
 use super::systemd::Systemd;
 use super::{Counters, Settings};
 
@@ -99,12 +99,22 @@ impl<T> Newest<T> {
     }
 }
 
-/// Reads the source as fast as it delivers into `frames` until it ends, fails for good, or
-/// `stop` is set; returns the failure, if any. A transient error (the camera lost) is
-/// reported once per outage and retried after `retry_pause`.
+/// What the capture thread needs besides its source: where decoded frames go, the scale
+/// they are decoded at, and the buffers the service hands back.
+struct Decoding {
+    frames: Newest<DecodedFrame>,
+    scale: u32,
+    spare: Receiver<Decoded>,
+}
+
+/// Reads the source as fast as it delivers and decodes each frame for the pipeline
+/// (capture and decoding on this thread, the pipeline on the service's, so the two
+/// overlap on a multi-core board), into `out.frames` where the newest wins, until the
+/// source ends, fails for good, or `stop` is set; returns the failure, if any. A transient
+/// error (the camera lost) is reported once per outage and retried after `retry_pause`.
 fn capture(
     mut source: Box<dyn FrameSource>,
-    frames: Newest<Frame>,
+    out: Decoding,
     camera: Sender<CameraEvent>,
     edge: Arc<EdgeCounters>,
     stop: Arc<AtomicBool>,
@@ -131,7 +141,9 @@ fn capture(
             let _ = camera.try_send(CameraEvent::Back);
         }
         edge.captured.fetch_add(1, Ordering::Relaxed);
-        if frames.put(frame) {
+        let buf = out.spare.try_recv().unwrap_or_default();
+        let decoded = DecodedFrame::decode(&frame, out.scale, Instant::now(), buf);
+        if out.frames.put(decoded) {
             edge.dropped.fetch_add(1, Ordering::Relaxed);
         }
     }
@@ -174,7 +186,9 @@ fn read_commands(
 
 /// The threads at the edge and the channels from them.
 struct Edge {
-    frames: Newest<Frame>,
+    frames: Newest<DecodedFrame>,
+    /// Buffers of frames the pipeline is done with, back to the capture thread.
+    spare: Sender<Decoded>,
     commands: Receiver<(HostMsg, Instant)>,
     camera: Receiver<CameraEvent>,
     capture: JoinHandle<Option<String>>,
@@ -182,17 +196,25 @@ struct Edge {
 }
 
 impl Edge {
+    /// Starts the threads; frames are decoded at `1/scale`.
     fn start(
         source: Box<dyn FrameSource>,
         link_in: Option<Box<dyn Read + Send>>,
         stop: &Arc<AtomicBool>,
+        scale: u32,
     ) -> Edge {
         let counters = Arc::new(EdgeCounters::default());
         let frames = Newest::default();
         let (camera_tx, camera) = bounded(16);
-        let (frames_in, edge, cap_stop) = (frames.clone(), counters.clone(), stop.clone());
+        let (spare, spares) = bounded(1);
+        let out = Decoding {
+            frames: frames.clone(),
+            scale,
+            spare: spares,
+        };
+        let (edge, cap_stop) = (counters.clone(), stop.clone());
         let capture = std::thread::spawn(move || {
-            capture(source, frames_in, camera_tx, edge, cap_stop, RETRY_PAUSE)
+            capture(source, out, camera_tx, edge, cap_stop, RETRY_PAUSE)
         });
         let (commands_tx, commands) = bounded(64);
         if let Some(rd) = link_in {
@@ -201,6 +223,7 @@ impl Edge {
         }
         Edge {
             frames,
+            spare,
             commands,
             camera,
             capture,
@@ -229,7 +252,7 @@ pub fn run(
         errors: 0,
         summaries: 0,
     };
-    let edge = Edge::start(source, commands, &stop);
+    let edge = Edge::start(source, commands, &stop, decode_scale(settings, &format));
     let mut service = Service::new(settings, format, led, edge.counters.clone(), SystemClock);
     tx.send_all(service.start());
     let mut systemd = Systemd::from_env();
@@ -308,7 +331,19 @@ fn serve<W: Write>(
             }
             Err(RecvTimeoutError::Disconnected) => break,
         };
-        tx.send_all(service.on_frame(frame));
+        let out = service.on_decoded(frame);
+        let summaries: Vec<u64> = out
+            .iter()
+            .filter_map(|m| match m {
+                DeviceMsg::Summary(s) => Some(s.capture_us),
+                _ => None,
+            })
+            .collect();
+        tx.send_all(out);
+        for capture_us in summaries {
+            service.on_sent(capture_us);
+        }
+        let _ = edge.spare.try_send(service.take_buffer());
     }
 }
 
@@ -316,7 +351,7 @@ fn serve<W: Write>(
 mod tests {
     use super::*;
     use vistaf_hardware::source::{SourceError, SourceFormat};
-    use vistaf_hardware::PixelFormat;
+    use vistaf_hardware::{Frame, PixelFormat};
 
     #[test]
     fn the_newest_item_wins_and_evictions_are_told() {
@@ -377,14 +412,12 @@ mod tests {
         let (frames, edge) = (Newest::default(), Arc::new(EdgeCounters::default()));
         let (events_tx, events) = bounded(16);
         let stop = Arc::new(AtomicBool::new(false));
-        let failure = capture(
-            source,
-            frames.clone(),
-            events_tx,
-            edge.clone(),
-            stop,
-            Duration::ZERO,
-        );
+        let out = Decoding {
+            frames: frames.clone(),
+            scale: 1,
+            spare: bounded(1).1,
+        };
+        let failure = capture(source, out, events_tx, edge.clone(), stop, Duration::ZERO);
         assert_eq!(failure, None, "the source ended");
         let seen: Vec<CameraEvent> = events.try_iter().collect();
         assert_eq!(

@@ -16,6 +16,7 @@ use crate::render::{Renderer, Truth};
 use crate::scene::{self, center_mm, SPHERE_R_MM};
 use crate::state::SkinState;
 use crate::unit::{SensorUnit, GRATING_PERIOD_MM};
+use vistaf_hardware::encode::Encoding;
 use vistaf_hardware::frameset::{FrameEntry, FrameSet, FrameSetError, FrameSetWriter};
 
 /// Offset of the 16-bit temperature encoding, °C.
@@ -30,6 +31,8 @@ pub struct SetOptions {
     pub seed: u64,
     /// Unit seed, recorded in the manifest.
     pub unit_seed: u64,
+    /// How frames are written: PNG, or as a camera sends them (YUYV, MJPEG at a quality).
+    pub encoding: Encoding,
 }
 
 fn truth_png(
@@ -90,7 +93,8 @@ pub fn write_states(
         .first()
         .map_or(scene::ROOM_C, |s| s.temperature.base_c);
     let (reference, _) = r.render(&SkinState::idle(base), opts.seed ^ 0xfeed);
-    let mut w = FrameSetWriter::create(dir, f64::from(GRATING_PERIOD_MM), &reference)?;
+    let mut w =
+        FrameSetWriter::encoded(dir, f64::from(GRATING_PERIOD_MM), &reference, opts.encoding)?;
     w.extra_mut().insert(
         "simulator".into(),
         json!({
@@ -98,6 +102,7 @@ pub fn write_states(
             "seed": opts.seed,
             "unit_seed": opts.unit_seed,
             "reference_temperature_c": base,
+            "encoding": opts.encoding.to_string(),
             "unit": unit_json(unit),
         }),
     );

@@ -29,6 +29,7 @@ fn sample_set(dir: &Path) -> FrameSet {
         truth_maps: true,
         seed: 5,
         unit_seed: 0,
+        encoding: Default::default(),
     };
     sets::write_states(dir, "press-sphere", &unit, &states, &opts, |_, _| {}).unwrap()
 }

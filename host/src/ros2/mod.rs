@@ -245,6 +245,14 @@ impl SkinTopics {
             v("frames_processed", st.frames_processed.to_string()),
             v("frames_dropped", st.frames_dropped.to_string()),
             v("bad_frames", st.bad_frames.to_string()),
+            v(
+                "latency_p50_p99_ms",
+                format!(
+                    "{:.1} / {:.1}",
+                    f64::from(st.latency_p50_us) / 1e3,
+                    f64::from(st.latency_p99_us) / 1e3
+                ),
+            ),
             v("summary_rate_hz", format!("{:.1}", host.summary_rate_hz)),
             v("summaries_missing", host.summaries_missing.to_string()),
             v("link_frames_dropped", host.link_frames_dropped.to_string()),

@@ -112,7 +112,7 @@ pub fn arb_device_msg() -> impl Strategy<Value = DeviceMsg> {
             })),
         4 => arb_summary().prop_map(DeviceMsg::Summary),
         1 => arb_map().prop_map(DeviceMsg::Map),
-        1 => (any::<u64>(), arb_run_state(), any::<u16>(), any::<[u32; 6]>(), any::<u16>()).prop_map(
+        1 => (any::<u64>(), arb_run_state(), any::<u16>(), any::<[u32; 8]>(), any::<u16>()).prop_map(
             |(uptime_ms, state, max_rate_hz, c, camera_restarts)| DeviceMsg::Status(Status {
                 uptime_ms,
                 state,
@@ -124,6 +124,8 @@ pub fn arb_device_msg() -> impl Strategy<Value = DeviceMsg> {
                 link_frames_dropped: c[4],
                 reference_age_ms: c[5],
                 camera_restarts,
+                latency_p50_us: c[6],
+                latency_p99_us: c[7],
             })
         ),
         1 => (arb_error_code(), arb_string::<ERROR_DETAIL_MAX_LEN>())

@@ -199,6 +199,7 @@ fn count_instructions(rows: &mut [tradeoff::Row]) -> Result<()> {
                         vistaf_pipeline::measure::Unwrap::WhenNeeded => "when-needed",
                     },
                     if c.rows_only { "rows" } else { "2d" },
+                    &c.encoding.to_string(),
                 ])
                 .output()
                 .context("running valgrind (is it installed?)")?;

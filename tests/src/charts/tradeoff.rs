@@ -1,7 +1,11 @@
-//! Pipeline configurations against a fixed benchmark set: cost beside accuracy.
+//! Pipeline configurations against a fixed benchmark set: cost beside accuracy. The
+//! camera's format is an axis too: the same frames sent as YUYV or JPEG at a quality,
+//! decoded as the device decodes them, cost counted from the camera's bytes.
 
 use std::time::Instant;
 
+use vistaf_hardware::decode::Decoded;
+use vistaf_hardware::encode::Encoding;
 use vistaf_pipeline::calibration::Calibration;
 use vistaf_pipeline::ftp::band::BandWindow;
 use vistaf_pipeline::measure::Unwrap;
@@ -30,6 +34,8 @@ pub struct Config {
     pub unwrap: Unwrap,
     /// Device path: 1-D band-pass along rows instead of 2-D.
     pub rows_only: bool,
+    /// How the camera sends the frames.
+    pub encoding: Encoding,
 }
 
 /// The configurations compared.
@@ -42,8 +48,13 @@ pub fn configs() -> Vec<Config> {
         temperature,
         unwrap: Unwrap::WhenNeeded,
         rows_only: false,
+        encoding: Encoding::Rgb,
     };
     use BandWindow::{Hann, Matched};
+    let sent = |name: &str, encoding| Config {
+        encoding,
+        ..c(name, Fixed, None, Matched, true)
+    };
     use Implementation::{Fixed, Float};
     let rows = Config {
         rows_only: true,
@@ -59,6 +70,9 @@ pub fn configs() -> Vec<Config> {
     };
     vec![
         c("fixed ÷2 (default)", Fixed, None, Matched, true),
+        sent("fixed ÷2, YUYV", Encoding::Yuyv),
+        sent("fixed ÷2, MJPEG q90", Encoding::Mjpeg(90)),
+        sent("fixed ÷2, MJPEG q75", Encoding::Mjpeg(75)),
         rows,
         always,
         never,
@@ -158,7 +172,10 @@ pub fn measure(mut progress: impl FnMut(usize, usize)) -> Vec<Row> {
             rows_only: c.rows_only,
             ..Default::default()
         };
-        let row = match Analyzer::new(&reference, calib, c.imp, opts) {
+        let sent = |img: &image::RgbImage| sent_as(img, c.encoding);
+        let prepared = sent(&reference)
+            .and_then(|r| Analyzer::new(&r, calib, c.imp, opts).map_err(|e| e.to_string()));
+        let row = match prepared {
             Err(e) => Row {
                 config: c.clone(),
                 ms: f64::NAN,
@@ -166,7 +183,7 @@ pub fn measure(mut progress: impl FnMut(usize, usize)) -> Vec<Row> {
                 depth_error: f64::NAN,
                 force_rmse_n: f64::NAN,
                 temperature_error_c: None,
-                refused: Some(e.to_string()),
+                refused: Some(e),
             },
             Ok(a) => score(c, &a, &frames),
         };
@@ -192,17 +209,31 @@ fn matches_case(c: &Case) -> Scored {
     }
 }
 
+/// `img` as the camera of `encoding` sends it, decoded as the device decodes it (whole:
+/// the benchmark camera is 640 × 480).
+fn sent_as(img: &image::RgbImage, encoding: Encoding) -> Result<Decoded, String> {
+    encoding.frame(img)?.decode(1).map_err(|e| e.to_string())
+}
+
 fn score(c: &Config, a: &Analyzer, frames: &[(image::RgbImage, vistaf_sim::Truth, Scored)]) -> Row {
     let mut times = Vec::new();
+    let mut decoded = Decoded::default();
     let (mut depth, mut nd, mut force_sq, mut nf) = (0.0f64, 0usize, 0.0f64, 0usize);
     let (mut temp, mut nt) = (0.0f64, 0usize);
     for (img, truth, case) in frames {
+        let Ok(frame) = c.encoding.frame(img) else {
+            continue;
+        };
         let mut result = None;
         for _ in 0..3 {
+            // From the camera's bytes: decoding is part of the cost.
             let t0 = Instant::now();
-            let d = a.analyze(img);
+            let d = frame
+                .decode_into(1, &mut decoded)
+                .ok()
+                .and_then(|()| a.analyze(&decoded).ok());
             times.push(t0.elapsed().as_secs_f64() * 1e3);
-            result = d.ok();
+            result = d;
         }
         let Some(d) = result else { continue };
         match *case {

@@ -257,7 +257,8 @@ impl ForceModel {
 /// The unit geometry a calibration was made on.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct UnitGeometry {
-    /// Image width, pixels.
+    /// Image width, pixels: the pipeline's input, the camera's width over
+    /// [`UnitGeometry::decode_scale`].
     pub width_px: u32,
     /// Image height, pixels.
     pub height_px: u32,
@@ -267,6 +268,37 @@ pub struct UnitGeometry {
     pub angle_deg: f64,
     /// Physical grating period, mm.
     pub grating_period_mm: f64,
+    /// How many times smaller than the camera's image its frames are decoded, each way (1,
+    /// 2, 4 or 8; see [`crate::input::decode_scale`]). Pixel sizes above are at that scale.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub decode_scale: u32,
+}
+
+fn one() -> u32 {
+    1
+}
+
+fn is_one(s: &u32) -> bool {
+    *s == 1
+}
+
+impl UnitGeometry {
+    /// The camera's image size, pixels.
+    pub fn camera_size(&self) -> (u32, u32) {
+        let s = self.decode_scale.max(1);
+        (self.width_px * s, self.height_px * s)
+    }
+
+    /// The scale to decode a `width_px × height_px` camera frame at: the calibration's,
+    /// when the frame is the camera's size; else 1 (the frame is read as it is, and a
+    /// size that does not fit is refused by [`Calibration::check_fits`]).
+    pub fn scale_for(&self, width_px: u32, height_px: u32) -> u32 {
+        if (width_px, height_px) == self.camera_size() {
+            self.decode_scale.max(1)
+        } else {
+            1
+        }
+    }
 }
 
 /// How the calibrated indenter looks: its contact area (depth ≥ half the peak) at each
@@ -468,9 +500,15 @@ impl Calibration {
         let u = &self.unit;
         let rel = (period_px - u.period_px).abs() / u.period_px;
         if width_px != u.width_px || height_px != u.height_px || rel > 0.03 {
+            let (cw, ch) = u.camera_size();
+            let scaled = if u.decode_scale > 1 {
+                format!(" (a {cw}×{ch} camera read at 1/{})", u.decode_scale)
+            } else {
+                String::new()
+            };
             return Err(CalibrationError::Mismatch {
                 want: format!(
-                    "{}×{} px with a {:.2} px grating period",
+                    "{}×{} px{scaled} with a {:.2} px grating period",
                     u.width_px, u.height_px, u.period_px
                 ),
                 got: format!("{width_px}×{height_px} px with a {period_px:.2} px period"),

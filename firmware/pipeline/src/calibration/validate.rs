@@ -99,6 +99,12 @@ fn check_unit(c: &Calibration) -> Check {
             return Err(bad(key, format!("{v}: an image side of 1 to 16 384 px")));
         }
     }
+    if !vistaf_hardware::decode::SCALES.contains(&u.decode_scale) {
+        return Err(bad(
+            "unit.decode_scale",
+            format!("{}: a decoding scale of 1, 2, 4 or 8", u.decode_scale),
+        ));
+    }
     let within = |key: &str, v: f64, lo: f64, hi: f64, what: &str| {
         if v.is_finite() && v > lo && v <= hi {
             Ok(())

@@ -118,8 +118,8 @@ pub struct Working {
 
 /// Estimates the reference's carrier once, chooses the working resolution (`factor`
 /// overrides the choice), and checks the grating is still resolved there.
-pub fn working(
-    reference: &image::RgbImage,
+pub fn working<'i>(
+    reference: impl Into<crate::input::Pixels<'i>>,
     factor: Option<usize>,
 ) -> Result<Working, CarrierError> {
     let (full, fw, fh) = crate::image_ops::gray_down_f32(reference, 1);

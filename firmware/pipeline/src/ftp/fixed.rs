@@ -28,7 +28,7 @@
 //! done once in [`FixedFtp::new`]; the carrier itself is estimated in floating point there,
 //! once per reference.
 
-use image::RgbImage;
+use crate::input::Pixels;
 
 use super::band::box_lengths;
 use super::carrier::{self, Carrier};
@@ -359,14 +359,18 @@ fn amp(re: i32, im: i32) -> u32 {
 
 impl FixedFtp {
     /// Prepares the reference, whose carrier `working` describes.
-    pub fn new(reference: &RgbImage, working: &carrier::Working, calib: &Calibration) -> FixedFtp {
+    pub fn new<'i>(
+        reference: impl Into<Pixels<'i>>,
+        working: &carrier::Working,
+        calib: &Calibration,
+    ) -> FixedFtp {
         FixedFtp::with_filter(reference, working, calib, false)
     }
 
     /// As [`FixedFtp::new`]; `rows_only` low-passes along rows only (a 1-D band-pass per
     /// row instead of 2-D: a trade-off configuration, cheaper and noisier).
-    pub fn with_filter(
-        reference: &RgbImage,
+    pub fn with_filter<'i>(
+        reference: impl Into<Pixels<'i>>,
         working: &carrier::Working,
         calib: &Calibration,
         rows_only: bool,
@@ -455,7 +459,11 @@ impl FixedFtp {
     ///
     /// # Panics
     /// If `frame` is not the reference's size (checked by the caller, [`crate::Analyzer`]).
-    pub fn phase<'a>(&'a self, frame: &RgbImage, scratch: &'a mut Scratch) -> FixedField<'a> {
+    pub fn phase<'a, 'i>(
+        &'a self,
+        frame: impl Into<Pixels<'i>>,
+        scratch: &'a mut Scratch,
+    ) -> FixedField<'a> {
         let Scratch {
             gray,
             demod,
@@ -478,7 +486,7 @@ impl FixedFtp {
     /// The reference's grating phase per working pixel, units of 2π/65 536: the mixing
     /// phase plus the demodulated signal's argument. Once per reference: the analytic
     /// signal of `reference` at every working pixel.
-    pub fn grating_phase(&self, reference: &RgbImage) -> Vec<u16> {
+    pub fn grating_phase<'i>(&self, reference: impl Into<Pixels<'i>>) -> Vec<u16> {
         let (gray, _, _, _) = gray_down_q8(reference, self.factor);
         let z = self.analytic(&gray, 1);
         let (fx, fy) = (f64::from(self.carrier.fx), f64::from(self.carrier.fy));
@@ -555,6 +563,7 @@ impl PhaseMap for FixedField<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use image::RgbImage;
 
     /// The one-pass phases and amplitudes equal the per-sample ones, on a frame with a bump
     /// and a shift.

@@ -18,7 +18,7 @@
 //!   a different filter, so its depth maps differ from the device path's by a few percent
 //!   where the surface is curved, and it needs its own calibration.
 
-use image::RgbImage;
+use crate::input::Pixels;
 use rustfft::num_complex::Complex32;
 use rustfft::FftPlanner;
 
@@ -74,7 +74,11 @@ impl std::fmt::Debug for FloatFtp {
 
 impl FloatFtp {
     /// Prepares the reference, whose carrier `working` describes.
-    pub fn new(reference: &RgbImage, working: &carrier::Working, band: BandWindow) -> FloatFtp {
+    pub fn new<'i>(
+        reference: impl Into<Pixels<'i>>,
+        working: &carrier::Working,
+        band: BandWindow,
+    ) -> FloatFtp {
         let (factor, carrier) = (working.factor, working.carrier);
         let (gray, w, h) = gray_down_f32(reference, factor);
         let mut planner = FftPlanner::new();
@@ -169,7 +173,8 @@ impl FloatFtp {
     ///
     /// # Panics
     /// If `frame` is not the reference's size (checked by the caller, [`crate::Analyzer`]).
-    pub fn phase(&self, frame: &RgbImage) -> PhaseField {
+    pub fn phase<'i>(&self, frame: impl Into<Pixels<'i>>) -> PhaseField {
+        let frame = frame.into();
         let (gray, w, h) = gray_down_f32(frame, self.factor);
         assert_eq!(
             (w, h),
@@ -210,7 +215,12 @@ pub struct FloatMap<'a> {
 
 impl FloatFtp {
     /// A frame's phase field as the measurement sees it.
-    pub fn field<'a>(&self, frame: &RgbImage, depth: &'a DepthModel) -> FloatMap<'a> {
+    pub fn field<'a, 'i>(
+        &self,
+        frame: impl Into<Pixels<'i>>,
+        depth: &'a DepthModel,
+    ) -> FloatMap<'a> {
+        let frame = frame.into();
         FloatMap {
             field: self.phase(frame),
             saturated: saturated_fraction(frame),

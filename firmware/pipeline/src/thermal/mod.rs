@@ -26,7 +26,7 @@ pub mod model;
 pub mod static_light;
 pub mod stripes;
 
-use image::RgbImage;
+use crate::input::Pixels;
 
 pub use self::evaluate::{BlockMap, Evaluator, FloatModel, Temperatures};
 use self::fixed::FixedModel;
@@ -173,7 +173,7 @@ impl Thermometer {
     /// empty.
     pub fn sums(
         &self,
-        frame: &RgbImage,
+        frame: Pixels<'_>,
         phase: impl Fn(usize, &[u16], &mut [u16]),
         reliable: &[bool],
         regions: Option<Regions<'_>>,
@@ -214,7 +214,7 @@ impl Thermometer {
     /// edge is where heat spreads into the cooler skin around).
     pub fn measure(
         &self,
-        frame: &RgbImage,
+        frame: Pixels<'_>,
         phase: impl Fn(usize, &[u16], &mut [u16]),
         reliable: &[bool],
         regions: Option<Regions<'_>>,

@@ -19,7 +19,7 @@
 //! narrows so it stays as far from the stripe edges in pixels as on flat skin
 //! (`keep_units`).
 
-use image::RgbImage;
+use crate::input::Pixels;
 
 use super::lab::linear_table;
 
@@ -203,7 +203,7 @@ impl Geometry {
 /// contact region, small and what a user asks about most, reads every input pixel, at its
 /// local grating (`local_phases`, `keep_units`).
 pub fn accumulate(
-    frame: &RgbImage,
+    frame: Pixels<'_>,
     g: &Geometry,
     theta: impl FnMut(usize, &mut [u16]),
     reliable: &[bool],
@@ -223,7 +223,7 @@ pub fn accumulate(
 
 /// [`accumulate`] for factor `F` (0: any, read from `g`).
 fn run<const F: usize>(
-    frame: &RgbImage,
+    frame: Pixels<'_>,
     g: &Geometry,
     mut theta: impl FnMut(usize, &mut [u16]),
     reliable: &[bool],
@@ -262,10 +262,8 @@ fn run<const F: usize>(
     for (o, &v) in offsets.iter_mut().zip(&g.offsets) {
         *o = v as u16;
     }
-    let width = frame.width() as usize;
-    let raw: &[u8] = frame.as_raw();
-    let f3 = 3 * f;
-    let stride = width * 3;
+    // Where the frame is not RGB, the rows read are converted into these first.
+    let (mut line_buf, mut contact_buf) = (Vec::new(), Vec::new());
     for yw in 0..g.h {
         if yw > 0 && yw % g.block_px == 0 {
             flush(&mut parts, &mut blocks);
@@ -289,7 +287,7 @@ fn run<const F: usize>(
         let rel = &reliable[row.clone()];
         if on_grid {
             let y = yw * f + f / 2;
-            let (line, _) = raw[y * stride..y * stride + g.w * f3].as_chunks::<3>();
+            let (line, _) = frame.rgb_row(y, 0, g.w * f, &mut line_buf).as_chunks::<3>();
             let row = BlockRow {
                 line,
                 theta: trow,
@@ -307,10 +305,10 @@ fn run<const F: usize>(
             }
         }
         if rx1 > rx0 {
+            let pixels =
+                ContactPixels::read(frame, yw * f, f, (rx0 * f, rx1 * f), &mut contact_buf);
             let row = ContactRow {
-                pixels: raw,
-                stride,
-                y0: yw * f,
+                pixels,
                 up,
                 theta: trow,
                 down,
@@ -330,13 +328,59 @@ fn run<const F: usize>(
     (blocks, contact)
 }
 
+/// The input pixels of one working row's contact stretch, as sRGB.
+struct ContactPixels<'a> {
+    /// Rows of sRGB bytes, `stride` bytes apart.
+    bytes: &'a [u8],
+    stride: usize,
+    /// The input row of the working row's first row in `bytes`, and the input column of
+    /// its first column.
+    y0: usize,
+    x0: usize,
+}
+
+impl<'a> ContactPixels<'a> {
+    /// Input rows `y0..y0 + f`, columns `x0..x1`: the frame itself when it is RGB, else
+    /// those pixels converted into `buf`.
+    fn read(
+        frame: Pixels<'a>,
+        y0: usize,
+        f: usize,
+        (x0, x1): (usize, usize),
+        buf: &'a mut Vec<u8>,
+    ) -> ContactPixels<'a> {
+        if frame.colour() == crate::input::Colour::Rgb {
+            return ContactPixels {
+                bytes: frame.raw(),
+                stride: frame.width() as usize * 3,
+                y0,
+                x0: 0,
+            };
+        }
+        buf.clear();
+        let mut row = Vec::new();
+        for y in y0..y0 + f {
+            buf.extend_from_slice(frame.rgb_row(y, x0, x1, &mut row));
+        }
+        ContactPixels {
+            bytes: buf,
+            stride: (x1.min(frame.width() as usize) - x0) * 3,
+            y0: 0,
+            x0,
+        }
+    }
+
+    /// `n` pixels of input row `y0 + ky` (of the working row) from input column `x`.
+    fn run(&self, ky: usize, x: usize, n: usize) -> &'a [[u8; 3]] {
+        let base = (self.y0 + ky) * self.stride + (x - self.x0) * 3;
+        self.bytes[base..base + 3 * n].as_chunks::<3>().0
+    }
+}
+
 /// One working row of the contact region.
 struct ContactRow<'a> {
-    /// The frame (sRGB, row-major) and its row stride, bytes.
-    pixels: &'a [u8],
-    stride: usize,
-    /// The first input row of the working row.
-    y0: usize,
+    /// The row's input pixels.
+    pixels: ContactPixels<'a>,
     /// The frame's grating phase along the working rows above, this one and below, units.
     up: &'a [u16],
     theta: &'a [u16],
@@ -362,7 +406,6 @@ impl ContactRow<'_> {
     /// working pixel each way (`F` when not 0).
     fn add_to<const F: usize>(&self, f: usize, lin: &[u32; 256], contact: &mut [Sums; 2]) {
         let f = if F == 0 { f } else { F };
-        let f3 = 3 * f;
         let w = self.theta.len();
         let (x0, x1) = self.span;
         let mut parts = RowParts::default();
@@ -381,8 +424,7 @@ impl ContactRow<'_> {
             let keep = keep_units(gx, gy, self.carrier);
             let part = parts.part(reg == region::CORE, f * f, contact);
             local_phases(self.theta[xw], gx, gy, f, |ky, ts| {
-                let base = (self.y0 + ky) * self.stride + xw * f3;
-                let (px, _) = self.pixels[base..base + f3].as_chunks::<3>();
+                let px = self.pixels.run(ky, xw * f, f);
                 for (p, &t) in px.iter().zip(ts) {
                     if let Some(pop) = kept(t, keep) {
                         part.add::<true>(pop, lin, p);
@@ -665,6 +707,7 @@ pub fn pool(blocks: &[Sums], bw: usize, bh: usize, r: usize) -> Vec<Sums> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use image::RgbImage;
 
     #[test]
     fn geometry_tiles_the_working_image_with_stripe_pair_blocks() {
@@ -701,9 +744,9 @@ mod tests {
             };
             let rel = vec![true; w * h];
             let regions = vec![region::CONTACT; w * h];
-            let (plain, none) = accumulate(&img, &g, theta, &rel, None, &lin);
+            let (plain, none) = accumulate((&img).into(), &g, theta, &rel, None, &lin);
             let with_regions = Some(Regions::new(&regions, 0, 0, w));
-            let (with, contact) = accumulate(&img, &g, theta, &rel, with_regions, &lin);
+            let (with, contact) = accumulate((&img).into(), &g, theta, &rel, with_regions, &lin);
             assert_eq!(plain, with, "factor {f}");
             assert_eq!(none, [Sums::default(); 2]);
             assert!(contact[0].n[0] > 0 && contact[0].n[1] > 0, "factor {f}");
@@ -751,7 +794,7 @@ mod tests {
                 }
             };
             let (blocks, contact) = accumulate(
-                &img,
+                (&img).into(),
                 &g,
                 |y, row: &mut [u16]| row.copy_from_slice(&theta[y * w..(y + 1) * w]),
                 &rel,
@@ -939,7 +982,7 @@ mod tests {
             .collect();
         let lin = linear_q16();
         let (blocks, inside) = accumulate(
-            &img,
+            (&img).into(),
             &g,
             |y, row: &mut [u16]| row.copy_from_slice(&theta[y * row.len()..(y + 1) * row.len()]),
             &vec![true; theta.len()],

@@ -1,0 +1,262 @@
+//! The pipeline's input: an image of three bytes per pixel, in the colour encoding the
+//! camera's bytes decode to most cheaply.
+//!
+//! A camera sends RGB only from a file; a UVC camera sends YUYV (BT.601, limited range) or
+//! MJPEG (JFIF: BT.601, full range). Converting a whole frame to RGB first costs more
+//! than the pipeline reads: the phase needs only luminance (which is Y), and the
+//! temperature reads colour at a few sampled rows and at the contact. So the pipeline
+//! takes the frame as it decodes ([`Pixels`]), reads luminance from Y, and converts to RGB
+//! only the pixels the temperature side samples ([`Pixels::rgb_row`]).
+//!
+//! [`decode_scale`] says how much smaller than the camera's image the decoder may deliver
+//! it: a JPEG decodes at 1/2, 1/4 or 1/8 of its size for a fraction of the full decode's
+//! cost, and the pipeline downsamples anyway.
+
+use image::RgbImage;
+
+pub use vistaf_hardware::decode::Colour;
+use vistaf_hardware::decode::Decoded;
+
+/// Luminance of a pixel from its three bytes, in 8.8 fixed point: `(Σ wₖ·bₖ)·gain/256 −
+/// offset`. Linear, so a block's mean is the luminance of its channels' means, and the
+/// downsampling sums channels first and weighs once per block.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Luma {
+    /// Weights of the three bytes, Q8 (they sum to 256).
+    pub weights: [u32; 3],
+    /// Gain, Q8 (256 = 1).
+    pub gain_q8: u32,
+    /// Subtracted after the gain, 8.8 fixed point per pixel.
+    pub offset_q8: u32,
+}
+
+/// How luminance (BT.601 luma of full-range sRGB, 0…255 in 8.8) is read from pixels in
+/// `colour`.
+pub fn luma(colour: Colour) -> Luma {
+    match colour {
+        // 77 R + 150 G + 29 B = 256.
+        Colour::Rgb => Luma {
+            weights: [77, 150, 29],
+            gain_q8: 256,
+            offset_q8: 0,
+        },
+        Colour::YCbCrFull => Luma {
+            weights: [256, 0, 0],
+            gain_q8: 256,
+            offset_q8: 0,
+        },
+        // (Y − 16) · 255/219.
+        Colour::YCbCrLimited => Luma {
+            weights: [256, 0, 0],
+            gain_q8: 298,
+            offset_q8: 16 * 298,
+        },
+    }
+}
+
+/// Why bytes are not an image.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{got} bytes are not a {width}×{height} image of 3 bytes per pixel ({want} bytes)")]
+pub struct InputError {
+    /// Width, pixels.
+    pub width: u32,
+    /// Height, pixels.
+    pub height: u32,
+    /// Bytes given.
+    pub got: usize,
+    /// Bytes needed.
+    pub want: usize,
+}
+
+/// A frame as the pipeline reads it: `width × height` pixels of three bytes, row-major,
+/// no padding, in `colour`. Borrowed: the caller owns the bytes.
+#[derive(Debug, Clone, Copy)]
+pub struct Pixels<'a> {
+    width: u32,
+    height: u32,
+    data: &'a [u8],
+    colour: Colour,
+}
+
+impl<'a> From<&'a RgbImage> for Pixels<'a> {
+    fn from(img: &'a RgbImage) -> Pixels<'a> {
+        Pixels {
+            width: img.width(),
+            height: img.height(),
+            data: img.as_raw(),
+            colour: Colour::Rgb,
+        }
+    }
+}
+
+/// A decoded camera frame; its length is three bytes per pixel by construction (a
+/// shorter buffer reads as an empty image, which no reference matches).
+impl<'a> From<&'a Decoded> for Pixels<'a> {
+    fn from(d: &'a Decoded) -> Pixels<'a> {
+        Pixels::new(d.width, d.height, &d.data, d.colour).unwrap_or(Pixels {
+            width: 0,
+            height: 0,
+            data: &[],
+            colour: d.colour,
+        })
+    }
+}
+
+impl<'a> Pixels<'a> {
+    /// `data` as a `width × height` image in `colour`; an error when its length is not
+    /// three bytes per pixel.
+    pub fn new(
+        width: u32,
+        height: u32,
+        data: &'a [u8],
+        colour: Colour,
+    ) -> Result<Pixels<'a>, InputError> {
+        let want = width as usize * height as usize * 3;
+        if data.len() != want {
+            return Err(InputError {
+                width,
+                height,
+                got: data.len(),
+                want,
+            });
+        }
+        Ok(Pixels {
+            width,
+            height,
+            data,
+            colour,
+        })
+    }
+
+    /// Width, pixels.
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    /// Height, pixels.
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
+    /// Width and height, pixels.
+    pub fn dimensions(&self) -> (u32, u32) {
+        (self.width, self.height)
+    }
+
+    /// The bytes, three per pixel, row-major.
+    pub fn raw(&self) -> &'a [u8] {
+        self.data
+    }
+
+    /// How the bytes encode colour.
+    pub fn colour(&self) -> Colour {
+        self.colour
+    }
+
+    /// Pixels `x0..x1` of row `y` as sRGB bytes: the image's own bytes when it is RGB,
+    /// else converted into `buf` (its contents replaced). Out-of-range columns are
+    /// clipped to the image.
+    pub fn rgb_row<'b>(&self, y: usize, x0: usize, x1: usize, buf: &'b mut Vec<u8>) -> &'b [u8]
+    where
+        'a: 'b,
+    {
+        let w = self.width as usize;
+        let (x0, x1) = (x0.min(w), x1.min(w));
+        let row = &self.data[(y * w + x0) * 3..(y * w + x1) * 3];
+        if self.colour == Colour::Rgb {
+            return row;
+        }
+        // One loop per encoding, so the conversion inlines and the match is not per pixel.
+        fn convert(px: &[[u8; 3]], out: &mut [u8], f: impl Fn([u8; 3]) -> [u8; 3]) {
+            for (o, p) in out.as_chunks_mut::<3>().0.iter_mut().zip(px) {
+                *o = f(*p);
+            }
+        }
+        let (px, _) = row.as_chunks::<3>();
+        buf.clear();
+        buf.resize(row.len(), 0);
+        match self.colour {
+            Colour::Rgb => buf.copy_from_slice(row),
+            Colour::YCbCrFull => convert(px, buf, |p| Colour::YCbCrFull.to_rgb(p)),
+            Colour::YCbCrLimited => convert(px, buf, |p| Colour::YCbCrLimited.to_rgb(p)),
+        }
+        buf
+    }
+}
+
+/// Fewest input pixels per grating period left by a scaled decode: twice the working
+/// resolution's ([`crate::image_ops::MIN_WORKING_PERIOD_PX`]), so the pipeline still
+/// downsamples at least twice and the temperature side still has two samples per working
+/// pixel across each stripe pair's phases.
+pub const MIN_DECODED_PERIOD_PX: f64 = 12.0;
+
+/// Fewest columns left by a scaled decode: the sizes the pipeline is built and measured
+/// for (320 × 240 to 800 × 600 and up) are never reduced, only larger cameras.
+pub const MIN_DECODED_WIDTH_PX: u32 = 640;
+
+/// How many times smaller (1, 2, 4 or 8, each way) a `width_px × height_px` camera image
+/// with a grating of `period_px` pixels may be decoded without losing what the pipeline
+/// reads: the largest power of two that divides both sides and leaves at least
+/// [`MIN_DECODED_PERIOD_PX`] per period and [`MIN_DECODED_WIDTH_PX`] columns.
+pub fn decode_scale(width_px: u32, height_px: u32, period_px: f64) -> u32 {
+    let mut s = 1;
+    while s < 8
+        && vistaf_hardware::decode::scale_fits(width_px, height_px, 2 * s)
+        && period_px / f64::from(2 * s) >= MIN_DECODED_PERIOD_PX
+        && width_px / (2 * s) >= MIN_DECODED_WIDTH_PX
+    {
+        s *= 2;
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn luma_of_grey_is_the_grey_level_in_every_colour_encoding() {
+        for (enc, p, want) in [
+            (Colour::Rgb, [100u8, 100, 100], 100 * 256),
+            (Colour::YCbCrFull, [100, 128, 128], 100 * 256),
+            (
+                Colour::YCbCrLimited,
+                [16 + 219 / 2, 128, 128],
+                255 * 256 / 2,
+            ),
+        ] {
+            let l = luma(enc);
+            let acc: u32 = l.weights.iter().zip(p).map(|(w, b)| w * u32::from(b)).sum();
+            let got = (acc * l.gain_q8 / 256) as i32 - l.offset_q8 as i32;
+            assert!((got - want).abs() <= 300, "{enc:?}: {got} vs {want}");
+        }
+    }
+
+    #[test]
+    fn rows_are_borrowed_when_rgb_and_converted_otherwise() {
+        let img = RgbImage::from_fn(4, 2, |x, y| image::Rgb([x as u8, y as u8, 7]));
+        let p = Pixels::from(&img);
+        let mut buf = Vec::new();
+        assert_eq!(p.rgb_row(1, 1, 3, &mut buf), &[1, 1, 7, 2, 1, 7]);
+        assert!(buf.is_empty());
+        let data = [16u8, 128, 128, 235, 128, 128];
+        let y = Pixels::new(2, 1, &data, Colour::YCbCrLimited).unwrap();
+        assert_eq!(y.rgb_row(0, 0, 9, &mut buf), &[0, 0, 0, 255, 255, 255]);
+        assert!(Pixels::new(2, 2, &data, Colour::Rgb).is_err());
+    }
+
+    #[test]
+    fn decode_scale_keeps_the_period_and_small_cameras() {
+        assert_eq!(decode_scale(640, 480, 30.0), 1);
+        assert_eq!(decode_scale(800, 600, 30.0), 1);
+        assert_eq!(decode_scale(1280, 720, 30.0), 2);
+        assert_eq!(decode_scale(1280, 720, 20.0), 1);
+        assert_eq!(decode_scale(1920, 1080, 48.0), 2);
+        assert_eq!(decode_scale(3840, 2160, 96.0), 4);
+        assert_eq!(decode_scale(3840, 2160, 40.0), 2);
+        assert_eq!(decode_scale(4096, 4096, 1000.0), 4);
+        assert_eq!(decode_scale(8192, 4096, 1000.0), 8);
+        // A side the scale does not divide.
+        assert_eq!(decode_scale(1281, 720, 30.0), 1);
+    }
+}
