@@ -142,7 +142,12 @@ impl Frame {
                 )))
             }
         }
-        let data = dec.decode().map_err(err)?;
+        // A decoder that panics on bytes it did not expect must not take the capture
+        // thread with it: a corrupt frame is an error like any other.
+        let decoded = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| dec.decode()));
+        let data = decoded
+            .map_err(|_| self.decode_error("the decoder failed on these bytes".into()))?
+            .map_err(err)?;
         let n = want.0 as usize * want.1 as usize;
         match data.len() / n.max(1) {
             3 if data.len() == 3 * n => out.data = data,
@@ -401,6 +406,36 @@ mod tests {
         // The encoder writes the standard tables, so the implied ones decode it.
         let bare = frame(PixelFormat::Mjpeg, w, h, stripped);
         assert_eq!(bare.decode(2).unwrap(), f.decode(2).unwrap());
+    }
+
+    /// Corrupt and truncated JPEG frames decode to an error or to pixels, at every scale,
+    /// and never panic.
+    #[test]
+    fn corrupt_jpeg_frames_are_errors_not_panics() {
+        let img = crate::encode::grating(64, 48, 12.0);
+        let good = crate::encode::Encoding::Mjpeg(85).encode(&img).unwrap();
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for i in 0..400 {
+            let mut bytes = good.clone();
+            for _ in 0..1 + next() % 8 {
+                let k = (next() as usize) % bytes.len();
+                bytes[k] = next() as u8;
+            }
+            if i % 3 == 0 {
+                bytes.truncate((next() as usize) % bytes.len());
+            }
+            let f = frame(PixelFormat::Mjpeg, 64, 48, bytes);
+            let scale = [1, 2, 4, 8][i % 4];
+            if let Ok(d) = f.decode(scale) {
+                assert_eq!(d.data.len(), (64 / scale * 48 / scale * 3) as usize);
+            }
+        }
     }
 
     #[test]
