@@ -19,6 +19,8 @@
 //! `vistaf_pipeline::input::decode_scale`).
 
 pub use crate::frame::Colour;
+use image::RgbImage;
+
 use crate::frame::{size_ok, size_refused, Frame, FrameError, PixelFormat};
 
 /// A decoded frame: `width × height` pixels of three bytes in `colour`, row-major.
@@ -44,6 +46,53 @@ pub fn scale_fits(width: u32, height: u32, scale: u32) -> bool {
 }
 
 impl Frame {
+    /// Decodes this frame at `1/scale` of its size, into `buf`'s buffer where it needs one:
+    /// an RGB frame read whole hands its own bytes over, uncopied.
+    pub fn into_decoded(self, scale: u32, mut buf: Decoded) -> Result<Decoded, FrameError> {
+        if self.format == PixelFormat::Rgb8 && scale == 1 {
+            self.check_len()?;
+            return Ok(Decoded {
+                width: self.width,
+                height: self.height,
+                data: self.data,
+                colour: Colour::Rgb,
+            });
+        }
+        self.decode_into(scale, &mut buf)?;
+        Ok(buf)
+    }
+
+    /// Converts to 8-bit RGB, keeping this frame (copies its bytes when already RGB).
+    pub fn to_rgb(&self) -> Result<RgbImage, FrameError> {
+        self.clone().into_rgb()
+    }
+
+    /// Converts to 8-bit RGB: decoded whole ([`Frame::into_decoded`]), then each pixel's
+    /// colour converted; an RGB frame's bytes are taken over without a copy.
+    pub fn into_rgb(self) -> Result<RgbImage, FrameError> {
+        let (w, h, seq, format) = (self.width, self.height, self.seq, self.format);
+        let d = self.into_decoded(1, Decoded::default())?;
+        let data = match d.colour {
+            Colour::Rgb => d.data,
+            c => d
+                .data
+                .as_chunks::<3>()
+                .0
+                .iter()
+                .flat_map(|&p| c.to_rgb(p))
+                .collect(),
+        };
+        let got = data.len();
+        RgbImage::from_raw(w, h, data).ok_or(FrameError::WrongLength {
+            seq,
+            width: w,
+            height: h,
+            format,
+            got,
+            want: w as usize * h as usize * 3,
+        })
+    }
+
     /// Decodes this frame at `1/scale` of its size into `out` (its buffer reused).
     pub fn decode_into(&self, scale: u32, out: &mut Decoded) -> Result<(), FrameError> {
         let (w, h) = (self.width, self.height);
@@ -295,6 +344,43 @@ mod tests {
         }
     }
 
+    #[test]
+    fn wrong_lengths_and_bad_jpeg_are_errors() {
+        let f = Frame {
+            width: 4,
+            height: 2,
+            format: PixelFormat::Yuyv,
+            data: vec![0; 15],
+            timestamp: Duration::ZERO,
+            seq: 3,
+        };
+        let e = f.to_rgb().unwrap_err().to_string();
+        assert!(
+            e.contains("frame 3") && e.contains("15 bytes") && e.contains("16"),
+            "{e}"
+        );
+        let j = Frame {
+            format: PixelFormat::Mjpeg,
+            data: vec![0xff, 0xd8, 0xff],
+            ..f
+        };
+        assert!(matches!(j.to_rgb(), Err(FrameError::Decode { .. })));
+    }
+
+    #[test]
+    fn yuyv_converts_every_pixel() {
+        let f = Frame {
+            width: 2,
+            height: 1,
+            format: PixelFormat::Yuyv,
+            data: vec![16, 128, 235, 128],
+            timestamp: Duration::ZERO,
+            seq: 0,
+        };
+        let img = f.to_rgb().unwrap();
+        assert_eq!(img.get_pixel(0, 0).0, [0, 0, 0]);
+        assert_eq!(img.get_pixel(1, 0).0, [255, 255, 255]);
+    }
     #[test]
     fn yuyv_reads_y_u_v_as_they_are_and_averages_blocks() {
         let f = frame(PixelFormat::Yuyv, 2, 1, vec![16, 100, 235, 200]);

@@ -185,80 +185,6 @@ impl Frame {
             _ => Ok(()),
         }
     }
-
-    /// Converts to 8-bit RGB, keeping this frame (copies its bytes when already RGB).
-    pub fn to_rgb(&self) -> Result<RgbImage, FrameError> {
-        self.clone().into_rgb()
-    }
-
-    /// Converts to 8-bit RGB (BT.601 limited-range YUV, as UVC cameras send); an RGB frame's
-    /// bytes are taken over without a copy.
-    pub fn into_rgb(self) -> Result<RgbImage, FrameError> {
-        let (w, h) = (self.width, self.height);
-        self.check_len()?;
-        let wrong_len = || FrameError::WrongLength {
-            seq: self.seq,
-            width: w,
-            height: h,
-            format: self.format,
-            got: self.data.len(),
-            want: 0,
-        };
-        let img = match self.format {
-            PixelFormat::Rgb8 => {
-                RgbImage::from_raw(w, h, self.data.clone()).ok_or_else(wrong_len)?
-            }
-            PixelFormat::Gray8 => {
-                let rgb = self.data.iter().flat_map(|&g| [g, g, g]).collect();
-                RgbImage::from_raw(w, h, rgb).ok_or_else(wrong_len)?
-            }
-            PixelFormat::Yuyv => {
-                let mut rgb = Vec::with_capacity(w as usize * h as usize * 3);
-                for q in self.data.chunks_exact(4) {
-                    let (u, v) = (q[1], q[3]);
-                    rgb.extend_from_slice(&Colour::YCbCrLimited.to_rgb([q[0], u, v]));
-                    rgb.extend_from_slice(&Colour::YCbCrLimited.to_rgb([q[2], u, v]));
-                }
-                RgbImage::from_raw(w, h, rgb).ok_or_else(wrong_len)?
-            }
-            PixelFormat::Mjpeg => {
-                let decode_err = |e: image::ImageError| FrameError::Decode {
-                    seq: self.seq,
-                    format: self.format,
-                    detail: e.to_string(),
-                };
-                let reader = || {
-                    image::ImageReader::with_format(
-                        std::io::Cursor::new(&self.data),
-                        image::ImageFormat::Jpeg,
-                    )
-                };
-                // The header's size first: nothing larger than the frame is decoded.
-                let (hw, hh) = reader().into_dimensions().map_err(decode_err)?;
-                if (hw, hh) != (w, h) {
-                    return Err(FrameError::WrongSize {
-                        seq: self.seq,
-                        width: w,
-                        height: h,
-                        got_w: hw,
-                        got_h: hh,
-                    });
-                }
-                let decoded = reader().decode().map_err(decode_err)?.to_rgb8();
-                if decoded.dimensions() != (w, h) {
-                    return Err(FrameError::WrongSize {
-                        seq: self.seq,
-                        width: w,
-                        height: h,
-                        got_w: decoded.width(),
-                        got_h: decoded.height(),
-                    });
-                }
-                decoded
-            }
-        };
-        Ok(img)
-    }
 }
 
 #[cfg(test)]
@@ -277,43 +203,5 @@ mod tests {
         assert_eq!(lim.to_rgb([235, 128, 128]), [255, 255, 255]);
         let red = lim.to_rgb([81, 90, 240]);
         assert!(red[0] > 250 && red[1] < 5 && red[2] < 5, "{red:?}");
-    }
-
-    #[test]
-    fn wrong_lengths_and_bad_jpeg_are_errors() {
-        let f = Frame {
-            width: 4,
-            height: 2,
-            format: PixelFormat::Yuyv,
-            data: vec![0; 15],
-            timestamp: Duration::ZERO,
-            seq: 3,
-        };
-        let e = f.to_rgb().unwrap_err().to_string();
-        assert!(
-            e.contains("frame 3") && e.contains("15 bytes") && e.contains("16"),
-            "{e}"
-        );
-        let j = Frame {
-            format: PixelFormat::Mjpeg,
-            data: vec![0xff, 0xd8, 0xff],
-            ..f
-        };
-        assert!(matches!(j.to_rgb(), Err(FrameError::Decode { .. })));
-    }
-
-    #[test]
-    fn yuyv_converts_every_pixel() {
-        let f = Frame {
-            width: 2,
-            height: 1,
-            format: PixelFormat::Yuyv,
-            data: vec![16, 128, 235, 128],
-            timestamp: Duration::ZERO,
-            seq: 0,
-        };
-        let img = f.to_rgb().unwrap();
-        assert_eq!(img.get_pixel(0, 0).0, [0, 0, 0]);
-        assert_eq!(img.get_pixel(1, 0).0, [255, 255, 255]);
     }
 }

@@ -67,9 +67,7 @@ fn block_mean(acc: u32, n: u32, l: &Luma) -> u16 {
     if l.gain_q8 == 256 && l.offset_q8 == 0 {
         return ((acc + n / 2) / n) as u16;
     }
-    let scaled = (u64::from(acc) * u64::from(l.gain_q8)) >> 8;
-    let v = scaled.saturating_sub(u64::from(l.offset_q8) * u64::from(n));
-    ((v + u64::from(n / 2)) / u64::from(n)).min(65_280) as u16
+    l.mean_q8(u64::from(acc), u64::from(n)) as u16
 }
 
 fn gray_down_with<const F: usize>(img: &Pixels<'_>, out: &mut Vec<u16>) {

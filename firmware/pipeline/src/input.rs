@@ -30,6 +30,27 @@ pub struct Luma {
     pub offset_q8: u32,
 }
 
+impl Luma {
+    /// A pixel's three bytes weighted (`Σ wₖ·bₖ`): summed over pixels, the input of
+    /// [`Luma::mean_q8`].
+    #[inline(always)]
+    pub fn weighted(&self, p: &[u8; 3]) -> u32 {
+        self.weights[0] * u32::from(p[0])
+            + self.weights[1] * u32::from(p[1])
+            + self.weights[2] * u32::from(p[2])
+    }
+
+    /// The mean luminance of `n` pixels whose weighted bytes sum to `weighted`, 8.8 fixed
+    /// point, rounded and clamped to 0…65 280.
+    #[inline(always)]
+    pub fn mean_q8(&self, weighted: u64, n: u64) -> u64 {
+        let n = n.max(1);
+        let scaled = (weighted * u64::from(self.gain_q8)) >> 8;
+        let v = scaled.saturating_sub(u64::from(self.offset_q8) * n);
+        ((v + n / 2) / n).min(65_280)
+    }
+}
+
 /// How luminance (BT.601 luma of full-range sRGB, 0…255 in 8.8) is read from pixels in
 /// `colour`.
 pub fn luma(colour: Colour) -> Luma {
@@ -160,27 +181,38 @@ impl<'a> Pixels<'a> {
     where
         'a: 'b,
     {
-        let w = self.width as usize;
-        let (x0, x1) = (x0.min(w), x1.min(w));
-        let row = &self.data[(y * w + x0) * 3..(y * w + x1) * 3];
         if self.colour == Colour::Rgb {
-            return row;
+            return self.row(y, x0, x1);
         }
+        buf.clear();
+        self.append_rgb(y, x0, x1, buf);
+        buf
+    }
+
+    /// Appends pixels `x0..x1` of row `y` to `out` as sRGB bytes (clipped to the image).
+    pub fn append_rgb(&self, y: usize, x0: usize, x1: usize, out: &mut Vec<u8>) {
         // One loop per encoding, so the conversion inlines and the match is not per pixel.
         fn convert(px: &[[u8; 3]], out: &mut [u8], f: impl Fn([u8; 3]) -> [u8; 3]) {
             for (o, p) in out.as_chunks_mut::<3>().0.iter_mut().zip(px) {
                 *o = f(*p);
             }
         }
-        let (px, _) = row.as_chunks::<3>();
-        buf.clear();
-        buf.resize(row.len(), 0);
+        let row = self.row(y, x0, x1);
+        let start = out.len();
+        out.resize(start + row.len(), 0);
+        let (px, tail) = (row.as_chunks::<3>().0, &mut out[start..]);
         match self.colour {
-            Colour::Rgb => buf.copy_from_slice(row),
-            Colour::YCbCrFull => convert(px, buf, |p| Colour::YCbCrFull.to_rgb(p)),
-            Colour::YCbCrLimited => convert(px, buf, |p| Colour::YCbCrLimited.to_rgb(p)),
+            Colour::Rgb => tail.copy_from_slice(row),
+            Colour::YCbCrFull => convert(px, tail, |p| Colour::YCbCrFull.to_rgb(p)),
+            Colour::YCbCrLimited => convert(px, tail, |p| Colour::YCbCrLimited.to_rgb(p)),
         }
-        buf
+    }
+
+    /// The bytes of pixels `x0..x1` of row `y`, clipped to the image.
+    fn row(&self, y: usize, x0: usize, x1: usize) -> &'a [u8] {
+        let w = self.width as usize;
+        let (x0, x1) = (x0.min(w), x1.min(w));
+        &self.data[(y * w + x0) * 3..(y * w + x1) * 3]
     }
 }
 
@@ -226,9 +258,11 @@ mod tests {
             ),
         ] {
             let l = luma(enc);
-            let acc: u32 = l.weights.iter().zip(p).map(|(w, b)| w * u32::from(b)).sum();
-            let got = (acc * l.gain_q8 / 256) as i32 - l.offset_q8 as i32;
-            assert!((got - want).abs() <= 300, "{enc:?}: {got} vs {want}");
+            // One pixel, and the mean of four alike.
+            for n in [1u64, 4] {
+                let got = l.mean_q8(u64::from(l.weighted(&p)) * n, n) as i32;
+                assert!((got - want).abs() <= 300, "{enc:?}: {got} vs {want}");
+            }
         }
     }
 

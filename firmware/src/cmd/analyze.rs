@@ -131,12 +131,11 @@ pub fn run(a: &Args) -> Result<()> {
     let frames = Frames::open(a)?;
     let reference = frames.reference()?;
     let scale = calib.unit.scale_for(reference.width, reference.height);
-    let decode = |f: &Frame, out: &mut Decoded, what: &Path| {
-        f.decode_into(scale, out)
+    let decode = |f: Frame, buf: Decoded, what: &Path| {
+        f.into_decoded(scale, buf)
             .with_context(|| what.display().to_string())
     };
-    let mut img = Decoded::default();
-    decode(&reference, &mut img, Path::new("reference"))?;
+    let mut img = decode(reference, Decoded::default(), Path::new("reference"))?;
     let opts = AnalyzerOptions {
         factor: a.downsample,
         force_calibration: a.pipe.force_calibration,
@@ -151,7 +150,7 @@ pub fn run(a: &Args) -> Result<()> {
         let path = frames.path(i);
         let frame = frames.frame(i)?;
         let t = Instant::now();
-        decode(&frame, &mut img, &path)?;
+        img = decode(frame, std::mem::take(&mut img), &path)?;
         let d = analyzer
             .analyze_with(&img, &mut scratch)
             .with_context(|| format!("{}", path.display()))?;

@@ -76,15 +76,15 @@ pub struct DecodedFrame {
 
 impl DecodedFrame {
     /// Decodes `frame` at `1/scale` into `buf` (a buffer handed back by
-    /// [`Service::on_decoded`], or a new one), decoding from `started`.
-    pub fn decode(frame: &Frame, scale: u32, started: Instant, mut buf: Decoded) -> DecodedFrame {
-        let pixels = frame.decode_into(scale, &mut buf).map(|()| buf);
+    /// [`Service::on_decoded`], or a new one; an RGB frame read whole keeps its own),
+    /// decoding from `started`.
+    pub fn decode(frame: Frame, scale: u32, started: Instant, buf: Decoded) -> DecodedFrame {
         DecodedFrame {
             capture_us: u64::try_from(frame.timestamp.as_micros()).unwrap_or(u64::MAX),
             seq: frame.seq,
             size: (frame.width, frame.height),
             started,
-            pixels,
+            pixels: frame.into_decoded(scale, buf),
         }
     }
 }
@@ -360,7 +360,7 @@ impl<'a, C: Clock> Service<'a, C> {
     /// A frame from the source, decoded here: see [`Service::on_decoded`].
     pub fn on_frame(&mut self, frame: Frame) -> Vec<DeviceMsg> {
         let buf = std::mem::take(&mut self.decoded);
-        let d = DecodedFrame::decode(&frame, self.scale, self.clock.now(), buf);
+        let d = DecodedFrame::decode(frame, self.scale, self.clock.now(), buf);
         self.on_decoded(d)
     }
 

@@ -178,23 +178,16 @@ impl ReferenceKeeper {
 /// steps: enough to see the light change, in any colour encoding.
 fn brightness(img: Pixels<'_>) -> f32 {
     let l = luma(img.colour());
-    let (sum, n) =
-        img.raw()
-            .as_chunks::<3>()
-            .0
-            .iter()
-            .step_by(11)
-            .fold((0u64, 0u64), |(s, n), p| {
-                let w: u32 = l
-                    .weights
-                    .iter()
-                    .zip(p)
-                    .map(|(w, &b)| w * u32::from(b))
-                    .sum();
-                (s + u64::from(w), n + 1)
-            });
-    let mean = sum as f32 / n.max(1) as f32 * l.gain_q8 as f32 / 256.0 - l.offset_q8 as f32;
-    mean.max(0.0) / 256.0
+    let (sum, n) = img
+        .raw()
+        .as_chunks::<3>()
+        .0
+        .iter()
+        .step_by(11)
+        .fold((0u64, 0u64), |(s, n), p| {
+            (s + u64::from(l.weighted(p)), n + 1)
+        });
+    l.mean_q8(sum, n) as f32 / 256.0
 }
 
 /// Mean absolute difference of two Q8 luminance images, 8-bit steps.

@@ -142,7 +142,7 @@ fn capture(
         }
         edge.captured.fetch_add(1, Ordering::Relaxed);
         let buf = out.spare.try_recv().unwrap_or_default();
-        let decoded = DecodedFrame::decode(&frame, out.scale, Instant::now(), buf);
+        let decoded = DecodedFrame::decode(frame, out.scale, Instant::now(), buf);
         if out.frames.put(decoded) {
             edge.dropped.fetch_add(1, Ordering::Relaxed);
         }

@@ -11,13 +11,8 @@
 //! to analyse no-contact frames, optionally `no-temperature` to leave the calibration's
 //! temperature model out (the difference is what temperature costs; `with-temperature`
 //! keeps it), then the downsampling factor (`auto` or a number), the float path's band
-//! window (`matched` or `hann`), when to unwrap (`when-needed`, `always`, `never`), the
-//! device path's filter (`2d` or `rows`), and the camera's format (`rgb`: the pipeline
-//! alone on an RGB image; `yuyv` or `mjpeg:QUALITY`: each frame decoded from the camera's
-//! bytes first).
-
-use vistaf_hardware::decode::Decoded;
-use vistaf_hardware::encode::Encoding;
+//! window (`matched` or `hann`), when to unwrap (`when-needed`, `always`, `never`) and the
+//! device path's filter (`2d` or `rows`).
 
 use vistaf_pipeline::calibration::Calibration;
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation};
@@ -69,26 +64,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if no_temperature {
         calib.temperature = None;
     }
-    let encoding: Encoding = args.get(11).map_or("rgb", String::as_str).parse()?;
-    let camera = |img: &image::RgbImage| encoding.frame(img);
-    let a = if encoding == Encoding::Rgb {
-        Analyzer::new(&reference, calib, imp, opts)?
-    } else {
-        Analyzer::new(&camera(&reference)?.decode(1)?, calib, imp, opts)?
-    };
-    let sent = camera(&frame)?;
-    let mut decoded = Decoded::default();
+    let a = Analyzer::new(&reference, calib, imp, opts)?;
     // As the service runs it: one scratch for the stream of frames.
     let mut scratch = vistaf_pipeline::Scratch::default();
     let mut peak = 0.0;
     for _ in 0..n {
-        let d = if encoding == Encoding::Rgb {
-            a.analyze_with(&frame, &mut scratch)?
-        } else {
-            sent.decode_into(1, &mut decoded)?;
-            a.analyze_with(&decoded, &mut scratch)?
-        };
-        peak += d.peak_depth_mm;
+        peak += a.analyze_with(&frame, &mut scratch)?.peak_depth_mm;
     }
     println!("{imp:?}: {n} frames, mean peak {:.3} mm", peak / n as f32);
     Ok(())

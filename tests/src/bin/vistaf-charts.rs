@@ -157,10 +157,12 @@ fn main() -> Result<()> {
     Ok(())
 }
 
-/// Instructions per frame of each configuration: callgrind over `pipeline-frames` with
-/// 1 and 11 frames, the difference over 10.
+/// Instructions per frame of each configuration: callgrind over `pipeline-frames` (or, for
+/// a camera format, `camera-frames`: the device from the camera's bytes) with 1 and 11
+/// frames, the difference over 10.
 fn count_instructions(rows: &mut [tradeoff::Row]) -> Result<()> {
-    let exe = std::env::current_exe()?.with_file_name("pipeline-frames");
+    let pipeline = std::env::current_exe()?.with_file_name("pipeline-frames");
+    let camera = std::env::current_exe()?.with_file_name("camera-frames");
     let b = bar(rows.len() as u64, "callgrind");
     for (k, r) in rows.iter_mut().enumerate() {
         b.set_position(k as u64);
@@ -168,39 +170,57 @@ fn count_instructions(rows: &mut [tradeoff::Row]) -> Result<()> {
             continue;
         }
         let c = &r.config;
+        let args = |n: usize| -> Vec<String> {
+            if c.encoding != vistaf_hardware::encode::Encoding::Rgb {
+                return [
+                    c.encoding.to_string(),
+                    "640".into(),
+                    "480".into(),
+                    n.to_string(),
+                ]
+                .into();
+            }
+            [
+                if c.imp == vistaf_pipeline::Implementation::Float {
+                    "float"
+                } else {
+                    "fixed"
+                },
+                &n.to_string(),
+                "640",
+                "480",
+                "press",
+                if c.temperature {
+                    "with-temperature"
+                } else {
+                    "no-temperature"
+                },
+                &c.factor.map_or("auto".into(), |f| f.to_string()),
+                if c.band == vistaf_pipeline::ftp::band::BandWindow::Hann {
+                    "hann"
+                } else {
+                    "matched"
+                },
+                match c.unwrap {
+                    vistaf_pipeline::measure::Unwrap::Always => "always",
+                    vistaf_pipeline::measure::Unwrap::Never => "never",
+                    vistaf_pipeline::measure::Unwrap::WhenNeeded => "when-needed",
+                },
+                if c.rows_only { "rows" } else { "2d" },
+            ]
+            .map(String::from)
+            .into()
+        };
+        let exe = if c.encoding == vistaf_hardware::encode::Encoding::Rgb {
+            &pipeline
+        } else {
+            &camera
+        };
         let ir = |n: usize| -> Result<u64> {
             let out = std::process::Command::new("valgrind")
                 .args(["--tool=callgrind", "--callgrind-out-file=/dev/null"])
-                .arg(&exe)
-                .args([
-                    if c.imp == vistaf_pipeline::Implementation::Float {
-                        "float"
-                    } else {
-                        "fixed"
-                    },
-                    &n.to_string(),
-                    "640",
-                    "480",
-                    "press",
-                    if c.temperature {
-                        "with-temperature"
-                    } else {
-                        "no-temperature"
-                    },
-                    &c.factor.map_or("auto".into(), |f| f.to_string()),
-                    if c.band == vistaf_pipeline::ftp::band::BandWindow::Hann {
-                        "hann"
-                    } else {
-                        "matched"
-                    },
-                    match c.unwrap {
-                        vistaf_pipeline::measure::Unwrap::Always => "always",
-                        vistaf_pipeline::measure::Unwrap::Never => "never",
-                        vistaf_pipeline::measure::Unwrap::WhenNeeded => "when-needed",
-                    },
-                    if c.rows_only { "rows" } else { "2d" },
-                    &c.encoding.to_string(),
-                ])
+                .arg(exe)
+                .args(args(n))
                 .output()
                 .context("running valgrind (is it installed?)")?;
             let text = String::from_utf8_lossy(&out.stderr);

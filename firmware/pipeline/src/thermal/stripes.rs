@@ -358,9 +358,8 @@ impl<'a> ContactPixels<'a> {
             };
         }
         buf.clear();
-        let mut row = Vec::new();
         for y in y0..y0 + f {
-            buf.extend_from_slice(frame.rgb_row(y, x0, x1, &mut row));
+            frame.append_rgb(y, x0, x1, buf);
         }
         ContactPixels {
             bytes: buf,
