@@ -20,9 +20,9 @@ x86_ir() {
     | sed -n 's/.*Collected : \([0-9]*\).*/\1/p'
 }
 arm_ir() { qemu_count "$arm" "$@"; }
-per_frame() { # counter encoding w h
+per_frame() { # counter encoding w h [decode]
   local one eleven
-  one=$("$1" "$2" "$3" "$4" 1); eleven=$("$1" "$2" "$3" "$4" 11)
+  one=$("$1" "$2" "$3" "$4" 1 ${5:-}); eleven=$("$1" "$2" "$3" "$4" 11 ${5:-})
   echo $(( (eleven - one) / 10 ))
 }
 mega() { awk -v n="$1" 'BEGIN { printf "%.2f", n / 1e6 }'; }
@@ -35,19 +35,24 @@ out=docs/camera-cost.md
   echo "to the summary's bytes on the link: decoding at the scale the calibration chooses, the"
   echo "fixed-point pipeline with temperature, the summary framed. Millions of instructions per"
   echo "frame, setup excluded ((11 frames − 1 frame) / 10); aarch64 counted under qemu-aarch64."
-  echo "The accuracy at each format is in \`docs/accuracy-formats.md\`."
+  echo "The accuracy at each format is in \`docs/accuracy-formats.md\`. The decode columns count"
+  echo "the decoding alone (\`camera-frames ... decode\`), its share of the whole."
   echo
-  echo "| format | size | decoded at | bytes per frame | x86-64 M | aarch64 M |"
-  echo "|---|---|---|---:|---:|---:|"
+  echo "| format | size | decoded at | bytes per frame | x86-64 M | of it decode | aarch64 M | of it decode |"
+  echo "|---|---|---|---:|---:|---:|---:|---:|"
   for f in "${formats[@]}"; do
     set -- $f
     line=$("$x86" "$1" "$2" "$3" 1)
     scale=$(echo "$line" | sed -n 's/.* at \(1\/[0-9]*\):.*/\1/p')
     bytes=$(echo "$line" | sed -n 's/.*frames of \([0-9]*\) bytes.*/\1/p')
     x=$(mega "$(per_frame x86_ir "$1" "$2" "$3")")
-    a="–"
-    if [ -n "$arm" ]; then a=$(mega "$(per_frame arm_ir "$1" "$2" "$3")"); fi
-    echo "| $1 | $2 × $3 | $scale | $bytes | $x | $a |"
+    xd=$(mega "$(per_frame x86_ir "$1" "$2" "$3" decode)")
+    a="–"; ad="–"
+    if [ -n "$arm" ]; then
+      a=$(mega "$(per_frame arm_ir "$1" "$2" "$3")")
+      ad=$(mega "$(per_frame arm_ir "$1" "$2" "$3" decode)")
+    fi
+    echo "| $1 | $2 × $3 | $scale | $bytes | $x | $xd | $a | $ad |"
   done
 } > "$out.part"
 mv "$out.part" "$out"

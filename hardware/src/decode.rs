@@ -5,13 +5,13 @@
 //! * **YUYV** (BT.601, limited range): Y, U and V are read as they are; at a scale of 2 or
 //!   more, each output pixel is the mean of its `scale × scale` block (chroma is shared by
 //!   two pixels across, so it is averaged over the same block).
-//! * **MJPEG**: decoded by `jpeg-decoder` straight to the scale asked for. JPEG's 8 × 8
+//! * **MJPEG**: decoded straight to the scale asked for ([`crate::jpeg`]). JPEG's 8 × 8
 //!   blocks allow a scaled inverse DCT (a 4 × 4, 2 × 2 or 1 × 1 transform of each block's
 //!   lowest frequencies, as libjpeg-turbo's scaled decoding does), so a 1/4-scale decode
 //!   never forms the full image; its planes come out interleaved as Y, Cb, Cr (JFIF, full
-//!   range), without a colour conversion. `zune-jpeg`, the decoder `image` uses, has no scaled
-//!   decoding. UVC cameras may leave out the Huffman tables (the standard ones are
-//!   implied); such a frame gets a marker that tells the decoder to use them.
+//!   range), without a colour conversion. UVC cameras may leave out the Huffman tables
+//!   (the standard ones are implied). A JPEG that is not a camera's baseline frame
+//!   (progressive, several scans) goes to `jpeg-decoder`, at the same scales.
 //! * **RGB and grey** (files, test sources): averaged per block when scaled.
 //!
 //! A scaled decode is an area filter of its own: what it removes is finer than the
@@ -22,6 +22,8 @@ pub use crate::frame::Colour;
 use image::RgbImage;
 
 use crate::frame::{size_ok, size_refused, Frame, FrameError, PixelFormat};
+pub use crate::jpeg::{scale_fits, SCALES};
+use crate::jpeg::{Jpeg, JpegError};
 
 /// A decoded frame: `width × height` pixels of three bytes in `colour`, row-major.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -34,15 +36,6 @@ pub struct Decoded {
     pub data: Vec<u8>,
     /// What the bytes mean.
     pub colour: Colour,
-}
-
-/// Scales a decode may use: the inverse DCT sizes of JPEG.
-pub const SCALES: [u32; 4] = [1, 2, 4, 8];
-
-/// Whether a `width × height` frame can be decoded at `1/scale`: a scale of [`SCALES`]
-/// that divides both sides.
-pub fn scale_fits(width: u32, height: u32, scale: u32) -> bool {
-    SCALES.contains(&scale) && width.is_multiple_of(scale) && height.is_multiple_of(scale)
 }
 
 impl Frame {
@@ -150,8 +143,36 @@ impl Frame {
     }
 
     /// An MJPEG frame at `1/scale`, as Y, Cb, Cr: the header's size checked first, so
-    /// nothing larger than the frame is decoded.
+    /// nothing larger than the frame is decoded. A camera's baseline JPEG decodes here
+    /// ([`crate::jpeg`]); any other JPEG (a progressive file, say) in `jpeg-decoder`.
     fn jpeg(&self, scale: u32, out: &mut Decoded) -> Result<(), FrameError> {
+        let jpeg = match Jpeg::parse(&self.data) {
+            Ok(jpeg) => jpeg,
+            Err(JpegError::Unsupported(_)) => return self.general_jpeg(scale, out),
+            Err(e) => return Err(self.decode_error(e.to_string())),
+        };
+        self.check_header_size(jpeg.size())?;
+        out.data
+            .resize(out.width as usize * out.height as usize * 3, 0);
+        jpeg.decode_into(scale, &mut out.data)
+            .map_err(|e| self.decode_error(e.to_string()))
+    }
+
+    fn check_header_size(&self, (got_w, got_h): (u32, u32)) -> Result<(), FrameError> {
+        if (got_w, got_h) == (self.width, self.height) {
+            return Ok(());
+        }
+        Err(FrameError::WrongSize {
+            seq: self.seq,
+            width: self.width,
+            height: self.height,
+            got_w,
+            got_h,
+        })
+    }
+
+    /// [`Frame::jpeg`] by `jpeg-decoder`, for what a camera does not send.
+    fn general_jpeg(&self, scale: u32, out: &mut Decoded) -> Result<(), FrameError> {
         let bytes = with_implied_tables(&self.data);
         let mut dec = jpeg_decoder::Decoder::new(std::io::Cursor::new(&bytes[..]));
         let err = |e: jpeg_decoder::Error| self.decode_error(e.to_string());
@@ -159,16 +180,7 @@ impl Frame {
         let info = dec
             .info()
             .ok_or_else(|| self.decode_error("no frame header".into()))?;
-        let (hw, hh) = (u32::from(info.width), u32::from(info.height));
-        if (hw, hh) != (self.width, self.height) {
-            return Err(FrameError::WrongSize {
-                seq: self.seq,
-                width: self.width,
-                height: self.height,
-                got_w: hw,
-                got_h: hh,
-            });
-        }
+        self.check_header_size((u32::from(info.width), u32::from(info.height)))?;
         let want = (out.width, out.height);
         let got = dec.scale(want.0 as u16, want.1 as u16).map_err(err)?;
         if (u32::from(got.0), u32::from(got.1)) != want {
@@ -458,16 +470,7 @@ mod tests {
             // cent. Chroma within its own subsampling's difference. Neither is biased: a
             // block's mean colour, what the temperature reads, is kept.
             for (c, worst_max, mean_max) in [(0, 10, 3.0), (1, 20, 6.0), (2, 20, 6.0)] {
-                let diffs: Vec<i32> = scaled.data[c..]
-                    .iter()
-                    .step_by(3)
-                    .zip(want[c..].iter().step_by(3))
-                    .map(|(a, b)| i32::from(*a) - i32::from(*b))
-                    .collect();
-                let n = diffs.len() as f64;
-                let worst = diffs.iter().map(|d| d.abs()).max().unwrap_or(0);
-                let mean = diffs.iter().map(|d| d.abs()).sum::<i32>() as f64 / n;
-                let bias = diffs.iter().sum::<i32>() as f64 / n;
+                let (worst, mean, bias) = crate::jpeg::tests::stats(&scaled.data, &want, c);
                 assert!(
                     worst <= worst_max && mean < mean_max && bias.abs() < 1.0,
                     "1/{s} channel {c}: worst {worst}, mean {mean:.2}, bias {bias:.2}"
@@ -507,10 +510,13 @@ mod tests {
             state ^= state << 17;
             state
         };
-        for i in 0..400 {
+        for i in 0..3000 {
             let mut bytes = good.clone();
+            // Half the changes land in the headers (tables, sizes, sampling factors).
+            let header_len = bytes.len().min(650);
             for _ in 0..1 + next() % 8 {
-                let k = (next() as usize) % bytes.len();
+                let span = if i % 2 == 0 { header_len } else { bytes.len() };
+                let k = (next() as usize) % span;
                 bytes[k] = next() as u8;
             }
             if i % 3 == 0 {

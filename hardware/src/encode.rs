@@ -158,15 +158,16 @@ mod tests {
     }
 
     /// Each encoding decodes back to the image within its own loss: YUYV's rounding and
-    /// shared chroma, JPEG's quantisation and its chroma at half the columns (which on
-    /// stripes of 11 px costs the red and blue channels a few levels even at quality 95).
+    /// shared chroma, JPEG's quantisation and its chroma at half the columns, repeated
+    /// (which on stripes of 11 px costs the red and blue channels a few levels even at
+    /// quality 95).
     #[test]
     fn encoded_frames_decode_back_to_the_image() {
         let img = grating(64, 48, 11.0);
         for (e, mean_max) in [
             (Encoding::Yuyv, 5.0),
             (Encoding::Mjpeg(95), 5.0),
-            (Encoding::Mjpeg(75), 6.0),
+            (Encoding::Mjpeg(75), 6.5),
         ] {
             let back = decoded_rgb(e, &img);
             let diffs: Vec<f64> = img

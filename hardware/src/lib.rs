@@ -21,6 +21,7 @@ pub mod decode;
 pub mod encode;
 pub mod frame;
 pub mod frameset;
+mod jpeg;
 pub mod led;
 pub mod source;
 

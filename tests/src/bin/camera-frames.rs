@@ -11,7 +11,8 @@
 //! temperature, and the summary framed for the link. The reference unit's optics are kept:
 //! a camera of more pixels sees its grating's period (16 px at 640 × 480) grow with its
 //! width. Arguments: encoding (`rgb`, `yuyv`, `mjpeg:QUALITY`), width, height, frames,
-//! optionally `idle` for no-contact frames.
+//! optionally `idle` for no-contact frames or `decode` to decode the frames and nothing
+//! else (the decoder's share).
 
 use vistaf_firmware::service::wire::summary_of;
 use vistaf_hardware::decode::Decoded;
@@ -29,6 +30,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let h: u32 = args.get(3).map_or(Ok(480), |s| s.parse())?;
     let n: usize = args.get(4).map_or(Ok(1), |s| s.parse())?;
     let idle = args.get(5).is_some_and(|s| s == "idle");
+    let decode_only = args.get(5).is_some_and(|s| s == "decode");
     let reference_unit = SensorUnit::reference();
     let unit = SensorUnit {
         width_px: w,
@@ -67,6 +69,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         // As the device runs: the camera's buffer, decoded; the pipeline; the summary
         // framed for the link.
         frame.decode_into(scale, &mut img)?;
+        if decode_only {
+            continue;
+        }
         let d = a.analyze_with(&img, &mut scratch)?;
         let summary = summary_of(&d, seq as u32, 0, 0, mm_per_px);
         bytes += encode(&DeviceMsg::Summary(summary), &mut link)?;

@@ -1,0 +1,248 @@
+//! The inverse DCT of a block's lowest `N × N` frequencies, `N` = 8, 4, 2 or 1: the
+//! block's `N × N` pixels at `N/8` of its size, as libjpeg's scaled decoding makes them.
+//!
+//! An `N`-point inverse transform of the lowest `N` coefficients is the 8-point one's
+//! band-limited curve sampled at the centres of the `N` coarse pixels (`cos((2x'+1)uπ/2N)`
+//! is `cos((2x+1)uπ/16)` at `x = 8x'/N + (8/N − 1)/2`), so a 1/8 decode is the block's DC
+//! alone and a 1/2 decode passes what a 2 × 2 area filter would. Rows and columns that hold
+//! no coefficient are skipped: most blocks of a camera frame end early.
+
+/// The transform's coefficients, Q11: `T[x][u] = C(u)·cos((2x+1)uπ/2N)`, `C(0) = 1/√2`.
+#[derive(Debug, Clone)]
+pub struct Idct<const N: usize> {
+    t: [[i32; N]; N],
+}
+
+/// Largest coefficient magnitude kept: an 8-bit image's DCT stays within ±1024 plus a
+/// quantisation step, so this only bounds what corrupt data could make overflow.
+pub const COEF_LIMIT: i32 = 4095;
+
+impl<const N: usize> Idct<N> {
+    /// The transform for `N` output pixels per block side.
+    pub fn new() -> Idct<N> {
+        let mut t = [[0; N]; N];
+        for (x, row) in t.iter_mut().enumerate() {
+            for (u, c) in row.iter_mut().enumerate() {
+                let cu = if u == 0 {
+                    std::f64::consts::FRAC_1_SQRT_2
+                } else {
+                    1.0
+                };
+                let angle = (2 * x + 1) as f64 * u as f64 * std::f64::consts::PI / (2 * N) as f64;
+                *c = (cu * angle.cos() * 2048.0).round() as i32;
+            }
+        }
+        Idct { t }
+    }
+
+    /// The `N × N` pixels (row-major, level-shifted to 0…255) of `coef`, the block's
+    /// dequantised coefficients in natural order at `v·N + u`, of which only the first
+    /// `rows` rows and `cols` columns may be non-zero; `tmp` is scratch.
+    #[inline(always)]
+    pub fn block(
+        &self,
+        coef: &[i32; 64],
+        rows: usize,
+        cols: usize,
+        tmp: &mut [i32; 64],
+        out: &mut [u8; 64],
+    ) {
+        if rows <= 1 && cols <= 1 {
+            // The DC alone: F(0,0)/8, flat.
+            out[..N * N].fill(pixel((coef[0] + 4) >> 3));
+            return;
+        }
+        match N {
+            4 => separable::<4>(coef, rows, cols, tmp, out, idct4),
+            2 => separable::<2>(coef, rows, cols, tmp, out, idct2),
+            _ => separable::<N>(coef, rows, cols, tmp, out, |f| self.by_matrix(f)),
+        }
+    }
+
+    /// The 1-D transform of `f` (its first `N` entries), Q11, by the matrix.
+    fn by_matrix(&self, f: [i32; 8]) -> [i32; 8] {
+        let mut o = [0; 8];
+        for (x, o) in o.iter_mut().take(N).enumerate() {
+            *o = (0..N).map(|u| self.t[x][u] * f[u]).sum();
+        }
+        o
+    }
+}
+
+/// `cos(π/4)`, `cos(π/8)`, `cos(3π/8)`, Q11 (as in [`Idct::new`]'s matrix, so the
+/// butterflies below give its products exactly).
+const C4: i32 = 1448;
+const C1: i32 = 1892;
+const C3: i32 = 784;
+
+/// The 4-point transform by even and odd halves: six multiplications instead of sixteen.
+#[inline(always)]
+fn idct4(f: [i32; 8]) -> [i32; 8] {
+    let (e0, e1) = ((f[0] + f[2]) * C4, (f[0] - f[2]) * C4);
+    let (o0, o1) = (f[1] * C1 + f[3] * C3, f[1] * C3 - f[3] * C1);
+    [e0 + o0, e1 + o1, e1 - o1, e0 - o0, 0, 0, 0, 0]
+}
+
+/// The 2-point transform.
+#[inline(always)]
+fn idct2(f: [i32; 8]) -> [i32; 8] {
+    [(f[0] + f[1]) * C4, (f[0] - f[1]) * C4, 0, 0, 0, 0, 0, 0]
+}
+
+/// The 2-D transform by rows (those with coefficients), then columns, with the 1-D
+/// transform `t` (Q11); the coefficients past `cols` in a row are zero. Rows descaled to half a coefficient (Q1), columns by the rest
+/// and the 2-D transform's factor of 1/4.
+#[inline(always)]
+fn separable<const N: usize>(
+    coef: &[i32; 64],
+    rows: usize,
+    cols: usize,
+    tmp: &mut [i32; 64],
+    out: &mut [u8; 64],
+    t: impl Fn([i32; 8]) -> [i32; 8],
+) {
+    let rows = rows.min(N);
+    for v in 0..rows {
+        let c = &coef[v * N..v * N + N];
+        let r = if cols <= 1 {
+            // The row's DC alone: flat.
+            [c[0] * C4; 8]
+        } else {
+            let mut f = [0; 8];
+            f[..N].copy_from_slice(c);
+            t(f)
+        };
+        for x in 0..N {
+            tmp[v * N + x] = (r[x] + 512) >> 10;
+        }
+    }
+    for x in 0..N {
+        let mut f = [0; 8];
+        for v in 0..rows {
+            f[v] = tmp[v * N + x];
+        }
+        let c = if rows <= 1 { [f[0] * C4; 8] } else { t(f) };
+        for y in 0..N {
+            out[y * N + x] = pixel((c[y] + (1 << 13)) >> 14);
+        }
+    }
+}
+
+/// A level-shifted sample as a byte.
+#[inline(always)]
+fn pixel(v: i32) -> u8 {
+    (v + 128).clamp(0, 255) as u8
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The 8-point transform, in floating point, as the JPEG standard writes it (A.3.3).
+    fn reference(coef: &[f64; 64]) -> [f64; 64] {
+        let c = |u: usize| {
+            if u == 0 {
+                std::f64::consts::FRAC_1_SQRT_2
+            } else {
+                1.0
+            }
+        };
+        let mut out = [0.0; 64];
+        for y in 0..8 {
+            for x in 0..8 {
+                let mut s = 0.0;
+                for v in 0..8 {
+                    for u in 0..8 {
+                        let cx =
+                            ((2 * x + 1) as f64 * u as f64 * std::f64::consts::PI / 16.0).cos();
+                        let cy =
+                            ((2 * y + 1) as f64 * v as f64 * std::f64::consts::PI / 16.0).cos();
+                        s += c(u) * c(v) * coef[v * 8 + u] * cx * cy;
+                    }
+                }
+                out[y * 8 + x] = s / 4.0 + 128.0;
+            }
+        }
+        out
+    }
+
+    fn coefficients(seed: u64) -> [f64; 64] {
+        let mut state = seed | 1;
+        let mut c = [0.0; 64];
+        for (k, v) in c.iter_mut().enumerate() {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            let r = (state % 401) as f64 - 200.0;
+            *v = r / (1 + k / 4) as f64;
+        }
+        c[0] = 300.0;
+        c
+    }
+
+    #[test]
+    fn the_full_transform_matches_the_standard_within_a_level() {
+        for seed in 1..20 {
+            let c = coefficients(seed);
+            let want = reference(&c);
+            let coef = c.map(|v| v as i32);
+            let mut out = [0u8; 64];
+            Idct::<8>::new().block(&coef, 8, 8, &mut [0; 64], &mut out);
+            let want_i = reference(&coef.map(f64::from));
+            for k in 0..64 {
+                let d = f64::from(out[k]) - want_i[k].clamp(0.0, 255.0);
+                assert!(
+                    d.abs() <= 1.0,
+                    "seed {seed} pixel {k}: {} vs {}",
+                    out[k],
+                    want[k]
+                );
+            }
+        }
+    }
+
+    /// A reduced transform samples the full one's low-frequency curve at the coarse
+    /// pixels' centres: on a block of only low frequencies, it is the full transform's
+    /// pixels averaged (within what the averaging does to the curve).
+    #[test]
+    fn reduced_transforms_sample_the_low_frequencies() {
+        let mut c = [0i32; 64];
+        c[0] = 200;
+        c[1] = 60;
+        c[8] = -40;
+        let mut full = [0u8; 64];
+        Idct::<8>::new().block(&c, 2, 2, &mut [0; 64], &mut full);
+        for (n, idct) in [(4, 0), (2, 1)] {
+            let mut low = [0i32; 64];
+            for v in 0..2 {
+                for u in 0..2 {
+                    low[v * n + u] = c[v * 8 + u];
+                }
+            }
+            let mut out = [0u8; 64];
+            if idct == 0 {
+                Idct::<4>::new().block(&low, 2, 2, &mut [0; 64], &mut out);
+            } else {
+                Idct::<2>::new().block(&low, 2, 2, &mut [0; 64], &mut out);
+            }
+            let s = 8 / n;
+            for y in 0..n {
+                for x in 0..n {
+                    let mean: f64 = (0..s * s)
+                        .map(|i| f64::from(full[(y * s + i / s) * 8 + x * s + i % s]))
+                        .sum::<f64>()
+                        / (s * s) as f64;
+                    let d = f64::from(out[y * n + x]) - mean;
+                    assert!(
+                        d.abs() <= 2.5,
+                        "N = {n} at ({x}, {y}): {} vs {mean}",
+                        out[y * n + x]
+                    );
+                }
+            }
+        }
+        let mut dc = [0u8; 64];
+        Idct::<1>::new().block(&c, 1, 1, &mut [0; 64], &mut dc);
+        assert_eq!(dc[0], 128 + 25);
+    }
+}
