@@ -10,6 +10,7 @@
 //! link = "serial:/dev/ttyGS0@921600"    # /dev/ttyX, serial:PATH[@BAUD], file:PATH, - (stdout)
 //! serial = "VSK-0042"                   # sent in Hello
 //! calibration = "/var/lib/vistaf/calibration.json"
+//! kit = "/var/lib/vistaf/kit"           # guided calibrations' frames [default: beside the calibration]
 //! pipeline = "fixed"                    # or float
 //! max_rate_hz = 0                       # 0: a summary per frame
 //!
@@ -151,6 +152,8 @@ pub struct Config {
     pub serial: Option<String>,
     /// Calibration file.
     pub calibration: Option<PathBuf>,
+    /// Where calibration kits captured on the device are kept.
+    pub kit: Option<PathBuf>,
     /// Use a calibration made for another geometry.
     pub force_calibration: Option<bool>,
     /// `fixed` or `float`.

@@ -1,9 +1,11 @@
 //! `--source` strings: `camera:/dev/videoN`, `camera-serial:SERIAL`, `camera-name:NAME`,
-//! `set:DIR`, `sim:SCENE`.
+//! `set:DIR`, `sim:SCENE`, `sim:bench` (a simulated unit on a calibration bench that a
+//! guided calibration drives).
 
 use std::path::PathBuf;
 
 use anyhow::{anyhow, bail, Result};
+use vistaf_hardware::bench::SharedBench;
 use vistaf_hardware::source::{FrameSource, Pacing, SetReplay};
 use vistaf_sim::{SensorUnit, SimSource};
 
@@ -73,8 +75,32 @@ impl Default for OpenOptions {
     }
 }
 
+/// The scene name of a simulated unit on a calibration bench.
+pub const BENCH_SCENE: &str = "bench";
+
 /// Opens the source a spec names.
 pub fn open(spec: &SourceSpec, o: &OpenOptions) -> Result<Box<dyn FrameSource>> {
+    Ok(open_with_bench(spec, o)?.0)
+}
+
+/// Opens the source a spec names, with the bench that sets what it films when software
+/// can drive one (`sim:bench`).
+pub fn open_with_bench(
+    spec: &SourceSpec,
+    o: &OpenOptions,
+) -> Result<(Box<dyn FrameSource>, Option<SharedBench>)> {
+    if let SourceSpec::Sim(scene) = spec {
+        if scene == BENCH_SCENE {
+            let unit = SensorUnit::from_seed(o.unit_seed);
+            let (src, bench) = SimSource::on_bench(unit, o.fps, o.seed);
+            let bench: SharedBench = std::sync::Arc::new(std::sync::Mutex::new(bench));
+            return Ok((Box::new(src), Some(bench)));
+        }
+    }
+    Ok((open_source(spec, o)?, None))
+}
+
+fn open_source(spec: &SourceSpec, o: &OpenOptions) -> Result<Box<dyn FrameSource>> {
     Ok(match spec {
         SourceSpec::Set(dir) => {
             let pacing = if o.fps.is_some() {
@@ -89,7 +115,10 @@ pub fn open(spec: &SourceSpec, o: &OpenOptions) -> Result<Box<dyn FrameSource>> 
             let src =
                 SimSource::scene(scene, unit, o.sim_frames, o.fps, o.seed).ok_or_else(|| {
                     let names: Vec<&str> = vistaf_sim::scene::SCENES.iter().map(|s| s.0).collect();
-                    anyhow!("unknown scene {scene:?}; scenes: {}", names.join(", "))
+                    anyhow!(
+                        "unknown scene {scene:?}; scenes: {}, {BENCH_SCENE}",
+                        names.join(", ")
+                    )
                 })?;
             Box::new(src.looping(o.looping))
         }

@@ -845,6 +845,22 @@ impl FrameSetWriter {
         Ok(())
     }
 
+    /// Writes the manifest of the frames so far, leaving the set open for more: a set
+    /// written over a long session stays readable if its writer is killed.
+    pub fn flush(&self) -> Result<(), FrameSetError> {
+        write_manifest(&self.dir, &self.manifest)
+    }
+
+    /// Frames written so far.
+    pub fn len(&self) -> usize {
+        self.manifest.frames.len()
+    }
+
+    /// Whether no frame has been written yet.
+    pub fn is_empty(&self) -> bool {
+        self.manifest.frames.is_empty()
+    }
+
     /// Writes the manifest and returns the set, re-opened and validated.
     pub fn finish(self) -> Result<FrameSet, FrameSetError> {
         write_manifest(&self.dir, &self.manifest)?;

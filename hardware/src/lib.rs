@@ -7,6 +7,7 @@
 //! |---|---|---|
 //! | [`source::FrameSource`] | [`camera`] (V4L2, feature `v4l`) | [`source::SetReplay`]; the simulated skin (`vistaf-sim`) |
 //! | [`led::LedRing`] | [`led::SpiLedRing`] over rppal SPI (feature `rpi`) | [`led::MemoryLedRing`] |
+//! | [`bench::Bench`] | a person, told by the host what to set | the simulated skin's scripted indenter and heater |
 //!
 //! [`decode`] turns a frame's bytes into the pipeline's input at the size it needs, and
 //! [`encode`] an image into the bytes a camera sends;
@@ -14,6 +15,7 @@
 //! one time line, which frame timestamps from a camera or the simulated skin are read on.
 #![deny(missing_docs)]
 
+pub mod bench;
 #[cfg(feature = "v4l")]
 pub mod camera;
 pub mod clock;

@@ -24,8 +24,8 @@ import json
 import sys
 import zlib
 
-PROTOCOL_VERSION = 4
-SCHEMA_HASH = 0x1D29_8C62_6DF8_9D22
+PROTOCOL_VERSION = 5
+SCHEMA_HASH = 0x6823_2393_81C3_E934
 # Largest frame on the wire (a full map tile), bytes: anything longer is garbage.
 FRAME_MAX = 1700
 TEMP_NOT_MEASURED = -32768
@@ -147,7 +147,7 @@ def hello(r):
     m["serial"] = r.string()
     m["frame_width_px"] = r.varint(16)
     m["frame_height_px"] = r.varint(16)
-    m["calibration_id"] = r.varint(32)
+    m["calibration_id"] = "%08x" % r.varint(32)  # as every vistaf tool prints it
     return m
 
 

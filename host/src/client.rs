@@ -7,8 +7,8 @@ use std::time::{Duration, Instant, SystemTime};
 
 use vistaf_protocol::frame::HOST_FRAME_MAX;
 use vistaf_protocol::{
-    encode, schema, ClockReading, Command, DeviceDecoder, DeviceMsg, DropCounts, FrameError, Hello,
-    HostMsg, Map, MapKind, SetLed,
+    encode, schema, CalibrationFitted, ClockReading, Command, DeviceDecoder, DeviceMsg, DropCounts,
+    ErrorCode, FrameError, Hello, HostMsg, KitCaptured, KitStep, KitVerdict, Map, MapKind, SetLed,
 };
 
 use crate::clock::{next_request, ClockEstimator, ClockMap, Exchange, HostTimeline, MappedTime};
@@ -72,6 +72,18 @@ pub fn describe(hello: &Hello) -> String {
     format!(
         "skin {} firmware {}.{}.{}, {}×{} px",
         hello.serial, fw.major, fw.minor, fw.patch, hello.frame_width_px, hello.frame_height_px
+    )
+}
+
+/// Whether a device error is a report of the device's own state (it cannot take a
+/// reference, the camera is gone, a frame was bad) rather than an answer to a command: a
+/// device repeats a reference error every second while its calibration does not fit the
+/// skin in view, as during the calibration of a new unit, and a command's wait must not
+/// end on it.
+fn is_report(e: &vistaf_protocol::DeviceError) -> bool {
+    matches!(
+        e.code,
+        ErrorCode::Reference | ErrorCode::CameraLost | ErrorCode::BadFrame
     )
 }
 
@@ -349,7 +361,8 @@ impl Client {
     }
 
     /// Waits for the first message `pick` accepts; other messages stay queued, in order,
-    /// for [`Client::next`]. A device error ends the wait.
+    /// for [`Client::next`]. A device error ends the wait, unless it is a report of the
+    /// device's state rather than an answer (see `is_report`).
     fn wait_for<T>(
         &mut self,
         waiting_for: &'static str,
@@ -359,6 +372,17 @@ impl Client {
         self.wait_keeping(waiting_for, timeout, true, pick)
     }
 
+    /// Waits as [`Client::wait_keeping`] without keeping: a calibration session's waits
+    /// are long, and the summaries meanwhile are not what it reads.
+    fn wait_calibrating<T>(
+        &mut self,
+        waiting_for: &'static str,
+        timeout: Duration,
+        pick: impl FnMut(&DeviceMsg) -> Option<T>,
+    ) -> Result<T, HostError> {
+        self.wait_until(waiting_for, timeout, false, is_report, pick)
+    }
+
     /// [`Client::wait_for`]; with `keep` off, the messages before the one picked are
     /// discarded (and counted) instead of queued.
     fn wait_keeping<T>(
@@ -366,6 +390,19 @@ impl Client {
         waiting_for: &'static str,
         timeout: Duration,
         keep: bool,
+        pick: impl FnMut(&DeviceMsg) -> Option<T>,
+    ) -> Result<T, HostError> {
+        self.wait_until(waiting_for, timeout, keep, is_report, pick)
+    }
+
+    /// [`Client::wait_keeping`]; device errors that `tolerate` accepts do not end the wait
+    /// (they stay in the stream, or are discarded with the rest without `keep`).
+    fn wait_until<T>(
+        &mut self,
+        waiting_for: &'static str,
+        timeout: Duration,
+        keep: bool,
+        tolerate: impl Fn(&vistaf_protocol::DeviceError) -> bool,
         mut pick: impl FnMut(&DeviceMsg) -> Option<T>,
     ) -> Result<T, HostError> {
         let deadline = Instant::now() + timeout;
@@ -377,6 +414,10 @@ impl Client {
                         break Ok(v);
                     }
                     if let DeviceMsg::Error(error) = &r.msg {
+                        if tolerate(error) {
+                            held.push_back(r);
+                            continue;
+                        }
                         break Err(HostError::Device {
                             link: self.name().to_string(),
                             error: error.clone(),
@@ -480,6 +521,65 @@ impl Client {
         self.command(HostMsg::Stop, Command::Stop, timeout)
     }
 
+    /// Asks the device to capture one labelled calibration kit frame once the image has
+    /// settled, and waits for it (up to `timeout`, which must allow for the settling).
+    pub fn kit_capture(
+        &mut self,
+        step: KitStep,
+        timeout: Duration,
+    ) -> Result<KitCaptured, HostError> {
+        self.send(&HostMsg::KitCapture(step))?;
+        self.wait_calibrating("KitCaptured", timeout, |m| match m {
+            DeviceMsg::KitCaptured(c) if c.step == step => Some(*c),
+            _ => None,
+        })
+    }
+
+    /// Asks the device to fit a calibration to its kit, and waits for the verdicts and
+    /// the fitted candidate (up to `timeout`: a fit takes seconds to minutes).
+    pub fn kit_fit(
+        &mut self,
+        timeout: Duration,
+    ) -> Result<(Vec<KitVerdict>, CalibrationFitted), HostError> {
+        self.send(&HostMsg::KitFit)?;
+        let mut verdicts = Vec::new();
+        let fitted = self.wait_calibrating("CalibrationFitted", timeout, |m| match m {
+            DeviceMsg::KitVerdict(v) => {
+                verdicts.push(*v);
+                None
+            }
+            DeviceMsg::CalibrationFitted(f) => Some(*f),
+            _ => None,
+        })?;
+        Ok((verdicts, fitted))
+    }
+
+    /// Puts the fitted calibration `calibration_id` in use on the device; its `Hello`
+    /// after the change.
+    pub fn activate_calibration(
+        &mut self,
+        calibration_id: u32,
+        timeout: Duration,
+    ) -> Result<Hello, HostError> {
+        self.send(&HostMsg::CalibrationActivate { calibration_id })?;
+        self.wait_calibrating("Hello", timeout, |m| match m {
+            DeviceMsg::Hello(h) if h.calibration_id == calibration_id => Some(h.clone()),
+            _ => None,
+        })
+    }
+
+    /// Puts the calibration the last activation replaced back in use; the device's
+    /// `Hello` after the change.
+    pub fn roll_back_calibration(&mut self, timeout: Duration) -> Result<Hello, HostError> {
+        // The answer is a Hello: one already queued (the handshake's) is not it.
+        self.queue.retain(|r| !matches!(r.msg, DeviceMsg::Hello(_)));
+        self.send(&HostMsg::CalibrationRollback)?;
+        self.wait_calibrating("Hello", timeout, |m| match m {
+            DeviceMsg::Hello(h) => Some(h.clone()),
+            _ => None,
+        })
+    }
+
     /// Requests one map and waits for it.
     pub fn request_map(&mut self, kind: MapKind, timeout: Duration) -> Result<Map, HostError> {
         self.send(&HostMsg::RequestMap(kind))?;
@@ -543,5 +643,61 @@ mod tests {
             ],
             "asked once within the period, nothing else sent"
         );
+    }
+
+    fn framed(msgs: &[DeviceMsg]) -> Vec<u8> {
+        let mut out = Vec::new();
+        for m in msgs {
+            let mut buf = [0u8; vistaf_protocol::frame::DEVICE_FRAME_MAX];
+            let n = encode(m, &mut buf).unwrap();
+            out.extend(&buf[..n]);
+        }
+        out
+    }
+
+    fn device_error(code: ErrorCode, detail: &str) -> DeviceMsg {
+        DeviceMsg::Error(vistaf_protocol::DeviceError {
+            code,
+            detail: vistaf_protocol::msg::truncated(detail),
+        })
+    }
+
+    /// A device retrying a reference its calibration cannot take reports an error every
+    /// second: a command's wait goes through those to its answer (and keeps them in the
+    /// stream), but an error that answers the command ends it.
+    #[test]
+    fn a_wait_goes_through_state_reports_and_ends_on_an_answer_error() {
+        let stream = framed(&[
+            device_error(ErrorCode::Reference, "calibration was made for 640×480"),
+            device_error(ErrorCode::CameraLost, "/dev/video0 gone"),
+            DeviceMsg::Ack(Command::SetRate),
+        ]);
+        let mut c = Client::new(Link::new(
+            "test".into(),
+            io::Cursor::new(stream),
+            Sent::default(),
+        ));
+        c.set_rate(10, Duration::from_secs(1)).unwrap();
+        let kept: Vec<_> = std::iter::from_fn(|| match c.next(None).unwrap() {
+            Next::Message(r) => Some(r.msg),
+            _ => None,
+        })
+        .collect();
+        assert_eq!(kept.len(), 2, "the reports stay in the stream: {kept:?}");
+
+        let stream = framed(&[
+            device_error(ErrorCode::Reference, "no grating in view"),
+            device_error(
+                ErrorCode::Calibration,
+                "no earlier calibration to roll back to",
+            ),
+        ]);
+        let mut c = Client::new(Link::new(
+            "test".into(),
+            io::Cursor::new(stream),
+            Sent::default(),
+        ));
+        let e = c.roll_back_calibration(Duration::from_secs(1)).unwrap_err();
+        assert!(e.to_string().contains("no earlier calibration"), "{e}");
     }
 }

@@ -5,7 +5,7 @@
 //! skin or many ([`multi`]) with sequence-gap accounting ([`seq`]) until told to stop
 //! ([`stream`]), show it live ([`monitor`]), record what arrives ([`record`]), and publish it
 //! as ROS 2 messages ([`ros2`]) to DDS (feature `ros2`), MCAP and JSON lines
-//! ([`bridge`]). The `vistaf-host` binary is a thin CLI over this library. It depends on
+//! ([`bridge`]), and calibrate a skin in one guided session ([`calibrate`]). The `vistaf-host` binary is a thin CLI over this library. It depends on
 //! the wire (`vistaf-protocol`) alone: nothing of the pipeline or the camera is built on
 //! the robot computer.
 //!
@@ -31,6 +31,7 @@
 #![deny(missing_docs)]
 
 pub mod bridge;
+pub mod calibrate;
 pub mod client;
 pub mod clock;
 pub mod error;

@@ -152,6 +152,25 @@ enum Cmd {
         #[arg(value_parser = map_kind)]
         kind: MapKind,
     },
+    /// Calibrate a skin in one guided session: each press and temperature asked for,
+    /// captured on the device once the image settles, fitted, judged against the targets,
+    /// and activated (the previous calibration kept for `rollback`).
+    Calibrate {
+        /// Serial link.
+        port: String,
+        /// Run the steps of this plan without asking (see docs/calibration.md); without
+        /// it, the default kit, each step asked for at the terminal.
+        #[arg(long)]
+        plan: Option<PathBuf>,
+        /// When to put the fit in use [default: the plan's, else pass].
+        #[arg(long, value_enum)]
+        activate: Option<vistaf_host::calibrate::Activate>,
+    },
+    /// Put back the calibration the last activation replaced.
+    Rollback {
+        /// Serial link.
+        port: String,
+    },
     /// List the serial ports of this machine (USB vendor, product, serial).
     ListPorts,
     /// Measure the round-trip time to the device.
@@ -267,7 +286,7 @@ fn run(cli: Cli) -> Result<()> {
                 "frame size:   {}×{} px",
                 hello.frame_width_px, hello.frame_height_px
             );
-            println!("calibration:  {:#010x}", hello.calibration_id);
+            println!("calibration:  {}", vistaf_host::record::calibration_id_text(hello.calibration_id));
             Ok(())
         }
         Cmd::Reference { port, timeout_ms } => command(&port, "new reference captured", |c| {
@@ -299,6 +318,22 @@ fn run(cli: Cli) -> Result<()> {
             c.handshake(DEFAULT_TIMEOUT)?;
             let map = c.request_map(kind, Duration::from_secs(5))?;
             println!("{}", vistaf_host::record::map_json(&map));
+            Ok(())
+        }
+        Cmd::Calibrate {
+            port,
+            plan,
+            activate,
+        } => calibrate(&port, plan.as_deref(), activate),
+        Cmd::Rollback { port } => {
+            let mut c = open_client(&port)?;
+            c.handshake(DEFAULT_TIMEOUT)?;
+            let hello = c.roll_back_calibration(DEFAULT_TIMEOUT)?;
+            println!(
+                "{}: calibration {} in use again",
+                hello.serial,
+                vistaf_host::record::calibration_id_text(hello.calibration_id)
+            );
             Ok(())
         }
         Cmd::ListPorts => {
@@ -355,6 +390,44 @@ fn hex_mask(s: &str) -> Result<u32, String> {
         None => s.parse(),
     }
     .map_err(|_| format!("{s:?}: a 32-bit mask, like 0xAAAAAA"))
+}
+
+/// A guided calibration of the skin on `port`.
+fn calibrate(
+    port: &str,
+    plan_file: Option<&std::path::Path>,
+    activate: Option<vistaf_host::calibrate::Activate>,
+) -> Result<()> {
+    use vistaf_host::calibrate::{self, Plan, Scripted, Terminal};
+    let mut plan = match plan_file {
+        Some(p) => Plan::load(p).map_err(anyhow::Error::msg)?,
+        None => Plan::default(),
+    };
+    if let Some(a) = activate {
+        plan.activate = a;
+    }
+    let mut client = open_client(port)?;
+    let hello = client.handshake(DEFAULT_TIMEOUT)?;
+    println!(
+        "{}; calibration {} in use; {} steps",
+        describe(&hello),
+        vistaf_host::record::calibration_id_text(hello.calibration_id),
+        plan.steps().len()
+    );
+    let outcome = if plan_file.is_some() {
+        calibrate::run(&mut client, &plan, &mut Scripted::new(std::io::stdout()))
+    } else {
+        let stdin = std::io::stdin();
+        calibrate::run(
+            &mut client,
+            &plan,
+            &mut Terminal::new(stdin.lock(), std::io::stdout()),
+        )
+    }?;
+    if outcome.fitted.is_some_and(|f| !f.pass) {
+        bail!("the calibration misses a target (see the table above)");
+    }
+    Ok(())
 }
 
 fn open_client(port: &str) -> Result<Client> {

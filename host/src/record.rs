@@ -8,7 +8,7 @@ use std::time::SystemTime;
 
 use serde::Serialize;
 use serde_json::{json, Value};
-use vistaf_protocol::{DeviceMsg, Summary};
+use vistaf_protocol::{DeviceMsg, KitCaptured, KitQuantity, KitVerdict, Summary};
 
 use crate::client::Received;
 use crate::clock::{unix_s, MappedTime};
@@ -168,6 +168,45 @@ pub fn map_json(m: &vistaf_protocol::Map) -> Value {
     })
 }
 
+/// A calibration id as every output prints it: eight lowercase hexadecimal digits.
+pub fn calibration_id_text(id: u32) -> String {
+    format!("{id:08x}")
+}
+
+/// A kit quantity's name and SI unit, and the factor from its wire milli-units.
+pub fn kit_quantity_si(q: KitQuantity) -> (&'static str, &'static str, f64) {
+    match q {
+        KitQuantity::Reference => ("reference", "°C", 1e-3),
+        KitQuantity::Depth => ("depth", "mm", 1e-3),
+        KitQuantity::Force => ("force", "N", 1e-3),
+        KitQuantity::Temperature => ("temperature", "°C", 1e-3),
+    }
+}
+
+fn kit_captured_json(c: &KitCaptured) -> Value {
+    let (name, unit, k) = kit_quantity_si(c.step.quantity);
+    json!({
+        "quantity": name,
+        "value": f64::from(c.step.value_milli) * k,
+        "unit": unit,
+        "frames": c.frames,
+        "settle_s": f64::from(c.settle_ms) / 1000.0,
+        "change_dn": f64::from(c.change_centi_dn) / 100.0,
+    })
+}
+
+fn kit_verdict_json(v: &KitVerdict) -> Value {
+    let (name, unit, k) = kit_quantity_si(v.quantity);
+    json!({
+        "quantity": name,
+        "samples": v.samples,
+        "error": f64::from(v.error_milli) * k,
+        "target": f64::from(v.target_milli) * k,
+        "unit": unit,
+        "pass": v.pass,
+    })
+}
+
 /// A message as a JSON object: summaries as [`SummaryRecord`]s, maps in SI units
 /// ([`map_json`]), everything else in its wire form.
 pub fn message_json(device: &str, received: &Received) -> Value {
@@ -184,7 +223,11 @@ pub fn message_json(device: &str, received: &Received) -> Value {
         .unwrap_or(Value::Null),
         other => {
             let (kind, body) = match other {
-                DeviceMsg::Hello(h) => ("hello", json!(h)),
+                DeviceMsg::Hello(h) => {
+                    let mut v = json!(h);
+                    v["calibration_id"] = json!(calibration_id_text(h.calibration_id));
+                    ("hello", v)
+                }
                 DeviceMsg::Map(m) => ("map", map_json(m)),
                 DeviceMsg::Status(st) => ("status", json!(st)),
                 DeviceMsg::Error(e) => ("error", json!(e)),
@@ -192,6 +235,15 @@ pub fn message_json(device: &str, received: &Received) -> Value {
                 DeviceMsg::Ack(c) => ("ack", json!(c)),
                 DeviceMsg::Clock(c) => ("clock", json!(c)),
                 DeviceMsg::Summary(_) => ("summary", Value::Null),
+                DeviceMsg::KitCaptured(c) => ("kit_captured", kit_captured_json(c)),
+                DeviceMsg::KitVerdict(v) => ("kit_verdict", kit_verdict_json(v)),
+                DeviceMsg::CalibrationFitted(f) => (
+                    "calibration_fitted",
+                    json!({
+                        "calibration_id": calibration_id_text(f.calibration_id),
+                        "pass": f.pass,
+                    }),
+                ),
             };
             json!({ "type": kind, "device": device, "received_unix_s": at, "body": body })
         }

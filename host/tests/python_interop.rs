@@ -161,7 +161,7 @@ fn the_python_reader_decodes_what_the_rust_decoder_does() {
                 assert_eq!(p["type"], "hello");
                 assert_eq!(p["compatible"], true);
                 assert_eq!(p["serial"], h.serial.as_str());
-                assert_eq!(p["calibration_id"], h.calibration_id);
+                assert_eq!(p["calibration_id"], format!("{:08x}", h.calibration_id));
             }
             DeviceMsg::Status(st) => {
                 assert_eq!(p["type"], "status");

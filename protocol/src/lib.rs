@@ -10,7 +10,8 @@
 //! ```
 //!
 //! * [`msg`]: the messages. Device → host: [`Hello`], [`Summary`], [`Map`], [`Status`],
-//!   [`DeviceError`], `Pong`, `Ack`, [`ClockReading`]. Host → device: [`HostMsg`].
+//!   [`DeviceError`], `Pong`, `Ack`, [`ClockReading`], and a guided calibration's
+//!   [`KitCaptured`], [`KitVerdict`], [`CalibrationFitted`]. Host → device: [`HostMsg`].
 //! * [`frame`]: framing, with compile-time maximum frame sizes and a streaming decoder
 //!   that resynchronises after garbage and counts every drop.
 //! * [`flags`]: the quality-flag bitfield of a summary.
@@ -56,7 +57,8 @@ pub mod units;
 pub use flags::{Flag, QualityFlags};
 pub use frame::{encode, Decoder, DeviceDecoder, DropCounts, FrameError, HostDecoder};
 pub use msg::{
-    CentroidDeciMm, ClockReading, Command, DeviceError, DeviceMsg, ErrorCode, FirmwareVersion,
-    Hello, HostMsg, Map, MapKind, Rgb, RunState, SetLed, Status, Summary,
+    CalibrationFitted, CentroidDeciMm, ClockReading, Command, DeviceError, DeviceMsg, ErrorCode,
+    FirmwareVersion, Hello, HostMsg, KitCaptured, KitQuantity, KitStep, KitVerdict, Map, MapKind,
+    Rgb, RunState, SetLed, Status, Summary,
 };
 pub use schema::{schema_hash, PROTOCOL_VERSION};

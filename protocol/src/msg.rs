@@ -247,6 +247,73 @@ pub enum Command {
     Start,
     /// [`HostMsg::Stop`].
     Stop,
+    /// [`HostMsg::KitCapture`]: waiting for a settled image; [`DeviceMsg::KitCaptured`]
+    /// follows.
+    KitCapture,
+    /// [`HostMsg::KitFit`]: the fit started; its verdicts follow.
+    KitFit,
+}
+
+/// What a calibration kit step labels its frame with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, MaxSize, Schema)]
+pub enum KitQuantity {
+    /// The untouched skin, the kit's reference; begins a new kit. Value: its temperature,
+    /// milli-°C.
+    Reference,
+    /// The calibration sphere pressed to a known depth; value in µm.
+    Depth,
+    /// The calibration sphere pressed with a known force; value in mN.
+    Force,
+    /// The untouched skin at a known uniform temperature; value in milli-°C.
+    Temperature,
+}
+
+/// One labelled capture of a calibration kit ([`HostMsg::KitCapture`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, MaxSize, Schema)]
+pub struct KitStep {
+    /// What the frame shows.
+    pub quantity: KitQuantity,
+    /// The label, in the quantity's unit (µm, mN or milli-°C, see [`KitQuantity`]).
+    pub value_milli: i32,
+}
+
+/// A kit frame captured ([`DeviceMsg::KitCaptured`]), once the image had settled.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, MaxSize, Schema)]
+pub struct KitCaptured {
+    /// The step captured.
+    pub step: KitStep,
+    /// Frames of this quantity in the kit now.
+    pub frames: u16,
+    /// From the command to the capture: the time the image took to settle, ms.
+    pub settle_ms: u32,
+    /// Mean absolute change between the last two frames before the capture, 0.01 of an
+    /// 8-bit step (what "settled" measured).
+    pub change_centi_dn: u16,
+}
+
+/// A fitted model's held-out error against its target ([`DeviceMsg::KitVerdict`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, MaxSize, Schema)]
+pub struct KitVerdict {
+    /// Which model: `Depth` (phase → depth), `Force` or `Temperature`.
+    pub quantity: KitQuantity,
+    /// Samples the fit used: frames for depth and force, colour blocks for temperature
+    /// (saturating).
+    pub samples: u16,
+    /// Cross-validated RMSE, in the quantity's milli-unit (µm, mN, milli-°C).
+    pub error_milli: u32,
+    /// The target that RMSE is held to, same unit.
+    pub target_milli: u32,
+    /// `error_milli <= target_milli`.
+    pub pass: bool,
+}
+
+/// The kit's fit is done ([`DeviceMsg::CalibrationFitted`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, MaxSize, Schema)]
+pub struct CalibrationFitted {
+    /// Identifier of the fitted calibration (what `Hello` shows once it is active).
+    pub calibration_id: u32,
+    /// Whether every verdict passed.
+    pub pass: bool,
 }
 
 /// Device → host.
@@ -276,6 +343,12 @@ pub enum DeviceMsg {
     /// Answer to [`HostMsg::Clock`]: the device's clock when the request arrived and when
     /// the answer left.
     Clock(ClockReading),
+    /// Answer to [`HostMsg::KitCapture`], once the frame is stored.
+    KitCaptured(KitCaptured),
+    /// One per fitted model, after [`HostMsg::KitFit`].
+    KitVerdict(KitVerdict),
+    /// After the verdicts of [`HostMsg::KitFit`]: the candidate, ready to activate.
+    CalibrationFitted(CalibrationFitted),
 }
 
 /// The device's clock around one [`HostMsg::Clock`] request, in the clock of
@@ -351,4 +424,21 @@ pub enum HostMsg {
         /// Echoed back.
         nonce: u32,
     },
+    /// Capture one labelled kit frame once the image has settled; answered by
+    /// [`DeviceMsg::KitCaptured`] (or an error when it never settles). A `Reference` step
+    /// begins a new kit.
+    KitCapture(KitStep),
+    /// Fit a calibration to the kit; answered by [`DeviceMsg::Ack`], then a
+    /// [`DeviceMsg::KitVerdict`] per model and [`DeviceMsg::CalibrationFitted`].
+    KitFit,
+    /// Put the fitted calibration in use (and in the calibration file), keeping the one it
+    /// replaces; answered by [`DeviceMsg::Hello`] with the new calibration id. The id
+    /// must be the fitted one's: a host cannot activate what it did not see.
+    CalibrationActivate {
+        /// [`CalibrationFitted::calibration_id`].
+        calibration_id: u32,
+    },
+    /// Go back to the calibration the last activation replaced; answered by
+    /// [`DeviceMsg::Hello`] with its id.
+    CalibrationRollback,
 }

@@ -8,6 +8,7 @@
 
 pub mod accuracy;
 pub mod charts;
+pub mod pty;
 
 use std::path::{Path, PathBuf};
 

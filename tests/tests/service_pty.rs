@@ -8,12 +8,9 @@ use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use serialport::{SerialPort, TTYPort};
-use vistaf_firmware::service::{run, Settings};
-use vistaf_hardware::led::MemoryLedRing;
+use vistaf_firmware::service::Settings;
 use vistaf_hardware::source::FrameSource;
 use vistaf_host::client::{Client, Next};
-use vistaf_host::link::{Link, LinkSpec};
 use vistaf_pipeline::calibration::Calibration;
 use vistaf_protocol::{DeviceMsg, MapKind};
 use vistaf_sim::contact::{Contact, Indenter};
@@ -45,36 +42,18 @@ impl FrameSource for Timed {
     }
 }
 
-/// Runs the service on `source` with `settings`, writing to one end of a new
-/// pseudo-terminal; the host's client on the other end, the flag that stops the service,
-/// and the service's thread.
+/// Runs the service on `source` with `settings` on a new pseudo-terminal: the host's
+/// client, the flag that stops the service, and the service's thread.
 fn serve(
     source: Timed,
     settings: Settings,
 ) -> (
     Client,
     Arc<AtomicBool>,
-    std::thread::JoinHandle<vistaf_firmware::service::Counters>,
+    std::thread::JoinHandle<anyhow::Result<vistaf_firmware::service::Counters>>,
 ) {
-    let (master, slave) = TTYPort::pair().unwrap();
-    let path = slave.name().unwrap();
-    let reader = master.try_clone_native().unwrap();
-    let stop = Arc::new(AtomicBool::new(false));
-    let device_stop = stop.clone();
-    let device = std::thread::spawn(move || {
-        let mut led = MemoryLedRing::default();
-        run(
-            Box::new(source),
-            master,
-            Some(Box::new(reader)),
-            &mut led,
-            &settings,
-            device_stop,
-        )
-        .unwrap()
-    });
-    let link = Link::open(&format!("serial:{path}").parse::<LinkSpec>().unwrap()).unwrap();
-    (Client::new(link), stop, device)
+    let s = vistaf_tests::pty::serve(Box::new(source), settings);
+    (s.client, s.stop, s.device)
 }
 
 #[test]
@@ -149,7 +128,7 @@ fn summaries_cross_a_pty_in_order_and_match_the_scene() {
         }
     }
     stop.store(true, std::sync::atomic::Ordering::Relaxed);
-    let counters = device.join().unwrap();
+    let counters = device.join().unwrap().unwrap();
     assert_eq!(
         summaries.len() as u32,
         counters.sent,
@@ -276,7 +255,7 @@ fn the_status_reports_capture_to_link_latency_at_60_and_120_frames_per_second() 
             }
         }
         stop.store(true, std::sync::atomic::Ordering::Relaxed);
-        device.join().unwrap();
+        device.join().unwrap().unwrap();
         let st = status.expect("a Status with latencies");
         let (p50, p99) = (
             f64::from(st.latency_p50_us) / 1e3,

@@ -17,11 +17,13 @@
 //! * [`fit`]: the depth and force candidates, cross-validation and the parsimony rule.
 //! * [`temperature`]: the colour → temperature polynomials per stripe population.
 //! * [`paper`]: the paper's Table II refitted from its own per-image data.
+//! * [`verdict`]: each fitted model's held-out error against the product's target.
 #![deny(missing_docs)]
 
 pub mod fit;
 pub mod paper;
 pub mod procedure;
 pub mod temperature;
+pub mod verdict;
 
 pub use procedure::{calibrate, CalibrateError, Observer, Quiet};

@@ -156,7 +156,19 @@ pub fn run(a: &Args) -> Result<()> {
         }
         None => println!("\nno temperature model (no no-contact frames labelled temperature_c)"),
     }
+    let (verdicts, pass) =
+        vistaf_calibrate::verdict::report(&vistaf_calibrate::verdict::verdicts(&calib));
+    println!("\nverdict (held-out error against the product's targets):\n{verdicts}");
     calib.save(out)?;
-    println!("\nwrote {}", out.display());
+    println!(
+        "wrote {}: calibration {:08x}, {}",
+        out.display(),
+        calib.id(),
+        if pass {
+            "every model meets its target"
+        } else {
+            "A MODEL MISSES ITS TARGET (see FAIL above): add setpoints or frames, or check the kit"
+        }
+    );
     Ok(())
 }

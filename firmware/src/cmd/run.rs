@@ -7,8 +7,8 @@ use std::sync::Arc;
 
 use anyhow::{bail, Context, Result};
 use vistaf_firmware::config::Config;
-use vistaf_firmware::service::{run as serve, Settings};
-use vistaf_firmware::source_spec::{open, OpenOptions, SourceSpec};
+use vistaf_firmware::service::{run as serve, Settings, DEFAULT_KIT_DIR};
+use vistaf_firmware::source_spec::{open_with_bench, OpenOptions, SourceSpec};
 use vistaf_hardware::led::{LedRing, MemoryLedRing};
 use vistaf_pipeline::calibration::Calibration;
 use vistaf_pipeline::Implementation;
@@ -21,8 +21,8 @@ pub struct Args {
     /// TOML configuration file (see firmware/deploy/skin.toml).
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// camera:/dev/videoN, camera-serial:SERIAL, camera-name:NAME, set:DIR or sim:SCENE
-    /// [default: camera:/dev/video0].
+    /// camera:/dev/videoN, camera-serial:SERIAL, camera-name:NAME, set:DIR, sim:SCENE or
+    /// sim:bench (a simulated unit a guided calibration drives) [default: camera:/dev/video0].
     #[arg(long)]
     pub source: Option<SourceSpec>,
     /// /dev/ttyX, serial:PATH[@BAUD], file:PATH or - for stdout
@@ -35,6 +35,10 @@ pub struct Args {
     /// Calibration file [default: the simulated reference unit's].
     #[arg(long)]
     pub calibration: Option<PathBuf>,
+    /// Where guided calibrations keep their frames, a folder per session [default: `kit`
+    /// beside the calibration file, else ./vistaf-kit].
+    #[arg(long)]
+    pub kit: Option<PathBuf>,
     /// Use a calibration made for another grating period or image size.
     #[arg(long)]
     pub force_calibration: bool,
@@ -112,9 +116,15 @@ pub fn run(a: &Args) -> Result<()> {
         (None, Some(p)) => p.parse().map_err(|e: String| anyhow::anyhow!(e))?,
         (None, None) => Implementation::Fixed,
     };
-    let calibration = match a.calibration.as_ref().or(cfg.calibration.as_ref()) {
+    let calibration_path = a.calibration.as_ref().or(cfg.calibration.as_ref()).cloned();
+    let calibration = match &calibration_path {
         Some(p) => Calibration::load(p)?,
         None => Calibration::default_sim(),
+    };
+    let kit_dir = match (&a.kit, &cfg.kit, &calibration_path) {
+        (Some(k), _, _) | (None, Some(k), _) => k.clone(),
+        (None, None, Some(c)) => c.with_file_name("kit"),
+        (None, None, None) => PathBuf::from(DEFAULT_KIT_DIR),
     };
     let mut reference = cfg.reference;
     if let Some(s) = a.auto_reference_s {
@@ -129,7 +139,7 @@ pub fn run(a: &Args) -> Result<()> {
         fps: a.fps.or(cfg.fps),
         ..OpenOptions::default()
     };
-    let source = open(&source, &opts)?;
+    let (source, bench) = open_with_bench(&source, &opts)?;
     let (writer, reader) = open_link(&link)?;
     let stop = Arc::new(AtomicBool::new(false));
     for sig in [signal_hook::consts::SIGTERM, signal_hook::consts::SIGINT] {
@@ -148,6 +158,9 @@ pub fn run(a: &Args) -> Result<()> {
         max_rate_hz: a.max_rate_hz.or(cfg.max_rate_hz).unwrap_or(0),
         led: cfg.led.led_config(),
         reference,
+        calibration_path,
+        kit_dir,
+        bench,
     };
     let mut led = led_ring(&cfg.led)?;
     let c = serve(source, writer, reader, led.as_mut(), &settings, stop)?;

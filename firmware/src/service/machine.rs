@@ -3,24 +3,27 @@
 //! comes from an injected [`Clock`], so a test drives the service frame by frame with a
 //! clock it moves by hand.
 
-use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use vistaf_hardware::bench::Stimulus;
 use vistaf_hardware::clock::micros;
 use vistaf_hardware::decode::Decoded;
 use vistaf_hardware::frame::Frame;
 use vistaf_hardware::led::{LedConfig, LedRing};
 use vistaf_hardware::source::SourceFormat;
 use vistaf_pipeline::input::Pixels;
-use vistaf_pipeline::{Analyzer, AnalyzerOptions, Scratch};
+use vistaf_pipeline::{Analyzer, AnalyzerOptions, Calibration, Scratch};
 use vistaf_protocol::msg::truncated;
 use vistaf_protocol::{
-    schema_hash, ClockReading, Command, DeviceError, DeviceMsg, ErrorCode, FirmwareVersion, Flag,
-    Hello, HostMsg, MapKind, RunState, Status, PROTOCOL_VERSION,
+    schema_hash, CalibrationFitted, ClockReading, Command, DeviceError, DeviceMsg, ErrorCode,
+    FirmwareVersion, Flag, Hello, HostMsg, KitQuantity, KitStep, KitVerdict, MapKind, RunState,
+    Status, PROTOCOL_VERSION,
 };
 
 use super::clock::Clock;
+use super::kit::{Kit, Offered};
 use super::reference::{ReferenceKeeper, Verdict};
 use super::wire::{depth_tile, summary_of, temperature_tile};
 use super::{Counters, Settings};
@@ -41,6 +44,11 @@ pub struct EdgeCounters {
     pub camera_restarts: AtomicU32,
     /// Host frames the link reader could not decode.
     pub link_frames_dropped: AtomicU32,
+    /// Set by the service while a calibration kit step waits: the capture thread keeps
+    /// each frame's bytes as the camera sent them.
+    pub keep_raw: AtomicBool,
+    /// The scale the capture thread decodes at (the calibration in use chooses it).
+    pub decode_scale: AtomicU32,
 }
 
 impl EdgeCounters {
@@ -72,29 +80,39 @@ pub struct DecodedFrame {
     pub started: Instant,
     /// The pixels, or why the bytes did not decode.
     pub pixels: Result<Decoded, vistaf_hardware::frame::FrameError>,
+    /// The camera's bytes, when they were asked for (a calibration kit keeps them).
+    pub raw: Option<Frame>,
+    /// The scale the pixels were decoded at.
+    pub scale: u32,
 }
 
 impl DecodedFrame {
     /// Decodes `frame` at `1/scale` into `buf` (a buffer handed back by
     /// [`Service::on_decoded`], or a new one; an RGB frame read whole keeps its own),
-    /// decoding from `started`.
-    pub fn decode(frame: Frame, scale: u32, started: Instant, buf: Decoded) -> DecodedFrame {
+    /// decoding from `started`; with `keep_raw`, a copy of the camera's bytes is kept.
+    pub fn decode(
+        frame: Frame,
+        scale: u32,
+        started: Instant,
+        buf: Decoded,
+        keep_raw: bool,
+    ) -> DecodedFrame {
+        let raw = keep_raw.then(|| frame.clone());
         DecodedFrame {
             capture_us: u64::try_from(frame.timestamp.as_micros()).unwrap_or(u64::MAX),
             seq: frame.seq,
             size: (frame.width, frame.height),
             started,
             pixels: frame.into_decoded(scale, buf),
+            raw,
+            scale,
         }
     }
 }
 
-/// The scale a source's frames are decoded at under `settings`' calibration.
-pub fn decode_scale(settings: &Settings, format: &SourceFormat) -> u32 {
-    settings
-        .calibration
-        .unit
-        .scale_for(format.width, format.height)
+/// The scale a source's frames are decoded at under `calibration`.
+pub fn decode_scale(calibration: &Calibration, format: &SourceFormat) -> u32 {
+    calibration.unit.scale_for(format.width, format.height)
 }
 
 /// The service's state between events.
@@ -127,6 +145,14 @@ pub struct Service<'a, C: Clock> {
     reference_retry_at: Option<Instant>,
     /// Capture to link of the last summaries sent.
     latency: Latencies,
+    /// The calibration in use (the settings' until one is activated).
+    calibration: Calibration,
+    /// The one the last activation replaced.
+    previous: Option<Calibration>,
+    /// A calibration kit being captured or fitted.
+    kit: Kit,
+    /// The last kit's fitted calibration, until activated.
+    candidate: Option<Calibration>,
 }
 
 /// The last [`Latencies::KEPT`] capture-to-link latencies, µs, for the `Status`'s
@@ -199,10 +225,14 @@ impl<'a, C: Clock> Service<'a, C> {
             seq: 0,
             scratch: Scratch::default(),
             decoded: Decoded::default(),
-            scale: decode_scale(settings, &format),
+            scale: decode_scale(&settings.calibration, &format),
             format,
             reference_retry_at: None,
             latency: Latencies::default(),
+            calibration: settings.calibration.clone(),
+            previous: None,
+            kit: Kit::new(settings.kit_dir.clone()),
+            candidate: None,
         }
     }
 
@@ -253,7 +283,7 @@ impl<'a, C: Clock> Service<'a, C> {
             serial: truncated(&self.settings.serial),
             frame_width_px: u16::try_from(self.format.width).unwrap_or(u16::MAX),
             frame_height_px: u16::try_from(self.format.height).unwrap_or(u16::MAX),
-            calibration_id: self.settings.calibration.id(),
+            calibration_id: self.calibration.id(),
         })
     }
 
@@ -321,7 +351,123 @@ impl<'a, C: Clock> Service<'a, C> {
                 self.streaming = false;
                 DeviceMsg::Ack(Command::Stop)
             }
+            HostMsg::KitCapture(step) => self.kit_capture(step),
+            HostMsg::KitFit => match self.kit.fit(self.settings.pipeline) {
+                Ok(()) => DeviceMsg::Ack(Command::KitFit),
+                Err(e) => error(ErrorCode::Calibration, &e),
+            },
+            HostMsg::CalibrationActivate { calibration_id } => self.activate(calibration_id),
+            HostMsg::CalibrationRollback => self.roll_back(),
         }
+    }
+
+    /// Sets the bench (when software drives it) to `step` and waits for its frame.
+    fn kit_capture(&mut self, step: KitStep) -> DeviceMsg {
+        let v = step.value_milli as f32 / 1000.0;
+        let stimulus = match step.quantity {
+            KitQuantity::Reference | KitQuantity::Temperature => Stimulus::Untouched { temp_c: v },
+            KitQuantity::Depth => Stimulus::SphereDepth { depth_mm: v },
+            KitQuantity::Force => Stimulus::SphereForce { force_n: v },
+        };
+        if let Some(bench) = &self.settings.bench {
+            let applied = bench
+                .lock()
+                .map_err(|_| "the bench's lock is poisoned".to_string())
+                .and_then(|mut b| b.apply(stimulus));
+            if let Err(e) = applied {
+                return error(ErrorCode::InvalidArgument, &e);
+            }
+        }
+        match self.kit.start(step, self.clock.now()) {
+            Ok(()) => {
+                self.edge.keep_raw.store(true, Ordering::Relaxed);
+                DeviceMsg::Ack(Command::KitCapture)
+            }
+            Err(e) => error(ErrorCode::Calibration, &e),
+        }
+    }
+
+    /// Puts the fitted candidate in use, keeping the calibration it replaces.
+    fn activate(&mut self, id: u32) -> DeviceMsg {
+        match &self.candidate {
+            Some(c) if c.id() == id => {}
+            Some(c) => {
+                return error(
+                    ErrorCode::InvalidArgument,
+                    &format!("the fitted calibration is {:08x}, not {id:08x}", c.id()),
+                )
+            }
+            None => return error(ErrorCode::Calibration, "no fitted calibration to activate"),
+        }
+        let Some(new) = self.candidate.take() else {
+            return error(ErrorCode::Calibration, "no fitted calibration to activate");
+        };
+        if let Some(path) = &self.settings.calibration_path {
+            if let Err(e) = super::persist::activate(path, &new) {
+                self.candidate = Some(new);
+                return error(ErrorCode::Calibration, &e);
+            }
+        }
+        let old = std::mem::replace(&mut self.calibration, new);
+        self.previous = Some(old);
+        self.use_calibration();
+        self.hello()
+    }
+
+    /// Goes back to the calibration the last activation replaced.
+    fn roll_back(&mut self) -> DeviceMsg {
+        let Some(old) = self.previous.take() else {
+            return error(
+                ErrorCode::Calibration,
+                "no earlier calibration to roll back to",
+            );
+        };
+        if let Some(path) = &self.settings.calibration_path {
+            if let Err(e) = super::persist::roll_back(path) {
+                self.previous = Some(old);
+                return error(ErrorCode::Calibration, &e);
+            }
+        }
+        let replaced = std::mem::replace(&mut self.calibration, old);
+        self.previous = Some(replaced);
+        self.use_calibration();
+        self.hello()
+    }
+
+    /// After a change of calibration: frames decoded at its scale, a new reference.
+    fn use_calibration(&mut self) {
+        self.scale = decode_scale(&self.calibration, &self.format);
+        self.edge.decode_scale.store(self.scale, Ordering::Relaxed);
+        self.keeper.renew();
+        self.reference_retry_at = None;
+    }
+
+    /// What happened in the background since the last call: a kit step that never
+    /// settled, a fit that finished (its verdicts, then the candidate).
+    pub fn on_background(&mut self) -> Vec<DeviceMsg> {
+        let mut out = Vec::new();
+        if let Some(e) = self.kit.timed_out(self.clock.now()) {
+            self.edge.keep_raw.store(false, Ordering::Relaxed);
+            out.push(error(ErrorCode::Calibration, &e));
+        }
+        match self.kit.fitted() {
+            None => {}
+            Some(Err(e)) => out.push(error(ErrorCode::Calibration, &format!("kit fit: {e}"))),
+            Some(Ok(c)) => {
+                let verdicts = vistaf_calibrate::verdict::verdicts(&c);
+                out.extend(
+                    verdicts
+                        .iter()
+                        .map(|v| DeviceMsg::KitVerdict(wire_verdict(v))),
+                );
+                out.push(DeviceMsg::CalibrationFitted(CalibrationFitted {
+                    calibration_id: c.id(),
+                    pass: verdicts.iter().all(|v| v.pass()),
+                }));
+                self.candidate = Some(c);
+            }
+        }
+        out
     }
 
     /// The camera went away or came back: a loss is reported (the capture side reports
@@ -360,7 +506,8 @@ impl<'a, C: Clock> Service<'a, C> {
     /// A frame from the source, decoded here: see [`Service::on_decoded`].
     pub fn on_frame(&mut self, frame: Frame) -> Vec<DeviceMsg> {
         let buf = std::mem::take(&mut self.decoded);
-        let d = DecodedFrame::decode(frame, self.scale, self.clock.now(), buf);
+        let keep = self.kit.wants_frames();
+        let d = DecodedFrame::decode(frame, self.scale, self.clock.now(), buf, keep);
         self.on_decoded(d)
     }
 
@@ -371,7 +518,13 @@ impl<'a, C: Clock> Service<'a, C> {
     pub fn on_decoded(&mut self, frame: DecodedFrame) -> Vec<DeviceMsg> {
         let fits = frame.size == (self.format.width, self.format.height);
         let img = match frame.pixels {
-            Ok(img) if fits => img,
+            // A frame decoded at the scale of the calibration before an activation is
+            // skipped, not measured at the wrong size.
+            Ok(img) if fits && frame.scale == self.scale => img,
+            Ok(img) if fits => {
+                self.decoded = img;
+                return Vec::new();
+            }
             Ok(img) => {
                 self.decoded = img;
                 self.counters.bad += 1;
@@ -382,14 +535,36 @@ impl<'a, C: Clock> Service<'a, C> {
                 return Vec::new();
             }
         };
-        let out = if self.keeper.analyzer().is_none() {
+        let mut out = self.offer_to_kit(frame.raw.as_ref(), &img, frame.started);
+        out.extend(if self.keeper.analyzer().is_none() {
             self.counters.referencing += 1;
             self.take_reference(Pixels::from(&img))
         } else {
             self.measure(Pixels::from(&img), frame.capture_us, frame.started)
-        };
+        });
         self.decoded = img;
         out
+    }
+
+    /// Offers a frame to the kit step waiting, if any.
+    fn offer_to_kit(
+        &mut self,
+        raw: Option<&Frame>,
+        img: &Decoded,
+        started: Instant,
+    ) -> Vec<DeviceMsg> {
+        if !self.kit.wants_frames() {
+            return Vec::new();
+        }
+        let stable_dn = self.settings.reference.stable_dn;
+        let period_mm = self.calibration.unit.grating_period_mm;
+        let msg = match self.kit.offer(raw, img, started, stable_dn, period_mm) {
+            Offered::Waiting => return Vec::new(),
+            Offered::Captured(c) => DeviceMsg::KitCaptured(c),
+            Offered::Failed(e) => error(ErrorCode::Calibration, &e),
+        };
+        self.edge.keep_raw.store(false, Ordering::Relaxed);
+        vec![msg]
     }
 
     /// The buffer of the last decoded frame, for the next decode (empty when there is
@@ -411,7 +586,7 @@ impl<'a, C: Clock> Service<'a, C> {
             force_calibration: self.settings.force_calibration,
             ..Default::default()
         };
-        let (calibration, pipeline) = (&self.settings.calibration, self.settings.pipeline);
+        let (calibration, pipeline) = (&self.calibration, self.settings.pipeline);
         let offered = self.keeper.offer(img, now, |r| {
             Analyzer::new(r, calibration.clone(), pipeline, opts)
         });
@@ -511,6 +686,23 @@ impl<'a, C: Clock> Service<'a, C> {
             latency_p50_us: p50,
             latency_p99_us: p99,
         })
+    }
+}
+
+/// A verdict as the wire carries it (milli-units, rounded).
+fn wire_verdict(v: &vistaf_calibrate::verdict::Verdict) -> KitVerdict {
+    use vistaf_calibrate::verdict::Model;
+    let milli = |x: f64| (x * 1000.0).round().clamp(0.0, f64::from(u32::MAX)) as u32;
+    KitVerdict {
+        quantity: match v.model {
+            Model::Depth => KitQuantity::Depth,
+            Model::Force => KitQuantity::Force,
+            Model::Temperature => KitQuantity::Temperature,
+        },
+        samples: u16::try_from(v.n).unwrap_or(u16::MAX),
+        error_milli: milli(v.error),
+        target_milli: milli(v.target),
+        pass: v.pass(),
     }
 }
 

@@ -20,7 +20,10 @@
 //!   `RunState::CameraLost` in `Status` while the source retries with back-off; frames
 //!   resuming count in `Status.camera_restarts`.
 //! * Host commands are handled between frames: `Ping`, `GetInfo`, `CaptureReference`,
-//!   `SetRate`, `SetLed`, `RequestMap`, `Start`, `Stop`, `Clock`. A `Clock` request is
+//!   `SetRate`, `SetLed`, `RequestMap`, `Start`, `Stop`, `Clock`, and a guided
+//!   calibration's `KitCapture`, `KitFit`, `CalibrationActivate`, `CalibrationRollback`
+//!   ([`kit`]: the kit captured and fitted on the device; [`persist`]: the calibration
+//!   file and the one it replaced). A `Clock` request is
 //!   stamped when the link reader decodes it, so its answer tells the host how long it
 //!   waited for the frame in progress.
 //! * A `Hello` goes out at start and on request; a `Status` every second.
@@ -28,7 +31,10 @@
 //!   counted and the service keeps running (the host may come back).
 
 pub mod clock;
+pub mod kit;
 pub mod machine;
+pub mod persist;
+pub mod pty;
 pub mod reference;
 pub mod runner;
 pub mod systemd;
@@ -41,8 +47,14 @@ pub use runner::run;
 pub use wire::{depth_tile, summary_of, temperature_tile};
 
 pub use crate::config::ReferencePolicy;
+use std::path::PathBuf;
+
+use vistaf_hardware::bench::SharedBench;
 use vistaf_hardware::led::LedConfig;
 use vistaf_pipeline::{Calibration, Implementation};
+
+/// Where kits go when neither the configuration nor the command line says.
+pub const DEFAULT_KIT_DIR: &str = "vistaf-kit";
 
 /// Service settings.
 #[derive(Debug, Clone)]
@@ -63,6 +75,13 @@ pub struct Settings {
     pub led: LedConfig,
     /// When the reference is taken and renewed.
     pub reference: ReferencePolicy,
+    /// The file the calibration came from: an activated calibration is written there (the
+    /// one it replaces kept beside it); `None` keeps activations in memory.
+    pub calibration_path: Option<PathBuf>,
+    /// Where calibration kits captured on the device are kept.
+    pub kit_dir: PathBuf,
+    /// The calibration bench, when software drives it (a simulated skin's).
+    pub bench: Option<SharedBench>,
 }
 
 impl Settings {
@@ -78,6 +97,9 @@ impl Settings {
             max_rate_hz: 0,
             led: LedConfig::default(),
             reference: ReferencePolicy::default(),
+            calibration_path: None,
+            kit_dir: PathBuf::from(DEFAULT_KIT_DIR),
+            bench: None,
         }
     }
 }

@@ -99,11 +99,11 @@ impl<T> Newest<T> {
     }
 }
 
-/// What the capture thread needs besides its source: where decoded frames go, the scale
-/// they are decoded at, and the buffers the service hands back.
+/// What the capture thread needs besides its source: where decoded frames go and the
+/// buffers the service hands back (the scale, and whether to keep the camera's bytes, it
+/// reads from the [`EdgeCounters`] the service sets).
 struct Decoding {
     frames: Newest<DecodedFrame>,
-    scale: u32,
     spare: Receiver<Decoded>,
 }
 
@@ -142,7 +142,9 @@ fn capture(
         }
         edge.captured.fetch_add(1, Ordering::Relaxed);
         let buf = out.spare.try_recv().unwrap_or_default();
-        let decoded = DecodedFrame::decode(frame, out.scale, Instant::now(), buf);
+        let scale = edge.decode_scale.load(Ordering::Relaxed);
+        let keep_raw = edge.keep_raw.load(Ordering::Relaxed);
+        let decoded = DecodedFrame::decode(frame, scale, Instant::now(), buf, keep_raw);
         if out.frames.put(decoded) {
             edge.dropped.fetch_add(1, Ordering::Relaxed);
         }
@@ -204,12 +206,12 @@ impl Edge {
         scale: u32,
     ) -> Edge {
         let counters = Arc::new(EdgeCounters::default());
+        counters.decode_scale.store(scale, Ordering::Relaxed);
         let frames = Newest::default();
         let (camera_tx, camera) = bounded(16);
         let (spare, spares) = bounded(1);
         let out = Decoding {
             frames: frames.clone(),
-            scale,
             spare: spares,
         };
         let (edge, cap_stop) = (counters.clone(), stop.clone());
@@ -252,7 +254,8 @@ pub fn run(
         errors: 0,
         summaries: 0,
     };
-    let edge = Edge::start(source, commands, &stop, decode_scale(settings, &format));
+    let scale = decode_scale(&settings.calibration, &format);
+    let edge = Edge::start(source, commands, &stop, scale);
     let mut service = Service::new(settings, format, led, edge.counters.clone(), SystemClock);
     tx.send_all(service.start());
     let mut systemd = Systemd::from_env();
@@ -321,6 +324,7 @@ fn serve<W: Write>(
             tx.send_all(service.on_camera(event));
         }
         tx.send_all(service.on_tick());
+        tx.send_all(service.on_background());
         let frame = match edge.frames.take(FRAME_WAIT) {
             Ok(f) => f,
             Err(RecvTimeoutError::Timeout) => {
@@ -412,9 +416,9 @@ mod tests {
         let (frames, edge) = (Newest::default(), Arc::new(EdgeCounters::default()));
         let (events_tx, events) = bounded(16);
         let stop = Arc::new(AtomicBool::new(false));
+        edge.decode_scale.store(1, Ordering::Relaxed);
         let out = Decoding {
             frames: frames.clone(),
-            scale: 1,
             spare: bounded(1).1,
         };
         let failure = capture(source, out, events_tx, edge.clone(), stop, Duration::ZERO);

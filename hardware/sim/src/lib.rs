@@ -18,9 +18,12 @@
 //! * [`render`]: the image formation model ([`plane`]: blurs on the pixel grid).
 //! * [`scene`]: named scripted scenes.
 //! * [`sets`]: writing scenes and calibration kits as `vistaf-frames/1` sets with truth.
+//! * [`bench`]: a scripted indenter and heater a guided calibration drives
+//!   ([`SimSource::on_bench`]).
 //!
 //! Deterministic: the same unit seed, scene and noise seed give the same bytes.
 
+pub mod bench;
 pub mod contact;
 pub mod elastic;
 pub mod footprint;
@@ -56,6 +59,8 @@ pub struct SimSource {
     started: Option<Instant>,
     delivered: u64,
     last_truth: Option<Truth>,
+    /// Set by a bench: the state filmed, instead of `states`.
+    live: Option<bench::LiveState>,
 }
 
 impl SimSource {
@@ -78,7 +83,17 @@ impl SimSource {
             started: None,
             delivered: 0,
             last_truth: None,
+            live: None,
         }
+    }
+
+    /// Films `unit` on a calibration bench, for ever: the skin shows whatever the returned
+    /// bench was last told (untouched at room temperature until then).
+    pub fn on_bench(unit: SensorUnit, fps: Option<f32>, seed: u64) -> (SimSource, bench::SimBench) {
+        let (bench, live) = bench::SimBench::new(unit.clone());
+        let mut src = SimSource::new("bench", unit, Vec::new(), fps, seed);
+        src.live = Some(live);
+        (src, bench)
     }
 
     /// Films the named scene; `None` for an unknown name.
@@ -137,7 +152,8 @@ impl FrameSource for SimSource {
     }
 
     fn next_frame(&mut self) -> Result<Option<Frame>, SourceError> {
-        if self.next >= self.states.len() {
+        let live = self.live.as_ref().map(bench::LiveState::get);
+        if live.is_none() && self.next >= self.states.len() {
             if !self.looping || self.states.is_empty() {
                 return Ok(None);
             }
@@ -146,9 +162,11 @@ impl FrameSource for SimSource {
         let i = self.next;
         let started = *self.started.get_or_insert_with(Instant::now);
         let seq = self.delivered;
-        let (img, truth) = self
-            .renderer
-            .render(&self.states[i], self.seed.wrapping_add(seq));
+        let state = match &live {
+            Some(s) => s,
+            None => &self.states[i],
+        };
+        let (img, truth) = self.renderer.render(state, self.seed.wrapping_add(seq));
         let timestamp = match self.fps {
             Some(fps) => {
                 let due = Duration::from_secs_f64(seq as f64 / f64::from(fps.max(0.1)));

@@ -187,7 +187,9 @@ pub const KIT_TEMPS_C: [f32; 22] = [
 /// Positions of calibration presses, as fractions of the field of view from its centre.
 const KIT_OFFSETS: [(f32, f32); 2] = [(-0.12, -0.08), (0.1, 0.1)];
 
-fn press(unit: &SensorUnit, k: usize, depth_mm: f32) -> SkinState {
+/// The calibration sphere pressed to `depth_mm` at the `k`-th of the kit's positions
+/// (they alternate), the skin at room temperature.
+pub fn press(unit: &SensorUnit, k: usize, depth_mm: f32) -> SkinState {
     let c = center_mm(unit);
     let (fw, fh) = (
         unit.width_px as f32 * unit.mm_per_px(),

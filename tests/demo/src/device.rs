@@ -1,15 +1,16 @@
 //! The device side of the demo: the service on a simulated skin, on its own thread,
 //! writing to one end of a pseudo-terminal pair.
 
+use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::Duration;
 
 use anyhow::{Context, Result};
-use vistaf_firmware::service::{run as serve, Counters, Settings};
-use vistaf_firmware::source_spec::{open, OpenOptions, SourceSpec};
-use vistaf_hardware::led::MemoryLedRing;
+use vistaf_firmware::service::{pty, Counters, Settings};
+use vistaf_firmware::source_spec::{open, open_with_bench, OpenOptions, SourceSpec, BENCH_SCENE};
+use vistaf_hardware::source::FrameSource;
 use vistaf_host::client::Client;
 use vistaf_host::link::{Link, DEFAULT_BAUD};
 use vistaf_pipeline::Calibration;
@@ -28,14 +29,10 @@ pub struct SimulatedSkin {
 impl SimulatedSkin {
     /// Starts the service on the `demo` scene, `frames` long, on a new pseudo-terminal.
     pub fn start(frames: usize) -> Result<SimulatedSkin> {
-        let (master, slave) =
-            serialport::TTYPort::pair().context("creating a pseudo-terminal pair")?;
-        let port = serialport::SerialPort::name(&slave).context("pseudo-terminal has no name")?;
-        let calibration = Calibration::default_sim();
         let settings = Settings {
             serial: "VSK-SIM-DEMO".into(),
             frames: Some(frames as u64),
-            ..Settings::new(calibration.clone())
+            ..Settings::new(Calibration::default_sim())
         };
         let source = open(
             &SourceSpec::Sim("demo".into()),
@@ -45,25 +42,46 @@ impl SimulatedSkin {
                 ..OpenOptions::default()
             },
         )?;
-        let reader = master.try_clone_native().context("pseudo-terminal")?;
-        let stop = Arc::new(AtomicBool::new(false));
-        let device_stop = stop.clone();
-        let thread = std::thread::spawn(move || {
-            let mut led = MemoryLedRing::default();
-            serve(
-                source,
-                master,
-                Some(Box::new(reader)),
-                &mut led,
-                &settings,
-                device_stop,
-            )
-        });
+        SimulatedSkin::spawn(source, settings)
+    }
+
+    /// Starts the service on simulated unit `unit_seed` on a calibration bench that the
+    /// device drives, running the default calibration from `calibration_path` (written
+    /// there first) and keeping kits under `kit_dir`.
+    pub fn start_on_bench(
+        unit_seed: u64,
+        calibration_path: &Path,
+        kit_dir: &Path,
+    ) -> Result<SimulatedSkin> {
+        let calibration = Calibration::default_sim();
+        calibration.save(calibration_path)?;
+        let (source, bench) = open_with_bench(
+            &SourceSpec::Sim(BENCH_SCENE.into()),
+            &OpenOptions {
+                unit_seed,
+                fps: Some(FPS),
+                ..OpenOptions::default()
+            },
+        )?;
+        let settings = Settings {
+            serial: format!("VSK-SIM-{unit_seed}"),
+            calibration_path: Some(calibration_path.to_path_buf()),
+            kit_dir: kit_dir.to_path_buf(),
+            bench,
+            ..Settings::new(calibration)
+        };
+        SimulatedSkin::spawn(source, settings)
+    }
+
+    /// Runs the service with `settings` on `source`, on a new pseudo-terminal.
+    fn spawn(source: Box<dyn FrameSource>, settings: Settings) -> Result<SimulatedSkin> {
+        let calibration = settings.calibration.clone();
+        let on = pty::spawn(source, settings)?;
         Ok(SimulatedSkin {
-            port,
+            port: on.port,
             calibration,
-            stop,
-            thread,
+            stop: on.stop,
+            thread: on.thread,
         })
     }
 

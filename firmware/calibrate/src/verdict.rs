@@ -1,0 +1,127 @@
+//! Whether a fitted calibration is good enough: each model's held-out error against the
+//! product's target, so a calibration that misses one says so instead of passing silently.
+//!
+//! The targets are the product's accuracy targets on the calibrated sphere: peak depth
+//! RMSE 0.02 mm, force RMSE 0.3 N, and skin temperature RMSE 0.3 °C within 22–32 °C, where
+//! the thermochromic transition gives the most colour per degree. The errors are the fits'
+//! cross-validated ones (leave one setpoint out), the best estimate of what a new press
+//! will show.
+
+use vistaf_pipeline::calibration::Calibration;
+
+/// Depth target, mm.
+pub const DEPTH_TARGET_MM: f64 = 0.02;
+/// Force target, N.
+pub const FORCE_TARGET_N: f64 = 0.3;
+/// Temperature target within 22–32 °C, °C.
+pub const TEMPERATURE_TARGET_C: f64 = 0.3;
+
+/// Which fitted model a verdict is about.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Model {
+    /// Phase → depth, mm.
+    Depth,
+    /// Deformation → force, N.
+    Force,
+    /// Colour → temperature, °C.
+    Temperature,
+}
+
+impl Model {
+    /// The model's name and its unit.
+    pub fn name_unit(self) -> (&'static str, &'static str) {
+        match self {
+            Model::Depth => ("depth", "mm"),
+            Model::Force => ("force", "N"),
+            Model::Temperature => ("temperature (22–32 °C)", "°C"),
+        }
+    }
+}
+
+/// One model's held-out error against its target.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Verdict {
+    /// The model.
+    pub model: Model,
+    /// Samples fitted.
+    pub n: usize,
+    /// Cross-validated RMSE, in the model's unit.
+    pub error: f64,
+    /// The target, same unit.
+    pub target: f64,
+}
+
+impl Verdict {
+    /// Whether the error is within the target.
+    pub fn pass(&self) -> bool {
+        self.error <= self.target
+    }
+}
+
+/// A verdict per model the calibration has.
+pub fn verdicts(c: &Calibration) -> Vec<Verdict> {
+    let mut v = vec![Verdict {
+        model: Model::Depth,
+        n: c.depth.n,
+        error: c.depth.cv_rmse,
+        target: DEPTH_TARGET_MM,
+    }];
+    if let Some(f) = &c.force {
+        v.push(Verdict {
+            model: Model::Force,
+            n: f.n,
+            error: f.cv_rmse,
+            target: FORCE_TARGET_N,
+        });
+    }
+    if let Some(t) = &c.temperature {
+        v.push(Verdict {
+            model: Model::Temperature,
+            n: t.n,
+            error: t.cv_rmse_transition_c,
+            target: TEMPERATURE_TARGET_C,
+        });
+    }
+    v
+}
+
+/// The verdicts as lines a person reads, and whether all passed.
+pub fn report(verdicts: &[Verdict]) -> (String, bool) {
+    let mut text = String::new();
+    for v in verdicts {
+        let (name, unit) = v.model.name_unit();
+        let mark = if v.pass() { "pass" } else { "FAIL" };
+        text.push_str(&format!(
+            "  {name:<24} held-out RMSE {:>8.4} {unit}  target ≤ {} {unit}  {mark}\n",
+            v.error, v.target
+        ));
+    }
+    (text, verdicts.iter().all(Verdict::pass))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_model_over_its_target_fails_and_the_report_says_so() {
+        let mut c = Calibration::default_sim();
+        let all = verdicts(&c);
+        assert_eq!(
+            all.len(),
+            3,
+            "the reference calibration has all three models"
+        );
+        if let Some(t) = c.temperature.as_mut() {
+            t.cv_rmse_transition_c = 0.338;
+        }
+        let v = verdicts(&c);
+        let t = v.iter().find(|v| v.model == Model::Temperature).unwrap();
+        assert!(!t.pass());
+        let (text, pass) = report(&v);
+        assert!(
+            !pass && text.contains("FAIL") && text.contains("0.3380"),
+            "{text}"
+        );
+    }
+}
