@@ -491,3 +491,77 @@ fn a_clock_request_is_answered_on_the_device_clock_with_its_wait() {
     assert_eq!(r.received_us, vistaf_hardware::clock::micros(received));
     assert_eq!(r.sent_us - r.received_us, 7_000);
 }
+
+/// The guided calibration's commands out of order are refused with a reason, and nothing
+/// changes: a label before the kit's reference, a fit without a kit, an activation of
+/// nothing fitted or of another id, a rollback with nothing to go back to. A kit step
+/// on a camera the device cannot drive waits for the settled image of frames after it.
+#[test]
+fn calibration_commands_out_of_order_are_refused_and_a_step_waits_for_settled_frames() {
+    let kit_dir = std::env::temp_dir().join(format!("vistaf-service-kit-{}", std::process::id()));
+    let mut rig = Rig::new(Settings {
+        kit_dir: kit_dir.clone(),
+        ..settings(Default::default())
+    });
+    let (mut svc, mut cam) = rig.start();
+    feed(&mut svc, &mut cam, &vec![SkinState::idle(ROOM_C); 2]);
+    let refused = |m: DeviceMsg, code: ErrorCode, words: &str| match m {
+        DeviceMsg::Error(e) => {
+            assert_eq!(e.code, code, "{e:?}");
+            assert!(e.detail.contains(words), "{e:?}");
+        }
+        other => panic!("{other:?}"),
+    };
+    let step = |quantity, value_milli| {
+        HostMsg::KitCapture(vistaf_protocol::KitStep {
+            quantity,
+            value_milli,
+        })
+    };
+    use vistaf_protocol::KitQuantity::{Depth, Reference};
+    refused(
+        svc.on_command(step(Depth, 500)),
+        ErrorCode::Calibration,
+        "Reference step first",
+    );
+    refused(
+        svc.on_command(HostMsg::KitFit),
+        ErrorCode::Calibration,
+        "no kit",
+    );
+    let id = Calibration::default_sim().id();
+    refused(
+        svc.on_command(HostMsg::CalibrationActivate { calibration_id: id }),
+        ErrorCode::Calibration,
+        "no fitted calibration",
+    );
+    refused(
+        svc.on_command(HostMsg::CalibrationRollback),
+        ErrorCode::Calibration,
+        "no earlier",
+    );
+    let DeviceMsg::Hello(h) = svc.on_command(HostMsg::GetInfo) else {
+        panic!("no hello")
+    };
+    assert_eq!(h.calibration_id, id, "nothing changed");
+
+    // The reference step: acknowledged, then captured from the frames after it once two
+    // frame pairs are calm.
+    assert_eq!(
+        svc.on_command(step(Reference, 25_000)),
+        DeviceMsg::Ack(Command::KitCapture)
+    );
+    let captured = |out: &[DeviceMsg]| out.iter().any(|m| matches!(m, DeviceMsg::KitCaptured(_)));
+    let f = cam.frame(&SkinState::idle(ROOM_C));
+    assert!(!captured(&svc.on_frame(f)));
+    let f = cam.frame(&SkinState::idle(ROOM_C));
+    assert!(!captured(&svc.on_frame(f)));
+    let f = cam.frame(&SkinState::idle(ROOM_C));
+    let out = svc.on_frame(f);
+    assert!(captured(&out), "{out:?}");
+    assert!(
+        std::fs::read_dir(&kit_dir).unwrap().count() == 1,
+        "one kit folder"
+    );
+    std::fs::remove_dir_all(&kit_dir).unwrap();
+}

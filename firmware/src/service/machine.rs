@@ -389,18 +389,14 @@ impl<'a, C: Clock> Service<'a, C> {
 
     /// Puts the fitted candidate in use, keeping the calibration it replaces.
     fn activate(&mut self, id: u32) -> DeviceMsg {
-        match &self.candidate {
-            Some(c) if c.id() == id => {}
-            Some(c) => {
-                return error(
+        let Some(new) = self.candidate.take_if(|c| c.id() == id) else {
+            return match &self.candidate {
+                Some(c) => error(
                     ErrorCode::InvalidArgument,
                     &format!("the fitted calibration is {:08x}, not {id:08x}", c.id()),
-                )
-            }
-            None => return error(ErrorCode::Calibration, "no fitted calibration to activate"),
-        }
-        let Some(new) = self.candidate.take() else {
-            return error(ErrorCode::Calibration, "no fitted calibration to activate");
+                ),
+                None => error(ErrorCode::Calibration, "no fitted calibration to activate"),
+            };
         };
         if let Some(path) = &self.settings.calibration_path {
             if let Err(e) = super::persist::activate(path, &new) {
