@@ -127,14 +127,13 @@ impl Kit {
             Some(c) if c < stable_dn => p.calm += 1,
             _ => p.calm = 0,
         }
-        if p.calm < SETTLED_RUN {
+        // A frame whose bytes were not kept (decoded as the step was asked for) cannot be
+        // stored: the next settled one is.
+        let Some(raw) = raw.filter(|_| p.calm >= SETTLED_RUN) else {
             return Offered::Waiting;
-        }
+        };
         let (step, since) = (p.step, p.since);
         self.pending = None;
-        let Some(raw) = raw else {
-            return Offered::Failed("the camera's bytes of the frame were not kept".into());
-        };
         match self.store(step, raw, grating_period_mm) {
             Ok(frames) => Offered::Captured(KitCaptured {
                 step,
@@ -390,9 +389,14 @@ mod tests {
         };
         kit.start(depth, at(40)).unwrap();
         assert!(kit.start(depth, at(40)).is_err(), "one step at a time");
-        for ms in [50, 60, 70] {
+        for ms in [50, 60] {
             let _ = kit.offer(Some(&raw), &flat(121), at(ms), 1.5, 2.0);
         }
+        // Settled, but its bytes were not kept: the next settled frame is stored instead.
+        let o = kit.offer(None, &flat(121), at(70), 1.5, 2.0);
+        assert!(matches!(o, Offered::Waiting), "{o:?}");
+        let o = kit.offer(Some(&raw), &flat(121), at(80), 1.5, 2.0);
+        assert!(matches!(o, Offered::Captured(_)), "{o:?}");
         let set = FrameSet::open(&kit.dir().unwrap().join("depth")).unwrap();
         assert_eq!(set.len(), 1);
         assert_eq!(set.manifest.frames[0].depth_mm, Some(0.5));
