@@ -218,7 +218,7 @@ fn read_sof(body: &[u8]) -> Result<(u32, u32, Vec<FrameComponent>), JpegError> {
             return Err(corrupt("bad sampling factor or table index"));
         }
     }
-    let (hmax, vmax) = max_sampling(&components);
+    let (hmax, vmax) = max_sampling(components.iter().map(|c| (c.h, c.v)));
     // Each component at the full size or half of it, each way: 4:4:4, 4:2:2, 4:2:0, grey.
     let halves = |f: usize, max: usize| f == max || 2 * f == max;
     if n == 1 {
@@ -246,10 +246,10 @@ fn read_sof(body: &[u8]) -> Result<(u32, u32, Vec<FrameComponent>), JpegError> {
     Ok((width, height, components))
 }
 
-fn max_sampling(components: &[FrameComponent]) -> (usize, usize) {
-    components
-        .iter()
-        .fold((1, 1), |(h, v), c| (h.max(c.h), v.max(c.v)))
+/// The largest horizontal and vertical sampling factors of `(h, v)` pairs: the MCU's
+/// size in blocks.
+pub fn max_sampling(factors: impl Iterator<Item = (usize, usize)>) -> (usize, usize) {
+    factors.fold((1, 1), |(hm, vm), (h, v)| (hm.max(h), vm.max(v)))
 }
 
 fn read_sos(
@@ -306,22 +306,15 @@ fn standard_tables_where_missing(
     ac: &mut [Option<Huffman>; 4],
 ) {
     for c in components {
-        if dc[c.dc].is_none() && c.dc < 2 {
-            let (counts, values) = if c.dc == 0 {
-                STD_DC_LUMA
-            } else {
-                STD_DC_CHROMA
-            };
-            dc[c.dc] = Huffman::new(counts, values, false).ok();
-        }
-        if ac[c.ac].is_none() && c.ac < 2 {
-            let (counts, values) = if c.ac == 0 {
-                STD_AC_LUMA
-            } else {
-                STD_AC_CHROMA
-            };
-            ac[c.ac] = Huffman::new(counts, values, true).ok();
-        }
+        implied(&mut dc[c.dc], c.dc, [STD_DC_LUMA, STD_DC_CHROMA], false);
+        implied(&mut ac[c.ac], c.ac, [STD_AC_LUMA, STD_AC_CHROMA], true);
+    }
+}
+
+/// The standard table of index `index` (0: luminance, 1: chrominance) in an empty slot.
+fn implied(slot: &mut Option<Huffman>, index: usize, standard: [Table; 2], ac: bool) {
+    if let (None, Some(&(counts, values))) = (&slot, standard.get(index)) {
+        *slot = Huffman::new(counts, values, ac).ok();
     }
 }
 

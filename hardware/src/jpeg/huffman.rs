@@ -57,11 +57,6 @@ impl Huffman {
                 code += 1;
                 k += 1;
             }
-            if code > 1 << len {
-                return Err(JpegError::Corrupt(
-                    "a Huffman table of overlapping codes".into(),
-                ));
-            }
             t.limit[len as usize] = code << (16 - len);
             code <<= 1;
         }

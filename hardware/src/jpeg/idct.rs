@@ -7,71 +7,37 @@
 //! alone and a 1/2 decode passes what a 2 × 2 area filter would. Rows and columns that hold
 //! no coefficient are skipped: most blocks of a camera frame end early.
 
-/// The transform's coefficients, Q11: `T[x][u] = C(u)·cos((2x+1)uπ/2N)`, `C(0) = 1/√2`.
-#[derive(Debug, Clone)]
-pub struct Idct<const N: usize> {
-    t: [[i32; N]; N],
-}
-
 /// Largest coefficient magnitude kept: an 8-bit image's DCT stays within ±1024 plus a
 /// quantisation step, so this only bounds what corrupt data could make overflow.
 pub const COEF_LIMIT: i32 = 4095;
 
-impl<const N: usize> Idct<N> {
-    /// The transform for `N` output pixels per block side.
-    pub fn new() -> Idct<N> {
-        let mut t = [[0; N]; N];
-        for (x, row) in t.iter_mut().enumerate() {
-            for (u, c) in row.iter_mut().enumerate() {
-                let cu = if u == 0 {
-                    std::f64::consts::FRAC_1_SQRT_2
-                } else {
-                    1.0
-                };
-                let angle = (2 * x + 1) as f64 * u as f64 * std::f64::consts::PI / (2 * N) as f64;
-                *c = (cu * angle.cos() * 2048.0).round() as i32;
-            }
-        }
-        Idct { t }
+/// The `N × N` pixels (row-major, level-shifted to 0…255) of `coef`, the block's
+/// dequantised coefficients in natural order at `v·N + u`, of which only the first `rows`
+/// rows and `cols` columns may be non-zero; `tmp` is scratch. At `N = 1` a block is its
+/// DC alone.
+#[inline(always)]
+pub fn block<const N: usize>(
+    coef: &[i32; 64],
+    rows: usize,
+    cols: usize,
+    tmp: &mut [i32; 64],
+    out: &mut [u8; 64],
+) {
+    if N == 1 || (rows <= 1 && cols <= 1) {
+        // The DC alone: F(0,0)/8, flat.
+        out[..N * N].fill(pixel((coef[0] + 4) >> 3));
+        return;
     }
-
-    /// The `N × N` pixels (row-major, level-shifted to 0…255) of `coef`, the block's
-    /// dequantised coefficients in natural order at `v·N + u`, of which only the first
-    /// `rows` rows and `cols` columns may be non-zero; `tmp` is scratch.
-    #[inline(always)]
-    pub fn block(
-        &self,
-        coef: &[i32; 64],
-        rows: usize,
-        cols: usize,
-        tmp: &mut [i32; 64],
-        out: &mut [u8; 64],
-    ) {
-        if rows <= 1 && cols <= 1 {
-            // The DC alone: F(0,0)/8, flat.
-            out[..N * N].fill(pixel((coef[0] + 4) >> 3));
-            return;
-        }
-        match N {
-            8 => separable::<8>(coef, rows, cols, tmp, out, idct8),
-            4 => separable::<4>(coef, rows, cols, tmp, out, idct4),
-            2 => separable::<2>(coef, rows, cols, tmp, out, idct2),
-            _ => separable::<N>(coef, rows, cols, tmp, out, |f| self.by_matrix(f)),
-        }
-    }
-
-    /// The 1-D transform of `f` (its first `N` entries), Q11, by the matrix.
-    fn by_matrix(&self, f: [i32; 8]) -> [i32; 8] {
-        let mut o = [0; 8];
-        for (x, o) in o.iter_mut().take(N).enumerate() {
-            *o = (0..N).map(|u| self.t[x][u] * f[u]).sum();
-        }
-        o
+    match N {
+        8 => separable::<8>(coef, rows, cols, tmp, out, idct8),
+        4 => separable::<4>(coef, rows, cols, tmp, out, idct4),
+        _ => separable::<2>(coef, rows, cols, tmp, out, idct2),
     }
 }
 
-/// `cos(π/4)`, `cos(π/8)`, `cos(3π/8)`, Q11 (as in [`Idct::new`]'s matrix, so the
-/// butterflies below give its products exactly).
+/// `cos(π/4)`, `cos(π/8)`, `cos(3π/8)`, Q11: the 1-D transforms below are
+/// `x_n = Σ C(u)·cos((2n+1)uπ/2N)·f_u` with `C(0) = 1/√2`, factored into even and odd
+/// halves.
 const C4: i32 = 1448;
 const C1: i32 = 1892;
 const C3: i32 = 784;
@@ -218,7 +184,7 @@ mod tests {
             let want = reference(&c);
             let coef = c.map(|v| v as i32);
             let mut out = [0u8; 64];
-            Idct::<8>::new().block(&coef, 8, 8, &mut [0; 64], &mut out);
+            block::<8>(&coef, 8, 8, &mut [0; 64], &mut out);
             let want_i = reference(&coef.map(f64::from));
             for k in 0..64 {
                 let d = f64::from(out[k]) - want_i[k].clamp(0.0, 255.0);
@@ -242,7 +208,7 @@ mod tests {
         c[1] = 60;
         c[8] = -40;
         let mut full = [0u8; 64];
-        Idct::<8>::new().block(&c, 2, 2, &mut [0; 64], &mut full);
+        block::<8>(&c, 2, 2, &mut [0; 64], &mut full);
         for (n, idct) in [(4, 0), (2, 1)] {
             let mut low = [0i32; 64];
             for v in 0..2 {
@@ -252,9 +218,9 @@ mod tests {
             }
             let mut out = [0u8; 64];
             if idct == 0 {
-                Idct::<4>::new().block(&low, 2, 2, &mut [0; 64], &mut out);
+                block::<4>(&low, 2, 2, &mut [0; 64], &mut out);
             } else {
-                Idct::<2>::new().block(&low, 2, 2, &mut [0; 64], &mut out);
+                block::<2>(&low, 2, 2, &mut [0; 64], &mut out);
             }
             let s = 8 / n;
             for y in 0..n {
@@ -273,7 +239,7 @@ mod tests {
             }
         }
         let mut dc = [0u8; 64];
-        Idct::<1>::new().block(&c, 1, 1, &mut [0; 64], &mut dc);
+        block::<1>(&c, 1, 1, &mut [0; 64], &mut dc);
         assert_eq!(dc[0], 128 + 25);
     }
 }

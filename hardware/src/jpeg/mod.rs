@@ -10,9 +10,9 @@
 //! whole-image buffers; `zune-jpeg` decodes only at full size. Here one thread decodes,
 //! the coefficients a reduced transform does not read are skipped past in the bit stream,
 //! the transform skips rows and columns without coefficients ([`idct`]), and chroma
-//! samples are written straight into the output, repeated over the pixels they cover.
-//! (Interpolating them as `jpeg-decoder` does was tried: no accuracy gained, a cost
-//! added; `docs/service.md`.) Anything else (progressive, arithmetic, 12-bit,
+//! samples are written straight into the output, repeated over the pixels they cover
+//! (interpolating them as `jpeg-decoder` does costs more for no accuracy the battery
+//! sees; `docs/service.md`). Anything else (progressive, arithmetic, 12-bit,
 //! several scans) is [`JpegError::Unsupported`], and `crate::decode` hands it to
 //! `jpeg-decoder`. The cost against `jpeg-decoder`'s is in `docs/service.md`.
 

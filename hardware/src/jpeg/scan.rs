@@ -3,9 +3,9 @@
 //! output's scale, and written into the output's Y, Cb or Cr byte of each pixel it covers
 //! (a subsampled chroma block covers two or four).
 
-use super::header::{Component, Header};
+use super::header::{max_sampling, Component, Header};
 use super::huffman::{Bits, Huffman, FAST_SIZE};
-use super::idct::{Idct, COEF_LIMIT};
+use super::idct::{self, COEF_LIMIT};
 use super::JpegError;
 
 /// Natural (row-major) index of each coefficient in zig-zag order.
@@ -57,10 +57,7 @@ pub fn decode<const N: usize>(
             "an output buffer of another size".into(),
         ));
     }
-    let (hmax, vmax) = header
-        .components
-        .iter()
-        .fold((1, 1), |(a, b), c| (a.max(c.h), b.max(c.v)));
+    let (hmax, vmax) = max_sampling(header.components.iter().map(|c| (c.h, c.v)));
     let plans = header
         .components
         .iter()
@@ -78,7 +75,6 @@ pub fn decode<const N: usize>(
     };
     let (full_w, full_h) = (header.width as usize, header.height as usize);
     let (mcus_x, mcus_y) = (full_w.div_ceil(8 * hmax), full_h.div_ceil(8 * vmax));
-    let idct = Idct::<N>::new();
     let mut bits = Bits::new(data, header.scan_start);
     let mut pred = [0i32; 3];
     let (mut coef, mut px, mut scratch) = ([0i32; 64], [0u8; 64], [0i32; 64]);
@@ -92,7 +88,7 @@ pub fn decode<const N: usize>(
             for by in 0..p.c.v {
                 for bx in 0..p.c.h {
                     let (rows, cols) = block::<N>(&mut bits, p, &mut pred[ci], &mut coef)?;
-                    idct.block(&coef, rows, cols, &mut scratch, &mut px);
+                    idct::block::<N>(&coef, rows, cols, &mut scratch, &mut px);
                     let x0 = ((mx * p.c.h + bx) * N) << p.h_shift;
                     let y0 = ((my * p.c.v + by) * N) << p.v_shift;
                     target.put::<N>(ci, x0, y0, p, &px);
