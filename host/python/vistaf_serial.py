@@ -25,7 +25,7 @@ import sys
 import zlib
 
 PROTOCOL_VERSION = 5
-SCHEMA_HASH = 0x6823_2393_81C3_E934
+SCHEMA_HASH = 0x48AB_3FD5_DB56_D5C7
 # Largest frame on the wire (a full map tile), bytes: anything longer is garbage.
 FRAME_MAX = 1700
 TEMP_NOT_MEASURED = -32768

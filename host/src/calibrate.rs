@@ -67,8 +67,8 @@ pub struct Plan {
     /// A command run before each temperature step, `{c}` replaced by the setpoint in °C
     /// (for example a script that sets a heater and returns once it holds).
     pub heater: Option<String>,
-    /// How long the device may wait for a settled image, per attempt, s (it gives up
-    /// after 20 s; a temperature step retries until this has passed).
+    /// How long a step may take to settle, s: the device gives up on one attempt after
+    /// `KIT_SETTLE_TIMEOUT_MS`, and the step is asked for again until this has passed.
     pub settle_timeout_s: f64,
     /// When to activate the fit.
     pub activate: Activate,
@@ -295,8 +295,10 @@ pub enum SessionError {
 
 /// Longest a fit may take on the device.
 pub const FIT_TIMEOUT: Duration = Duration::from_secs(900);
-/// The device's own limit on one settling wait (and a margin for the link).
-const DEVICE_SETTLE: Duration = Duration::from_secs(22);
+/// How long one capture is waited for: the device's own limit on settling, and a margin
+/// for the link.
+const DEVICE_SETTLE: Duration =
+    Duration::from_millis(vistaf_protocol::msg::KIT_SETTLE_TIMEOUT_MS as u64 + 2_000);
 
 /// Runs a guided calibration on `client` by `plan`, asking `guide`.
 pub fn run(
@@ -395,7 +397,7 @@ fn capture_settled(
         match client.kit_capture(step, DEVICE_SETTLE) {
             Ok(c) => return Ok(c),
             Err(HostError::Device { error, .. })
-                if error.detail.contains("did not settle")
+                if error.code == vistaf_protocol::ErrorCode::NotSettled
                     && std::time::Instant::now() < deadline => {}
             Err(e) => return Err(e.into()),
         }
@@ -469,6 +471,46 @@ mod tests {
         let p: Plan = toml::from_str("forces_n = [1.0, -2.0]").unwrap();
         let e = p.check().unwrap_err();
         assert!(e.contains("forces_n") && e.contains("-2"), "{e}");
+    }
+
+    /// A step whose image did not settle is asked for again, until it is captured; any
+    /// other device error ends the session.
+    #[test]
+    fn a_step_that_did_not_settle_is_asked_for_again() {
+        use vistaf_protocol::{DeviceError, DeviceMsg, ErrorCode, KitCaptured};
+        let step = KitStep {
+            quantity: KitQuantity::Temperature,
+            value_milli: 30_000,
+        };
+        let error = |code| {
+            DeviceMsg::Error(DeviceError {
+                code,
+                detail: vistaf_protocol::msg::truncated("the image did not settle"),
+            })
+        };
+        let captured = DeviceMsg::KitCaptured(KitCaptured {
+            step,
+            frames: 1,
+            settle_ms: 31_000,
+            change_centi_dn: 80,
+        });
+        let client = |msgs: &[DeviceMsg]| {
+            let mut bytes = Vec::new();
+            for m in msgs {
+                let mut buf = [0u8; vistaf_protocol::frame::DEVICE_FRAME_MAX];
+                let n = vistaf_protocol::encode(m, &mut buf).unwrap();
+                bytes.extend(&buf[..n]);
+            }
+            let link =
+                crate::link::Link::new("test".into(), std::io::Cursor::new(bytes), Vec::new());
+            Client::new(link)
+        };
+        let plan = Plan::default();
+        let mut c = client(&[error(ErrorCode::NotSettled), captured.clone()]);
+        let got = capture_settled(&mut c, &plan, step).unwrap();
+        assert_eq!(got.settle_ms, 31_000);
+        let mut c = client(&[error(ErrorCode::Calibration), captured]);
+        assert!(capture_settled(&mut c, &plan, step).is_err());
     }
 
     #[test]

@@ -372,37 +372,14 @@ impl Client {
         self.wait_keeping(waiting_for, timeout, true, pick)
     }
 
-    /// Waits as [`Client::wait_keeping`] without keeping: a calibration session's waits
-    /// are long, and the summaries meanwhile are not what it reads.
-    fn wait_calibrating<T>(
-        &mut self,
-        waiting_for: &'static str,
-        timeout: Duration,
-        pick: impl FnMut(&DeviceMsg) -> Option<T>,
-    ) -> Result<T, HostError> {
-        self.wait_until(waiting_for, timeout, false, is_report, pick)
-    }
-
     /// [`Client::wait_for`]; with `keep` off, the messages before the one picked are
-    /// discarded (and counted) instead of queued.
+    /// discarded (and counted) instead of queued: a calibration session's waits are long,
+    /// and the summaries meanwhile are not what it reads.
     fn wait_keeping<T>(
         &mut self,
         waiting_for: &'static str,
         timeout: Duration,
         keep: bool,
-        pick: impl FnMut(&DeviceMsg) -> Option<T>,
-    ) -> Result<T, HostError> {
-        self.wait_until(waiting_for, timeout, keep, is_report, pick)
-    }
-
-    /// [`Client::wait_keeping`]; device errors that `tolerate` accepts do not end the wait
-    /// (they stay in the stream, or are discarded with the rest without `keep`).
-    fn wait_until<T>(
-        &mut self,
-        waiting_for: &'static str,
-        timeout: Duration,
-        keep: bool,
-        tolerate: impl Fn(&vistaf_protocol::DeviceError) -> bool,
         mut pick: impl FnMut(&DeviceMsg) -> Option<T>,
     ) -> Result<T, HostError> {
         let deadline = Instant::now() + timeout;
@@ -414,14 +391,12 @@ impl Client {
                         break Ok(v);
                     }
                     if let DeviceMsg::Error(error) = &r.msg {
-                        if tolerate(error) {
-                            held.push_back(r);
-                            continue;
+                        if !is_report(error) {
+                            break Err(HostError::Device {
+                                link: self.name().to_string(),
+                                error: error.clone(),
+                            });
                         }
-                        break Err(HostError::Device {
-                            link: self.name().to_string(),
-                            error: error.clone(),
-                        });
                     }
                     held.push_back(r);
                 }
@@ -529,7 +504,7 @@ impl Client {
         timeout: Duration,
     ) -> Result<KitCaptured, HostError> {
         self.send(&HostMsg::KitCapture(step))?;
-        self.wait_calibrating("KitCaptured", timeout, |m| match m {
+        self.wait_keeping("KitCaptured", timeout, false, |m| match m {
             DeviceMsg::KitCaptured(c) if c.step == step => Some(*c),
             _ => None,
         })
@@ -543,7 +518,7 @@ impl Client {
     ) -> Result<(Vec<KitVerdict>, CalibrationFitted), HostError> {
         self.send(&HostMsg::KitFit)?;
         let mut verdicts = Vec::new();
-        let fitted = self.wait_calibrating("CalibrationFitted", timeout, |m| match m {
+        let fitted = self.wait_keeping("CalibrationFitted", timeout, false, |m| match m {
             DeviceMsg::KitVerdict(v) => {
                 verdicts.push(*v);
                 None
@@ -562,7 +537,7 @@ impl Client {
         timeout: Duration,
     ) -> Result<Hello, HostError> {
         self.send(&HostMsg::CalibrationActivate { calibration_id })?;
-        self.wait_calibrating("Hello", timeout, |m| match m {
+        self.wait_keeping("Hello", timeout, false, |m| match m {
             DeviceMsg::Hello(h) if h.calibration_id == calibration_id => Some(h.clone()),
             _ => None,
         })
@@ -574,7 +549,7 @@ impl Client {
         // The answer is a Hello: one already queued (the handshake's) is not it.
         self.queue.retain(|r| !matches!(r.msg, DeviceMsg::Hello(_)));
         self.send(&HostMsg::CalibrationRollback)?;
-        self.wait_calibrating("Hello", timeout, |m| match m {
+        self.wait_keeping("Hello", timeout, false, |m| match m {
             DeviceMsg::Hello(h) => Some(h.clone()),
             _ => None,
         })

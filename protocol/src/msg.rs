@@ -39,6 +39,10 @@ pub fn truncated<const N: usize>(s: &str) -> String<N> {
     out
 }
 
+/// How long the device waits for a calibration kit step's image to settle before it
+/// answers [`ErrorCode::NotSettled`], ms.
+pub const KIT_SETTLE_TIMEOUT_MS: u32 = 20_000;
+
 /// Number of LEDs the [`SetLed`] mask can address.
 pub const LED_MASK_BITS: u32 = 32;
 
@@ -221,6 +225,9 @@ pub enum ErrorCode {
     /// No reference could be taken (no grating in view, or the calibration does not fit);
     /// the device keeps trying with the next stable frames.
     Reference,
+    /// A calibration kit step's image did not settle within [`KIT_SETTLE_TIMEOUT_MS`]
+    /// (the skin still moving or warming); the step may be asked for again.
+    NotSettled,
 }
 
 /// An error report from the device.

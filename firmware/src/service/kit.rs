@@ -23,7 +23,8 @@ use vistaf_pipeline::{Calibration, Implementation};
 use vistaf_protocol::{KitCaptured, KitQuantity, KitStep};
 
 /// How long a step may take to settle.
-pub const SETTLE_TIMEOUT: Duration = Duration::from_secs(20);
+pub const SETTLE_TIMEOUT: Duration =
+    Duration::from_millis(vistaf_protocol::msg::KIT_SETTLE_TIMEOUT_MS as u64);
 /// Consecutive calm frame pairs that make a settled image.
 pub const SETTLED_RUN: u32 = 2;
 /// Side of the blocks whose means are compared, pixels.
@@ -154,7 +155,7 @@ impl Kit {
         }
         self.pending = None;
         Some(format!(
-            "kit: the image did not settle within {} s (mean change stayed ≥ the reference's stable_dn)",
+            "the image did not settle within {} s (mean change stayed ≥ reference.stable_dn)",
             SETTLE_TIMEOUT.as_secs()
         ))
     }

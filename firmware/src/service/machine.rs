@@ -33,7 +33,8 @@ pub const STATUS_INTERVAL: Duration = Duration::from_secs(1);
 /// How long after a reference that could not be used the next attempt is made.
 pub const REFERENCE_RETRY: Duration = Duration::from_secs(1);
 
-/// Counts kept by the threads at the edge (capture, link reader), read into `Status`.
+/// What the threads at the edge (capture, link reader) and the service share: the
+/// counts the edge keeps, read into `Status`, and how the service wants frames decoded.
 #[derive(Debug, Default)]
 pub struct EdgeCounters {
     /// Frames delivered by the source.
@@ -404,10 +405,7 @@ impl<'a, C: Clock> Service<'a, C> {
                 return error(ErrorCode::Calibration, &e);
             }
         }
-        let old = std::mem::replace(&mut self.calibration, new);
-        self.previous = Some(old);
-        self.use_calibration();
-        self.hello()
+        self.use_calibration(new)
     }
 
     /// Goes back to the calibration the last activation replaced.
@@ -424,18 +422,18 @@ impl<'a, C: Clock> Service<'a, C> {
                 return error(ErrorCode::Calibration, &e);
             }
         }
-        let replaced = std::mem::replace(&mut self.calibration, old);
-        self.previous = Some(replaced);
-        self.use_calibration();
-        self.hello()
+        self.use_calibration(old)
     }
 
-    /// After a change of calibration: frames decoded at its scale, a new reference.
-    fn use_calibration(&mut self) {
+    /// Puts `c` in use, keeping the one it replaces: frames decoded at its scale, a new
+    /// reference; the device's `Hello` with its id.
+    fn use_calibration(&mut self, c: Calibration) -> DeviceMsg {
+        self.previous = Some(std::mem::replace(&mut self.calibration, c));
         self.scale = decode_scale(&self.calibration, &self.format);
         self.edge.decode_scale.store(self.scale, Ordering::Relaxed);
         self.keeper.renew();
         self.reference_retry_at = None;
+        self.hello()
     }
 
     /// What happened in the background since the last call: a kit step that never
@@ -444,7 +442,7 @@ impl<'a, C: Clock> Service<'a, C> {
         let mut out = Vec::new();
         if let Some(e) = self.kit.timed_out(self.clock.now()) {
             self.edge.keep_raw.store(false, Ordering::Relaxed);
-            out.push(error(ErrorCode::Calibration, &e));
+            out.push(error(ErrorCode::NotSettled, &e));
         }
         match self.kit.fitted() {
             None => {}
