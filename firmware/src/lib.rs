@@ -6,7 +6,7 @@
 #![deny(missing_docs)]
 
 pub mod config;
-pub mod maps;
+pub mod figure;
 pub mod report;
 pub mod service;
 pub mod source_spec;

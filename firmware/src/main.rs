@@ -28,6 +28,26 @@ enum Cmd {
     Calibrate(cmd::calibrate::Args),
     /// Run the service: source → pipeline → summaries on a serial link.
     Run(cmd::run::Args),
+    /// List this machine's V4L2 nodes: path, driver name, USB serial (what
+    /// `--source camera:PATH|camera-serial:S|camera-name:N` picks from).
+    ListCameras,
+}
+
+/// Prints the machine's V4L2 nodes, one per line.
+fn list_cameras() -> Result<()> {
+    #[cfg(feature = "v4l")]
+    {
+        let nodes = vistaf_hardware::camera::list_nodes();
+        if nodes.is_empty() {
+            println!("no V4L2 nodes on this machine (/sys/class/video4linux is empty)");
+        }
+        for n in &nodes {
+            println!("{}", vistaf_hardware::camera::describe(n));
+        }
+        Ok(())
+    }
+    #[cfg(not(feature = "v4l"))]
+    anyhow::bail!("this vistaf-skin was built without V4L2 (feature v4l)")
 }
 
 fn main() {
@@ -39,6 +59,7 @@ fn main() {
         Cmd::Analyze(a) => cmd::analyze::run(a),
         Cmd::Calibrate(a) => cmd::calibrate::run(a),
         Cmd::Run(a) => cmd::run::run(a),
+        Cmd::ListCameras => list_cameras(),
     };
     if let Err(e) = result {
         // Every error says its cause once (in its message or as its source, never both),

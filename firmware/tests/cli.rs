@@ -84,7 +84,12 @@ fn analyze_out_writes_maps_and_a_traceable_summary() {
         "float",
     ]);
     ok(&out);
-    assert!(out_dir.join("f0003_depth.png").exists());
+    assert!(out_dir.join("f0003.png").exists());
+    let svg = std::fs::read_to_string(out_dir.join("f0003.svg")).unwrap();
+    assert!(
+        svg.contains(">\ndepth\n<") || svg.contains(">depth<"),
+        "the depth bar's title"
+    );
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out_dir.join("summary.json")).unwrap())
             .unwrap();

@@ -349,6 +349,71 @@ fn maps_come_with_the_next_frame() {
         .all(|m| !matches!(m, DeviceMsg::Map(_))));
 }
 
+/// A full map comes whole, in order, from the same frame as the coarse one, whose cells
+/// are its block maxima; the camera is whole only.
+#[test]
+fn full_maps_come_whole_with_the_next_frame() {
+    let mut rig = Rig::new(settings(Default::default()));
+    let (mut svc, mut cam) = rig.start();
+    feed(&mut svc, &mut cam, &vec![SkinState::idle(ROOM_C); 3]);
+    assert!(matches!(
+        svc.on_command(HostMsg::RequestMap(MapKind::Camera)),
+        DeviceMsg::Error(e) if e.code == ErrorCode::UnsupportedCommand
+    ));
+    svc.on_command(HostMsg::RequestMap(MapKind::Depth));
+    for kind in [MapKind::Depth, MapKind::Camera, MapKind::Depth] {
+        assert_eq!(
+            svc.on_command(HostMsg::RequestFullMap(kind)),
+            DeviceMsg::Ack(Command::RequestFullMap)
+        );
+    }
+    let out = feed(&mut svc, &mut cam, &[press(1.5)]);
+    let seq = summaries(&out)[0].seq;
+    let coarse = out
+        .iter()
+        .find_map(|m| match m {
+            DeviceMsg::Map(m) => Some(m),
+            _ => None,
+        })
+        .unwrap();
+    let pieces = |kind: MapKind| -> Vec<&vistaf_protocol::MapChunk> {
+        out.iter()
+            .filter_map(|m| match m {
+                DeviceMsg::MapChunk(c) if c.kind == kind => Some(c),
+                _ => None,
+            })
+            .collect()
+    };
+    let depth = pieces(MapKind::Depth);
+    let (w, h) = (usize::from(depth[0].width), usize::from(depth[0].height));
+    let mut cells = Vec::new();
+    for p in &depth {
+        assert!(p.is_consistent() && p.seq == seq && p.first_cell as usize == cells.len());
+        cells.extend(p.cells.iter().copied());
+    }
+    assert_eq!(cells.len(), w * h, "asked twice, sent once, whole");
+    // The coarse tile's cells are block maxima of the full map (each coarse cell covers
+    // `step × step` working pixels).
+    let step = w.div_ceil(usize::from(coarse.width));
+    for (i, &c) in coarse.cells.iter().enumerate() {
+        let (tx, ty) = (i % usize::from(coarse.width), i / usize::from(coarse.width));
+        let block = (ty * step..((ty + 1) * step).min(h))
+            .flat_map(|y| (tx * step..((tx + 1) * step).min(w)).map(move |x| y * w + x))
+            .map(|j| cells[j])
+            .filter(|&v| v != vistaf_protocol::msg::MAP_NO_DATA);
+        if c != vistaf_protocol::msg::MAP_NO_DATA {
+            assert_eq!(block.max(), Some(c), "coarse cell {i}");
+        }
+    }
+    let pitch_mm = f64::from(depth[0].cell_pitch_nm) * 1e-6;
+    assert!((pitch_mm * step as f64 * 100.0 - f64::from(coarse.cell_pitch_centi_mm)).abs() <= 1.0);
+    let camera = pieces(MapKind::Camera);
+    assert_eq!(camera.iter().map(|p| p.cells.len()).sum::<usize>(), w * h);
+    assert!(feed(&mut svc, &mut cam, &[press(1.5)])
+        .iter()
+        .all(|m| !matches!(m, DeviceMsg::MapChunk(_))));
+}
+
 #[test]
 fn stop_silences_summaries_until_start() {
     let mut rig = Rig::new(settings(Default::default()));

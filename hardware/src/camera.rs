@@ -189,6 +189,34 @@ pub fn resolve(nodes: &[Node], sel: &Selector) -> Result<PathBuf, String> {
     }
 }
 
+/// One node as `list-cameras` prints it: path, the driver's name, the USB serial, and
+/// what it is when it is not a camera.
+pub fn describe(n: &Node) -> String {
+    let mut line = format!("{}  {:?}", n.path.display(), n.name);
+    if let Some(s) = &n.serial {
+        line.push_str(&format!("  serial {s:?}"));
+    }
+    if !n.captures_video {
+        line.push_str("  (not a capture node)");
+    }
+    line
+}
+
+/// What a "camera not found" error adds: the capture nodes this machine has, or that it
+/// has none.
+pub fn available(nodes: &[Node]) -> String {
+    let cams: Vec<String> = nodes
+        .iter()
+        .filter(|n| n.captures_video)
+        .map(describe)
+        .collect();
+    if cams.is_empty() {
+        "no camera on this machine (vistaf-skin list-cameras)".into()
+    } else {
+        format!("cameras here: {}", cams.join("; "))
+    }
+}
+
 fn read_trim(p: &Path) -> Option<String> {
     std::fs::read_to_string(p)
         .ok()
@@ -282,14 +310,19 @@ impl Camera {
 
     /// Finds, opens and starts the camera.
     pub fn open(sel: &Selector, req: &CaptureRequest) -> Result<Camera, SourceError> {
+        let not_found = |device: String, detail: String| SourceError::Gone {
+            device,
+            detail: format!("{detail}; {}", available(&list_nodes())),
+        };
         let path = match sel {
             Selector::Path(p) => p.clone(),
-            other => resolve(&list_nodes(), other).map_err(|detail| SourceError::Gone {
-                device: format!("{other:?}"),
-                detail,
-            })?,
+            other => resolve(&list_nodes(), other)
+                .map_err(|detail| not_found(format!("{other:?}"), detail))?,
         };
-        let dev = Device::with_path(&path).map_err(|e| gone(&path, &e))?;
+        let dev = Device::with_path(&path).map_err(|e| match e.kind() {
+            std::io::ErrorKind::NotFound => not_found(path.display().to_string(), e.to_string()),
+            _ => gone(&path, &e),
+        })?;
         let caps = query_caps(&dev).map_err(|e| gone(&path, &e))?;
         let unsupported = |detail: String| SourceError::Unsupported {
             device: path.display().to_string(),

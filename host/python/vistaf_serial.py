@@ -24,8 +24,8 @@ import json
 import sys
 import zlib
 
-PROTOCOL_VERSION = 5
-SCHEMA_HASH = 0x48AB_3FD5_DB56_D5C7
+PROTOCOL_VERSION = 6
+SCHEMA_HASH = 0xC9D8_EA77_8716_206A
 # Largest frame on the wire (a full map tile), bytes: anything longer is garbage.
 FRAME_MAX = 1700
 TEMP_NOT_MEASURED = -32768

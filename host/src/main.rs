@@ -9,6 +9,7 @@ use clap::{Parser, Subcommand};
 use vistaf_host::bridge::{mcap::McapSink, serve::Serve, Bridge, Stamps};
 use vistaf_host::client::{describe, Client, Next, DEFAULT_TIMEOUT};
 use vistaf_host::link::{Link, LinkSpec};
+use vistaf_host::maps::WholeMap;
 use vistaf_host::monitor::Monitor;
 use vistaf_host::multi::Reopen;
 use vistaf_host::record::{message_json, Recorder};
@@ -86,8 +87,8 @@ enum Cmd {
     Decode {
         /// Captured stream (a file, or - for stdin).
         file: String,
-        /// Emit JSON lines (the default and only output format today).
-        #[arg(long, default_value_t = true)]
+        /// Accepted for old scripts: JSON lines are the only output.
+        #[arg(long, hide = true)]
         json: bool,
     },
     /// Print the device's identity and protocol version.
@@ -144,13 +145,45 @@ enum Cmd {
         /// Serial link.
         port: String,
     },
-    /// Ask for one map of the next frame and print it as JSON, in mm or °C.
+    /// Ask for one map of the next frame and print it as JSON, in mm or °C (the camera's
+    /// cells as [r, g, b]).
     Map {
         /// Serial link.
         port: String,
-        /// depth or temperature.
-        #[arg(value_parser = map_kind)]
+        /// depth, temperature, or camera (whole only: with --full).
+        #[arg(value_parser = any_map_kind)]
         kind: MapKind,
+        /// The map at the working resolution (every working pixel), sent in pieces,
+        /// instead of the coarse one of at most 768 cells.
+        #[arg(long)]
+        full: bool,
+        /// Answer timeout, ms (a full map over a slow serial line takes seconds).
+        #[arg(long, default_value_t = 30_000)]
+        timeout_ms: u64,
+    },
+    /// Draw the next frame as a figure: camera image, depth map with mm axes and a numbered
+    /// colour bar, shaded 3-D surface, temperature map with its extremes marked; force,
+    /// depth, contact temperature and flags in the title. Writes OUT (PNG) and its SVG twin.
+    Snapshot {
+        /// Serial link.
+        port: String,
+        /// The figure, PNG; the SVG twin is written beside it.
+        #[arg(long)]
+        out: PathBuf,
+        /// Also write the indented surface as a PLY mesh (mm).
+        #[arg(long)]
+        ply: Option<PathBuf>,
+        /// Depth colour bar, LO,HI mm [default: 0 to the frame's deepest, rounded up,
+        /// at least 0.5].
+        #[arg(long, value_parser = range_pair)]
+        depth_range_mm: Option<(f64, f64)>,
+        /// Temperature colour bar, LO,HI °C [default: around the frame's coldest and
+        /// hottest, rounded, at least 2 wide].
+        #[arg(long, value_parser = range_pair)]
+        temperature_range_c: Option<(f64, f64)>,
+        /// Answer timeout, ms (full maps over a slow serial line take seconds).
+        #[arg(long, default_value_t = 30_000)]
+        timeout_ms: u64,
     },
     /// Calibrate a skin in one guided session: each press and temperature asked for,
     /// captured on the device once the image settles, fitted, judged against the targets,
@@ -185,9 +218,10 @@ enum Cmd {
 
 #[derive(clap::Args, Debug)]
 struct RunArgs {
-    /// Stop after this many summaries in all.
-    #[arg(long)]
-    frames: Option<u64>,
+    /// Stop after this many summaries in all (a rate limit sends fewer summaries than the
+    /// camera takes frames; `--frames` is the old name).
+    #[arg(long, alias = "frames")]
+    summaries: Option<u64>,
     /// Stop after this many seconds.
     #[arg(long, value_parser = seconds)]
     duration_s: Option<f64>,
@@ -204,12 +238,35 @@ struct RunArgs {
 /// How often a streaming skin's clock is read, to map capture times onto the host's.
 const CLOCK_PERIOD: Duration = Duration::from_secs(1);
 
-/// A map kind for `--maps`.
+/// A map kind for `--maps` (coarse maps: depth or temperature).
 fn map_kind(s: &str) -> Result<MapKind, String> {
     match s {
         "depth" => Ok(MapKind::Depth),
         "temperature" => Ok(MapKind::Temperature),
         other => Err(format!("{other:?}: depth or temperature")),
+    }
+}
+
+/// A map kind for `map`: depth, temperature or camera.
+fn any_map_kind(s: &str) -> Result<MapKind, String> {
+    match s {
+        "camera" => Ok(MapKind::Camera),
+        other => map_kind(other).map_err(|_| format!("{other:?}: depth, temperature or camera")),
+    }
+}
+
+/// A colour bar's `LO,HI`, finite and increasing.
+fn range_pair(s: &str) -> Result<(f64, f64), String> {
+    let bad = || format!("{s:?}: LO,HI with LO < HI, like 0,1.5");
+    let (lo, hi) = s.split_once(',').ok_or_else(bad)?;
+    let (lo, hi): (f64, f64) = (
+        lo.trim().parse().map_err(|_| bad())?,
+        hi.trim().parse().map_err(|_| bad())?,
+    );
+    if lo.is_finite() && hi.is_finite() && lo < hi {
+        Ok((lo, hi))
+    } else {
+        Err(bad())
     }
 }
 
@@ -313,12 +370,38 @@ fn run(cli: Cli) -> Result<()> {
         }),
         Cmd::Start { port } => command(&port, "streaming", |c| c.start(DEFAULT_TIMEOUT)),
         Cmd::Stop { port } => command(&port, "stopped", |c| c.stop(DEFAULT_TIMEOUT)),
-        Cmd::Map { port, kind } => {
+        Cmd::Map {
+            port,
+            kind,
+            full,
+            timeout_ms,
+        } => {
             let mut c = open_client(&port)?;
             c.handshake(DEFAULT_TIMEOUT)?;
-            let map = c.request_map(kind, Duration::from_secs(5))?;
-            println!("{}", vistaf_host::record::map_json(&map));
+            let timeout = Duration::from_millis(timeout_ms);
+            let json = if full {
+                let shot = c.request_full_maps(&[kind], timeout)?;
+                shot.maps.first().map(|m| m.to_json())
+            } else {
+                let map = c.request_map(kind, timeout)?;
+                WholeMap::from_coarse(&map).map(|m| m.to_json())
+            };
+            println!("{}", json.context("the device sent no usable map")?);
             Ok(())
+        }
+        Cmd::Snapshot {
+            port,
+            out,
+            ply,
+            depth_range_mm,
+            temperature_range_c,
+            timeout_ms,
+        } => {
+            let bars = vistaf_figure::range::Bars {
+                depth_mm: depth_range_mm,
+                temperature_c: temperature_range_c,
+            };
+            snapshot(&port, &out, ply.as_deref(), bars, timeout_ms)
         }
         Cmd::Calibrate {
             port,
@@ -355,6 +438,45 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// The next frame of the skin on `port` as a figure (and its surface as PLY).
+fn snapshot(
+    port: &str,
+    out: &std::path::Path,
+    ply: Option<&std::path::Path>,
+    bars: vistaf_figure::range::Bars,
+    timeout_ms: u64,
+) -> Result<()> {
+    use vistaf_host::snapshot;
+    let mut c = open_client(port)?;
+    c.handshake(DEFAULT_TIMEOUT)?;
+    let timeout = Duration::from_millis(timeout_ms);
+    let shot = match c.request_full_maps(&snapshot::FIGURE_MAPS, timeout) {
+        // A calibration without thermometry: the figure without its temperature panel.
+        Err(HostError::Device { error, .. })
+            if error.code == vistaf_protocol::ErrorCode::UnsupportedCommand =>
+        {
+            eprintln!("{}: {}; no temperature panel", c.name(), error.detail);
+            c.request_full_maps(&[MapKind::Camera, MapKind::Depth], timeout)?
+        }
+        other => other?,
+    };
+    let frame = snapshot::frame(&shot);
+    let ranges = bars.or(vistaf_figure::Ranges::covering([&frame]));
+    let written = vistaf_figure::write(&frame, &ranges, out)?;
+    println!(
+        "{}: {} wrote {} and {}",
+        c.name(),
+        frame.readout.label,
+        written.png.display(),
+        written.svg.display()
+    );
+    if let Some(p) = ply {
+        snapshot::write_ply(&frame, p)?;
+        println!("{}: surface in {}", c.name(), p.display());
+    }
+    Ok(())
 }
 
 /// Greets the skin on `port`, sends it one command, and says `done` when it is acknowledged.
@@ -524,7 +646,7 @@ fn open_links(ports: &[String], run: &RunArgs) -> Result<Vec<(Client, Option<Reo
 
 fn limits(run: &RunArgs) -> Limits {
     Limits {
-        summaries: run.frames,
+        summaries: run.summaries,
         duration: run.duration_s.map(Duration::from_secs_f64),
     }
 }

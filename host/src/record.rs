@@ -13,6 +13,7 @@ use vistaf_protocol::{DeviceMsg, KitCaptured, KitQuantity, KitVerdict, Summary};
 use crate::client::Received;
 use crate::clock::{unix_s, MappedTime};
 use crate::error::HostError;
+use crate::maps::{chunk_json, WholeMap};
 
 /// Output format, chosen from the file extension.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -145,27 +146,9 @@ struct SummaryLine<'a> {
 }
 
 /// A map in SI units: depth cells in mm, temperature cells in °C, `null` where the device
-/// trusts no value; the cell pitch in mm.
+/// trusts no value; the cell pitch in mm (`null` for a map whose cells do not fill it).
 pub fn map_json(m: &vistaf_protocol::Map) -> Value {
-    use vistaf_protocol::{msg::MAP_NO_DATA, MapKind};
-    let (kind, unit, scale) = match m.kind {
-        MapKind::Depth => ("depth", "mm", 1e-3),
-        MapKind::Temperature => ("temperature", "°C", 1e-2),
-    };
-    let cells: Vec<Option<f64>> = m
-        .cells
-        .iter()
-        .map(|&c| (c != MAP_NO_DATA).then(|| f64::from(c) * scale))
-        .collect();
-    json!({
-        "seq": m.seq,
-        "kind": kind,
-        "unit": unit,
-        "width": m.width,
-        "height": m.height,
-        "cell_pitch_mm": f64::from(m.cell_pitch_centi_mm) / 100.0,
-        "cells": cells,
-    })
+    WholeMap::from_coarse(m).map_or(Value::Null, |w| w.to_json())
 }
 
 /// A calibration id as every output prints it: eight lowercase hexadecimal digits.
@@ -229,6 +212,7 @@ pub fn message_json(device: &str, received: &Received) -> Value {
                     ("hello", v)
                 }
                 DeviceMsg::Map(m) => ("map", map_json(m)),
+                DeviceMsg::MapChunk(c) => ("map_chunk", chunk_json(c)),
                 DeviceMsg::Status(st) => ("status", json!(st)),
                 DeviceMsg::Error(e) => ("error", json!(e)),
                 DeviceMsg::Pong { nonce } => ("pong", json!({ "nonce": nonce })),

@@ -138,7 +138,7 @@ fn a_reader_attaches_to_a_running_bridge() {
             std::thread::sleep(Duration::from_millis(20));
         }
     });
-    let stdout = common::host_ok(&["record", &served, "--out", "-", "--frames", "30"]);
+    let stdout = common::host_ok(&["record", &served, "--out", "-", "--summaries", "30"]);
     let lines: Vec<serde_json::Value> = stdout
         .lines()
         .map(|l| serde_json::from_str(l).unwrap())
@@ -242,4 +242,115 @@ fn control_subcommands_command_the_skin() {
     )));
     drop(slave);
     drop(device);
+}
+
+/// The pieces of a `w × h` map whose cell `i` is `cell(i)`.
+fn pieces(
+    kind: vistaf_protocol::MapKind,
+    (w, h): (u16, u16),
+    cell: impl Fn(usize) -> i16,
+) -> Vec<DeviceMsg> {
+    let cells: Vec<i16> = (0..usize::from(w) * usize::from(h)).map(cell).collect();
+    cells
+        .chunks(vistaf_protocol::msg::MAP_MAX_CELLS)
+        .enumerate()
+        .map(|(i, part)| {
+            DeviceMsg::MapChunk(vistaf_protocol::MapChunk {
+                seq: 10,
+                kind,
+                width: w,
+                height: h,
+                cell_pitch_nm: if kind == vistaf_protocol::MapKind::Temperature {
+                    2_000_000
+                } else {
+                    250_000
+                },
+                first_cell: (i * vistaf_protocol::msg::MAP_MAX_CELLS) as u32,
+                cells: heapless::Vec::from_slice(part).unwrap(),
+            })
+        })
+        .collect()
+}
+
+/// `snapshot` draws the next frame's full maps as a figure with its SVG twin and PLY
+/// surface; `map --full` prints a full map in SI units.
+#[test]
+fn snapshot_and_full_maps_from_the_skin() {
+    use vistaf_protocol::{Command as Cmd, HostMsg, MapKind};
+    let (master, slave) = TTYPort::pair().unwrap();
+    let path = slave.name().unwrap();
+    // A 2 mm deep dimple at cell (30, 12) of a 48 × 36 working grid.
+    let depth_um = |i: usize| {
+        let (x, y) = ((i % 48) as f64 - 30.0, (i / 48) as f64 - 12.0);
+        (2000.0 * (1.0 - (x * x + y * y) / 64.0)).max(0.0) as i16
+    };
+    let device = device_answering(master, move |m| match m {
+        HostMsg::GetInfo => vec![common::hello("VSK-FIG", 7)],
+        HostMsg::RequestFullMap(kind) => {
+            let mut out = vec![DeviceMsg::Ack(Cmd::RequestFullMap)];
+            if kind == MapKind::Camera {
+                out.push(DeviceMsg::Summary(vistaf_protocol::Summary {
+                    force_mn: 12_360,
+                    peak_depth_um: 2_000,
+                    ..common::summary(10)
+                }));
+            }
+            out.extend(match kind {
+                MapKind::Camera => pieces(kind, (48, 36), |i| if i % 4 < 2 { 0x7bef } else { 0 }),
+                MapKind::Depth => pieces(kind, (48, 36), depth_um),
+                MapKind::Temperature => pieces(kind, (6, 4), |i| 2_500 + 100 * i as i16),
+            });
+            out
+        }
+        _ => Vec::new(),
+    });
+    let link = format!("serial:{path}");
+    let dir = std::env::temp_dir().join(format!("vistaf-host-snap-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (png, ply) = (dir.join("fig.png"), dir.join("surface.ply"));
+    let said = common::host_ok(&[
+        "snapshot",
+        &link,
+        "--out",
+        png.to_str().unwrap(),
+        "--ply",
+        ply.to_str().unwrap(),
+        "--depth-range-mm",
+        "0,2.5",
+    ]);
+    assert!(said.contains("frame 10"), "{said}");
+    assert_eq!(&std::fs::read(&png).unwrap()[1..4], b"PNG");
+    let svg = std::fs::read_to_string(dir.join("fig.svg")).unwrap();
+    for want in [
+        ">2.5 mm<",
+        ">0.0 mm<",
+        "force 12.36 N",
+        "depth 2.000 mm",
+        "max 48.0 °C",
+        "min 25.0 °C",
+    ] {
+        assert!(
+            svg.replace('\n', "").contains(want),
+            "no {want} in the figure's SVG"
+        );
+    }
+    let mesh = std::fs::read_to_string(&ply).unwrap();
+    assert!(mesh.contains(&format!("element vertex {}\n", 48 * 36)));
+    assert!(
+        mesh.contains("7.5000 3.0000 -2.0000\n"),
+        "the dimple's bottom at (30, 12) × 0.25 mm"
+    );
+
+    let full: serde_json::Value =
+        serde_json::from_str(common::host_ok(&["map", &link, "depth", "--full"]).trim()).unwrap();
+    assert_eq!(
+        (full["width"].as_u64(), full["height"].as_u64()),
+        (Some(48), Some(36))
+    );
+    assert_eq!(full["unit"], "mm");
+    assert_eq!(full["cell_pitch_mm"], 0.25);
+    assert_eq!(full["cells"][12 * 48 + 30], 2.0);
+    drop(slave);
+    drop(device);
+    std::fs::remove_dir_all(&dir).ok();
 }

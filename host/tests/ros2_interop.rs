@@ -61,7 +61,7 @@ fn a_cyclone_dds_subscriber_receives_the_bridge_s_wrench_and_temperature() {
             "--ros2",
             "--no-handshake",
         ])
-        .args(["--frames", &SUMMARIES.to_string(), "--duration-s", "60"])
+        .args(["--summaries", &SUMMARIES.to_string(), "--duration-s", "60"])
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();

@@ -290,6 +290,7 @@ impl WireMessage for crate::msg::DeviceMsg {
     fn is_valid(&self) -> bool {
         match self {
             crate::msg::DeviceMsg::Map(m) => m.is_consistent(),
+            crate::msg::DeviceMsg::MapChunk(c) => c.is_consistent(),
             _ => true,
         }
     }

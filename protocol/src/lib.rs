@@ -58,7 +58,7 @@ pub use flags::{Flag, QualityFlags};
 pub use frame::{encode, Decoder, DeviceDecoder, DropCounts, FrameError, HostDecoder};
 pub use msg::{
     CalibrationFitted, CentroidDeciMm, ClockReading, Command, DeviceError, DeviceMsg, ErrorCode,
-    FirmwareVersion, Hello, HostMsg, KitCaptured, KitQuantity, KitStep, KitVerdict, Map, MapKind,
-    Rgb, RunState, SetLed, Status, Summary,
+    FirmwareVersion, Hello, HostMsg, KitCaptured, KitQuantity, KitStep, KitVerdict, Map, MapChunk,
+    MapKind, Rgb, RunState, SetLed, Status, Summary,
 };
 pub use schema::{schema_hash, PROTOCOL_VERSION};

@@ -136,6 +136,9 @@ pub enum MapKind {
     Depth,
     /// Skin temperature, cells in 0.01 °C.
     Temperature,
+    /// The camera image the pipeline saw, at the working resolution; cells are RGB 5-6-5
+    /// (red in the top five bits, read as `u16`). Sent whole only ([`MapChunk`]).
+    Camera,
 }
 
 /// A downsampled depth or temperature map, sent once per [`HostMsg::RequestMap`].
@@ -159,6 +162,43 @@ impl Map {
     /// Whether `cells` holds exactly `width × height` values.
     pub fn is_consistent(&self) -> bool {
         usize::from(self.width) * usize::from(self.height) == self.cells.len()
+    }
+}
+
+/// One piece of a map at the working resolution, sent after a
+/// [`HostMsg::RequestFullMap`]: the map's cells in row-major order, [`MAP_MAX_CELLS`] at a
+/// time, every piece of one map sent one after another, carrying the same `seq`, `kind` and
+/// size. The host puts them together by `first_cell`; a map is whole when its
+/// `width × height` cells have come.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, MaxSize, Schema)]
+pub struct MapChunk {
+    /// Sequence number of the frame the map was taken from (matches a [`Summary::seq`]).
+    pub seq: u32,
+    /// What the cells hold (units as in [`MapKind`]).
+    pub kind: MapKind,
+    /// Cells per row of the whole map.
+    pub width: u16,
+    /// Rows of the whole map.
+    pub height: u16,
+    /// Side of one cell on the skin, nm (a working pixel is tens of µm).
+    pub cell_pitch_nm: u32,
+    /// Row-major index of `cells[0]` in the whole map.
+    pub first_cell: u32,
+    /// The cells; [`MAP_NO_DATA`] where untrusted (depth, temperature).
+    pub cells: Vec<i16, MAP_MAX_CELLS>,
+}
+
+impl MapChunk {
+    /// Cells of the whole map.
+    pub fn total_cells(&self) -> usize {
+        usize::from(self.width) * usize::from(self.height)
+    }
+
+    /// Whether the piece is not empty and lies inside its map.
+    pub fn is_consistent(&self) -> bool {
+        !self.cells.is_empty()
+            && usize::try_from(self.first_cell)
+                .is_ok_and(|f| f.saturating_add(self.cells.len()) <= self.total_cells())
     }
 }
 
@@ -259,6 +299,8 @@ pub enum Command {
     KitCapture,
     /// [`HostMsg::KitFit`]: the fit started; its verdicts follow.
     KitFit,
+    /// [`HostMsg::RequestFullMap`]: the next processed frame's map follows in pieces.
+    RequestFullMap,
 }
 
 /// What a calibration kit step labels its frame with.
@@ -356,6 +398,8 @@ pub enum DeviceMsg {
     KitVerdict(KitVerdict),
     /// After the verdicts of [`HostMsg::KitFit`]: the candidate, ready to activate.
     CalibrationFitted(CalibrationFitted),
+    /// A piece of a map at the working resolution ([`HostMsg::RequestFullMap`]).
+    MapChunk(MapChunk),
 }
 
 /// The device's clock around one [`HostMsg::Clock`] request, in the clock of
@@ -420,7 +464,7 @@ pub enum HostMsg {
     },
     /// Change the LED ring.
     SetLed(SetLed),
-    /// Send one map of the next processed frame.
+    /// Send one coarse map (at most [`MAP_MAX_CELLS`] cells) of the next processed frame.
     RequestMap(MapKind),
     /// Resume streaming summaries.
     Start,
@@ -448,4 +492,7 @@ pub enum HostMsg {
     /// Go back to the calibration the last activation replaced; answered by
     /// [`DeviceMsg::Hello`] with its id.
     CalibrationRollback,
+    /// Send the next processed frame's map at the working resolution, in
+    /// [`DeviceMsg::MapChunk`]s after the [`DeviceMsg::Ack`].
+    RequestFullMap(MapKind),
 }

@@ -107,6 +107,18 @@ fn device_samples() -> Vec<(&'static str, DeviceMsg)> {
                 pass: true,
             }),
         ),
+        (
+            "map_chunk",
+            DeviceMsg::MapChunk(MapChunk {
+                seq: 7,
+                kind: MapKind::Camera,
+                width: 320,
+                height: 240,
+                cell_pitch_nm: 125_000,
+                first_cell: 76_032,
+                cells: heapless::Vec::from_slice(&[0x7bef, -1, 0, 0x1f]).unwrap(),
+            }),
+        ),
     ]
 }
 
@@ -129,6 +141,7 @@ fn host_samples() -> Vec<(&'static str, HostMsg)> {
             }),
         ),
         ("request_map", HostMsg::RequestMap(MapKind::Temperature)),
+        ("request_full_map", HostMsg::RequestFullMap(MapKind::Depth)),
         ("start", HostMsg::Start),
         ("stop", HostMsg::Stop),
         ("clock_request", HostMsg::Clock { nonce: 0xfeed }),
@@ -229,7 +242,7 @@ fn every_golden_file_has_a_sample() {
 /// bump `PROTOCOL_VERSION` and update the constant below together with the golden files.
 #[test]
 fn schema_hash_is_pinned() {
-    assert_eq!(PROTOCOL_VERSION, 5);
+    assert_eq!(PROTOCOL_VERSION, 6);
     assert_eq!(
         schema_hash(),
         PINNED_SCHEMA_HASH,
@@ -238,24 +251,24 @@ fn schema_hash_is_pinned() {
     );
 }
 
-const PINNED_SCHEMA_HASH: u64 = 0x48ab_3fd5_db56_d5c7;
+const PINNED_SCHEMA_HASH: u64 = 0xc9d8_ea77_8716_206a;
 
 #[test]
 fn a_hello_of_another_version_is_named_not_misread() {
-    // A future Hello: version 6, a different hash, and a field this build does not know.
+    // A future Hello: version 7, a different hash, and a field this build does not know.
     let mut payload = Vec::new();
-    payload.extend(postcard::to_stdvec(&(0u32, 6u16, 0x1111_2222_3333_4444u64)).unwrap());
+    payload.extend(postcard::to_stdvec(&(0u32, 7u16, 0x1111_2222_3333_4444u64)).unwrap());
     payload.extend([0xff, 0xff, 0xff, 0xff, 0xff, 0xff]);
     let got = decoded(&payload);
     assert_eq!(
         got,
         vec![Err(FrameError::ProtocolMismatch {
-            protocol_version: 6,
+            protocol_version: 7,
             schema_hash: 0x1111_2222_3333_4444
         })]
     );
     let text = got[0].clone().unwrap_err().to_string();
-    assert!(text.contains("v6") && text.contains("v5"), "{text}");
+    assert!(text.contains("v7") && text.contains("v6"), "{text}");
 }
 
 /// A Hello of this very version and schema that does not decode (a serial that is not

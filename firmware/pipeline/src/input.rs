@@ -208,6 +208,34 @@ impl<'a> Pixels<'a> {
         }
     }
 
+    /// The image shrunk to `w × h`: each pixel the mean colour of the `factor × factor`
+    /// pixels it stands for (the working resolution's picture of what the pipeline saw),
+    /// 8-bit RGB. Blocks past the image's edge average what is inside it. Not on the
+    /// per-frame path: for figures and full maps on request.
+    pub fn box_rgb(&self, factor: usize, w: usize, h: usize) -> Vec<u8> {
+        let f = factor.max(1);
+        let mut out = Vec::with_capacity(w * h * 3);
+        let (mut sums, mut counts, mut buf) = (vec![0u32; w * 3], vec![0u32; w], Vec::new());
+        for y in 0..h {
+            sums.fill(0);
+            counts.fill(0);
+            for yy in (y * f..(y + 1) * f).take_while(|&yy| yy < self.height as usize) {
+                let row = self.rgb_row(yy, 0, w * f, &mut buf);
+                for (x, px) in row.as_chunks::<3>().0.iter().enumerate() {
+                    counts[x / f] += 1;
+                    for (s, &c) in sums[(x / f) * 3..][..3].iter_mut().zip(px) {
+                        *s += u32::from(c);
+                    }
+                }
+            }
+            for (s, &n) in sums.as_chunks::<3>().0.iter().zip(&counts) {
+                let n = n.max(1);
+                out.extend(s.map(|v| ((v + n / 2) / n).min(255) as u8));
+            }
+        }
+        out
+    }
+
     /// The bytes of pixels `x0..x1` of row `y`, clipped to the image.
     fn row(&self, y: usize, x0: usize, x1: usize) -> &'a [u8] {
         let w = self.width as usize;

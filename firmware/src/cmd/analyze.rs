@@ -32,10 +32,12 @@ pub struct Args {
     /// Override the working-resolution downsampling factor.
     #[arg(long)]
     pub downsample: Option<usize>,
-    /// JSON lines on stdout (the default output; kept for scripts that pass it).
-    #[arg(long)]
+    /// Accepted for old scripts: JSON lines on stdout are the only output.
+    #[arg(long, hide = true)]
     pub json: bool,
-    /// Also write depth- and temperature-map PNGs and a summary JSON here.
+    /// Also write a figure per frame here (`<frame>.png` and its `.svg` twin: camera,
+    /// depth, 3-D surface, temperature, with one set of colour ranges for the whole run)
+    /// and a summary JSON.
     #[arg(long)]
     pub out: Option<PathBuf>,
 }
@@ -144,7 +146,7 @@ pub fn run(a: &Args) -> Result<()> {
     let analyzer =
         Analyzer::new(&img, calib, a.pipe.pipeline, opts).context("preparing the reference")?;
     let mut out = Lines::new(std::io::stdout().lock());
-    let mut results = Vec::new();
+    let (mut results, mut figures) = (Vec::new(), Vec::new());
     let mut scratch = vistaf_pipeline::Scratch::default();
     for (i, name) in frames.names().into_iter().enumerate() {
         let path = frames.path(i);
@@ -157,10 +159,19 @@ pub fn run(a: &Args) -> Result<()> {
         let latency = t.elapsed().as_micros();
         let j = result_json(&name, &d, latency, scale);
         out.line(&j)?;
-        results.push((name, d, j));
+        if a.out.is_some() {
+            let mm_per_px = analyzer.mm_per_px();
+            figures.push(vistaf_firmware::figure::frame(
+                &d,
+                (&img).into(),
+                mm_per_px,
+                &name,
+            ));
+        }
+        results.push(j);
     }
     if let Some(dir) = &a.out {
-        write_outputs(dir, &analyzer, &results)?;
+        write_outputs(dir, &analyzer, &results, &figures)?;
     }
     Ok(())
 }
@@ -193,27 +204,27 @@ impl<W: Write> Lines<W> {
 fn write_outputs(
     dir: &Path,
     analyzer: &Analyzer,
-    results: &[(String, Measurement, serde_json::Value)],
+    results: &[serde_json::Value],
+    figures: &[vistaf_figure::Frame],
 ) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    for (name, d, _) in results {
+    let ranges = vistaf_figure::Ranges::covering(figures);
+    for f in figures {
+        let name = &f.readout.label;
         let stem = Path::new(name)
             .file_stem()
             .map_or_else(|| name.clone(), |s| s.to_string_lossy().into_owned());
-        let png = dir.join(format!("{stem}_depth.png"));
-        vistaf_firmware::maps::depth_png(d, &png)?;
-        if let Some(t) = &d.temperature {
-            vistaf_firmware::maps::temperature_png(
-                t,
-                &dir.join(format!("{stem}_temperature.png")),
-            )?;
-        }
+        vistaf_figure::write(f, &ranges, &dir.join(format!("{stem}.png")))?;
     }
     let summary = json!({
         "scale_mm_per_px": analyzer.mm_per_px(),
         "grating_period_px": analyzer.period_px(),
         "calibration": vistaf_firmware::report::calibration_json(analyzer.calibration()),
-        "frames": results.iter().map(|r| r.2.clone()).collect::<Vec<_>>(),
+        "figure_ranges": {
+            "depth_mm": [ranges.depth_mm.0, ranges.depth_mm.1],
+            "temperature_c": [ranges.temperature_c.0, ranges.temperature_c.1],
+        },
+        "frames": results,
     });
     let p = dir.join("summary.json");
     std::fs::write(&p, serde_json::to_string_pretty(&summary)? + "\n")

@@ -23,6 +23,7 @@ use vistaf_protocol::{
 };
 
 use super::clock::Clock;
+use super::full_map;
 use super::kit::{Kit, Offered};
 use super::reference::{ReferenceKeeper, Verdict};
 use super::wire::{depth_tile, summary_of, temperature_tile};
@@ -132,6 +133,9 @@ pub struct Service<'a, C: Clock> {
     next_due: Option<Instant>,
     /// Maps asked for, sent with the next analysed frame: [depth, temperature].
     maps_requested: [bool; 2],
+    /// Maps at the working resolution asked for, sent in pieces with the next analysed
+    /// frame.
+    full_maps: Vec<MapKind>,
     /// When the last `Status` went out (`None`: one is due now).
     last_status: Option<Instant>,
     camera_lost: bool,
@@ -221,6 +225,7 @@ impl<'a, C: Clock> Service<'a, C> {
             max_rate_hz: settings.max_rate_hz,
             next_due: None,
             maps_requested: [false; 2],
+            full_maps: Vec::new(),
             last_status: Some(now),
             camera_lost: false,
             seq: 0,
@@ -330,19 +335,27 @@ impl<'a, C: Clock> Service<'a, C> {
                 }
             }
             HostMsg::RequestMap(MapKind::Temperature)
-                if self
-                    .keeper
-                    .analyzer()
-                    .is_some_and(|a| a.calibration().temperature.is_none()) =>
+            | HostMsg::RequestFullMap(MapKind::Temperature)
+                if self.calibration.temperature.is_none() =>
             {
                 error(
                     ErrorCode::UnsupportedCommand,
                     "the calibration has no temperature model",
                 )
             }
+            HostMsg::RequestMap(MapKind::Camera) => error(
+                ErrorCode::UnsupportedCommand,
+                "the camera image is sent whole only: RequestFullMap",
+            ),
             HostMsg::RequestMap(kind) => {
                 self.maps_requested[usize::from(kind == MapKind::Temperature)] = true;
                 DeviceMsg::Ack(Command::RequestMap)
+            }
+            HostMsg::RequestFullMap(kind) => {
+                if !self.full_maps.contains(&kind) {
+                    self.full_maps.push(kind);
+                }
+                DeviceMsg::Ack(Command::RequestFullMap)
             }
             HostMsg::Start => {
                 self.streaming = true;
@@ -631,6 +644,16 @@ impl<'a, C: Clock> Service<'a, C> {
         }
         if std::mem::take(&mut self.maps_requested[1]) {
             out.extend(temperature_tile(&d, last_seq).map(DeviceMsg::Map));
+        }
+        for kind in std::mem::take(&mut self.full_maps) {
+            let plane = match kind {
+                MapKind::Depth => Some(full_map::depth_plane(&d, mm_per_px)),
+                MapKind::Temperature => full_map::temperature_plane(&d),
+                MapKind::Camera => Some(full_map::camera_plane(img, &d, mm_per_px)),
+            };
+            if let Some(p) = plane {
+                out.extend(full_map::chunks(&p, last_seq).map(DeviceMsg::MapChunk));
+            }
         }
         if verdict == Verdict::Renew {
             self.keeper.renew();

@@ -20,7 +20,8 @@
 //!   `RunState::CameraLost` in `Status` while the source retries with back-off; frames
 //!   resuming count in `Status.camera_restarts`.
 //! * Host commands are handled between frames: `Ping`, `GetInfo`, `CaptureReference`,
-//!   `SetRate`, `SetLed`, `RequestMap`, `Start`, `Stop`, `Clock`, and a guided
+//!   `SetRate`, `SetLed`, `RequestMap`, `RequestFullMap` ([`full_map`]: the next frame's
+//!   map at the working resolution, in pieces), `Start`, `Stop`, `Clock`, and a guided
 //!   calibration's `KitCapture`, `KitFit`, `CalibrationActivate`, `CalibrationRollback`
 //!   ([`kit`]: the kit captured and fitted on the device; [`persist`]: the calibration
 //!   file and the one it replaced). A `Clock` request is
@@ -31,6 +32,7 @@
 //!   counted and the service keeps running (the host may come back).
 
 pub mod clock;
+pub mod full_map;
 pub mod kit;
 pub mod machine;
 pub mod persist;

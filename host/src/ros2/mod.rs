@@ -189,7 +189,7 @@ impl SkinTopics {
 
     /// A map as a `32FC1` image: depth in m (ROS depth images are in metres), temperature
     /// in °C; NaN where the device trusts no value. `None` for a map whose cells do not fill
-    /// it.
+    /// it, and for the camera (which comes whole only).
     pub fn map(&self, m: &Map, stamp_ns: i64) -> Option<Outgoing> {
         if !m.is_consistent() {
             return None;
@@ -197,6 +197,7 @@ impl SkinTopics {
         let (leaf, scale) = match m.kind {
             MapKind::Depth => ("depth", 1e-6),
             MapKind::Temperature => ("temperature_map", 1e-2),
+            MapKind::Camera => return None,
         };
         let pixels = m
             .cells

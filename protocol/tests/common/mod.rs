@@ -2,7 +2,7 @@
 #![allow(dead_code, clippy::unwrap_used)]
 
 use proptest::prelude::*;
-use vistaf_protocol::msg::{ERROR_DETAIL_MAX_LEN, SERIAL_MAX_LEN};
+use vistaf_protocol::msg::{ERROR_DETAIL_MAX_LEN, MAP_MAX_CELLS, SERIAL_MAX_LEN};
 use vistaf_protocol::*;
 
 pub fn arb_flags() -> impl Strategy<Value = QualityFlags> {
@@ -93,8 +93,42 @@ fn arb_command() -> impl Strategy<Value = Command> {
         Just(Command::SetLed),
         Just(Command::RequestMap),
         Just(Command::Start),
-        Just(Command::Stop)
+        Just(Command::Stop),
+        Just(Command::RequestFullMap)
     ]
+}
+
+/// A piece of a full map that lies inside its map (the worst case: a whole piece of
+/// cells at their widest encoding is in the mix).
+fn arb_map_chunk() -> impl Strategy<Value = MapChunk> {
+    (
+        any::<u32>(),
+        prop_oneof![
+            Just(MapKind::Depth),
+            Just(MapKind::Temperature),
+            Just(MapKind::Camera)
+        ],
+        (1u16..=800, 1u16..=600),
+        any::<u32>(),
+        1usize..=MAP_MAX_CELLS,
+    )
+        .prop_flat_map(|(seq, kind, (w, h), pitch, len)| {
+            let total = usize::from(w) * usize::from(h);
+            let len = len.min(total);
+            (
+                0..=total - len,
+                proptest::collection::vec(any::<i16>(), len),
+            )
+                .prop_map(move |(first, cells)| MapChunk {
+                    seq,
+                    kind,
+                    width: w,
+                    height: h,
+                    cell_pitch_nm: pitch,
+                    first_cell: first as u32,
+                    cells: heapless::Vec::from_slice(&cells).unwrap(),
+                })
+        })
 }
 
 pub fn arb_device_msg() -> impl Strategy<Value = DeviceMsg> {
@@ -112,6 +146,7 @@ pub fn arb_device_msg() -> impl Strategy<Value = DeviceMsg> {
             })),
         4 => arb_summary().prop_map(DeviceMsg::Summary),
         1 => arb_map().prop_map(DeviceMsg::Map),
+        1 => arb_map_chunk().prop_map(DeviceMsg::MapChunk),
         1 => (any::<u64>(), arb_run_state(), any::<u16>(), any::<[u32; 8]>(), any::<u16>()).prop_map(
             |(uptime_ms, state, max_rate_hz, c, camera_restarts)| DeviceMsg::Status(Status {
                 uptime_ms,
@@ -151,6 +186,12 @@ pub fn arb_host_msg() -> impl Strategy<Value = HostMsg> {
             lit_mask,
         })),
         prop_oneof![Just(MapKind::Depth), Just(MapKind::Temperature)].prop_map(HostMsg::RequestMap),
+        prop_oneof![
+            Just(MapKind::Depth),
+            Just(MapKind::Temperature),
+            Just(MapKind::Camera)
+        ]
+        .prop_map(HostMsg::RequestFullMap),
         Just(HostMsg::Start),
         Just(HostMsg::Stop),
     ]

@@ -1,17 +1,21 @@
 //! The host side of the demo: the standard readout (live view and recording), and the
-//! maps at the strongest press, asked for whenever the force passes its maximum so far.
+//! figure of the strongest press: full maps asked for whenever the force passes its
+//! maximum so far (they come from the next frame), the set of the strongest frame kept.
 
+use std::collections::VecDeque;
 use std::path::Path;
 use std::time::Duration;
 
 use anyhow::{Context, Result};
-use vistaf_host::client::{describe, Client, Received, DEFAULT_TIMEOUT};
+use vistaf_host::client::{describe, Client, Received, Snapshot, DEFAULT_TIMEOUT};
+use vistaf_host::maps::{Assembler, WholeMap};
 use vistaf_host::monitor::Monitor;
 use vistaf_host::multi::DeviceStats;
 use vistaf_host::record::{Recorder, SummaryRecord};
+use vistaf_host::snapshot::FIGURE_MAPS;
 use vistaf_host::stream::{stream, Consumer, Limits, Readout};
 use vistaf_host::HostError;
-use vistaf_protocol::{DeviceMsg, HostMsg, Map, MapKind};
+use vistaf_protocol::{DeviceMsg, HostMsg, Summary};
 
 use crate::device::{SimulatedSkin, FPS};
 
@@ -19,17 +23,16 @@ use crate::device::{SimulatedSkin, FPS};
 /// draw.
 const FIRST_PEAK_MN: u32 = 500;
 
+/// The figure of the strongest press, in the session folder.
+pub const PEAK_FIGURE: &str = "peak.png";
+
 /// What the host saw.
 #[derive(Debug, Default)]
 pub struct Watched {
     /// Every summary, in order.
     pub summaries: Vec<SummaryRecord>,
-    /// The force of the press the maps were asked at, mN.
-    pub peak_mn: u32,
-    /// Its depth map.
-    pub depth: Option<Map>,
-    /// Its temperature map.
-    pub temperature: Option<Map>,
+    /// The strongest frame whose maps all came whole, with its summary.
+    pub peak: Option<Snapshot>,
     /// Why the stream stopped early, if it did.
     pub failure: Option<HostError>,
 }
@@ -39,7 +42,52 @@ struct PeakWatch {
     readout: Readout,
     commander: Client,
     seen: Watched,
-    threshold_mn: u32,
+    /// The strongest force asked for so far, mN.
+    strongest_mn: u32,
+    /// The last few summaries, to find the one of a frame whose maps came.
+    recent: VecDeque<Summary>,
+    assembler: Assembler,
+    /// Whole maps of the frame being put together.
+    arriving: Vec<WholeMap>,
+}
+
+impl PeakWatch {
+    /// Asks for the next frame's maps when `s` is the strongest press so far.
+    fn summary(&mut self, s: &Summary) {
+        self.seen.summaries.push(SummaryRecord::from(s));
+        self.recent.push_back(*s);
+        if self.recent.len() > 8 {
+            self.recent.pop_front();
+        }
+        if s.force_mn > self.strongest_mn {
+            self.strongest_mn = s.force_mn;
+            for kind in FIGURE_MAPS {
+                if let Err(e) = self.commander.send(&HostMsg::RequestFullMap(kind)) {
+                    eprintln!("requesting a map: {e}");
+                }
+            }
+        }
+    }
+
+    /// A whole map came: kept with the others of its frame, and that frame kept as the
+    /// peak once all its maps are in, when it is the strongest so far.
+    fn whole(&mut self, map: WholeMap) {
+        if self.arriving.first().is_some_and(|m| m.seq != map.seq) {
+            self.arriving.clear();
+        }
+        self.arriving.push(map);
+        if self.arriving.len() < FIGURE_MAPS.len() {
+            return;
+        }
+        let maps = std::mem::take(&mut self.arriving);
+        let seq = maps[0].seq;
+        let summary = self.recent.iter().rev().find(|s| s.seq == seq).cloned();
+        let force = summary.as_ref().map_or(0, |s| s.force_mn);
+        let kept = self.seen.peak.as_ref().and_then(|p| p.summary.as_ref());
+        if kept.is_none_or(|k| force >= k.force_mn) {
+            self.seen.peak = Some(Snapshot { summary, maps });
+        }
+    }
 }
 
 impl Consumer for PeakWatch {
@@ -50,24 +98,14 @@ impl Consumer for PeakWatch {
         received: &Received,
     ) -> Result<(), HostError> {
         match &received.msg {
-            DeviceMsg::Summary(s) => {
-                self.seen.summaries.push(SummaryRecord::from(s));
-                // Whenever the force passes its maximum so far by 10 %, both maps (they
-                // come from the next frame); the last pair is kept.
-                if s.force_mn > self.threshold_mn + self.threshold_mn / 10 {
-                    self.threshold_mn = s.force_mn;
-                    self.seen.peak_mn = s.force_mn;
-                    for kind in [MapKind::Depth, MapKind::Temperature] {
-                        if let Err(e) = self.commander.send(&HostMsg::RequestMap(kind)) {
-                            eprintln!("requesting a map: {e}");
-                        }
-                    }
+            DeviceMsg::Summary(s) => self.summary(s),
+            // The pieces go into the figure, not into the session's record.
+            DeviceMsg::MapChunk(c) => {
+                if let Some(m) = self.assembler.add(c) {
+                    self.whole(m);
                 }
+                return Ok(());
             }
-            DeviceMsg::Map(m) => match m.kind {
-                MapKind::Depth => self.seen.depth = Some(m.clone()),
-                MapKind::Temperature => self.seen.temperature = Some(m.clone()),
-            },
             _ => {}
         }
         self.readout.message(device, stats, received)
@@ -84,7 +122,7 @@ impl Consumer for PeakWatch {
 }
 
 /// Reads the skin for `frames` summaries (or their duration and some), recording into
-/// `out/summaries.jsonl` and drawing the peak maps into `out`.
+/// `out/summaries.jsonl` and drawing the strongest press into `out/peak.png`.
 pub fn watch(device: &SimulatedSkin, frames: usize, out: &Path) -> Result<Watched> {
     let (mut client, commander) = device.host_ends()?;
     let hello = client
@@ -98,7 +136,10 @@ pub fn watch(device: &SimulatedSkin, frames: usize, out: &Path) -> Result<Watche
         },
         commander,
         seen: Watched::default(),
-        threshold_mn: FIRST_PEAK_MN,
+        strongest_mn: FIRST_PEAK_MN,
+        recent: VecDeque::new(),
+        assembler: Assembler::new(),
+        arriving: Vec::new(),
     };
     let limits = Limits {
         summaries: Some(frames as u64),
@@ -108,13 +149,10 @@ pub fn watch(device: &SimulatedSkin, frames: usize, out: &Path) -> Result<Watche
     };
     let outcome = stream(vec![client], &limits, &mut watch)?;
     watch.readout.finish(&outcome);
-    for (name, map) in [
-        ("depth_at_peak.png", &watch.seen.depth),
-        ("temperature_at_peak.png", &watch.seen.temperature),
-    ] {
-        if let Some(m) = map {
-            vistaf_firmware::maps::wire_map_png(m, &out.join(name))?;
-        }
+    if let Some(peak) = &watch.seen.peak {
+        let frame = vistaf_host::snapshot::frame(peak);
+        let ranges = vistaf_figure::Ranges::covering([&frame]);
+        vistaf_figure::write(&frame, &ranges, &out.join(PEAK_FIGURE))?;
     }
     watch.seen.failure = outcome.failure;
     Ok(watch.seen)

@@ -32,11 +32,11 @@ pub fn write(out: &Path, s: &Session<'_>) -> Result<()> {
             "frames_dropped": c.dropped, "summaries_sent": c.sent,
         },
         "calibration": vistaf_firmware::report::calibration_json(s.calibration),
-        "peak_contact": {
-            "force_n": f64::from(w.peak_mn) / 1000.0,
-            "depth_map": w.depth.as_ref().map(|_| "depth_at_peak.png"),
-            "temperature_map": w.temperature.as_ref().map(|_| "temperature_at_peak.png"),
-        },
+        "peak_contact": w.peak.as_ref().map(|p| serde_json::json!({
+            "seq": p.maps.first().map(|m| m.seq),
+            "force_n": p.summary.as_ref().map(|s| f64::from(s.force_mn) / 1000.0),
+            "figure": crate::peak::PEAK_FIGURE,
+        })),
         "summaries": "summaries.jsonl",
         "frames": w.summaries,
     });

@@ -1,7 +1,6 @@
 //! Charts (plotters): PNG and SVG of each, with a bundled font so text renders anywhere.
 
 use std::path::Path;
-use std::sync::Once;
 
 use anyhow::{anyhow, Result};
 use plotters::coord::Shift;
@@ -10,15 +9,9 @@ use plotters::prelude::*;
 use super::stability::Sweep;
 use super::tradeoff::Row;
 
-/// DejaVu Sans (its licence is beside it): plotters draws text with `ab_glyph`, which needs
-/// a registered font.
-static FONT: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
-
+/// The bundled font, shared with the figures (text renders on a machine with none).
 fn register_font() {
-    static ONCE: Once = Once::new();
-    ONCE.call_once(|| {
-        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
-    });
+    vistaf_figure::font::register();
 }
 
 /// A tick label without float noise.
