@@ -169,22 +169,23 @@ pub fn heat<DB: DrawingBackend>(
             ShapeStyle::from(&BLACK).stroke_width(1),
         ))
         .map_err(err)?;
-        // The text goes where the panel has room: left of marks in the right half.
+        // The text goes where the panel has room: left of marks in the right half. White
+        // on a black shadow, so it reads on the hottest and the coldest colour alike.
         let right_half = at.0 > e.w_mm / 2.0;
-        let label = EmptyElement::at(at)
-            + Text::new(
-                m.text.clone(),
-                (
-                    if right_half {
-                        -12 - 8 * m.text.len() as i32
-                    } else {
-                        12
-                    },
-                    -8,
-                ),
-                (FAMILY, 15).into_font().color(&WHITE),
-            );
-        area.draw(&label).map_err(err)?;
+        let dx = if right_half {
+            -12 - 8 * m.text.chars().count() as i32
+        } else {
+            12
+        };
+        for (shift, colour) in [(1, BLACK), (0, WHITE)] {
+            let label = EmptyElement::at(at)
+                + Text::new(
+                    m.text.clone(),
+                    (dx + shift, -8 + shift),
+                    (FAMILY, 15).into_font().color(&colour),
+                );
+            area.draw(&label).map_err(err)?;
+        }
     }
     Ok(())
 }

@@ -14,10 +14,10 @@ fn register_font() {
     vistaf_figure::font::register();
 }
 
-/// A tick label without float noise.
+/// A tick label without float noise (and no ".0" on whole numbers).
 fn tick(v: f64) -> String {
     let a = v.abs();
-    if a >= 100.0 || a == 0.0 {
+    if a >= 100.0 || a == 0.0 || (a >= 1.0 && (v - v.round()).abs() < 1e-9 * a) {
         format!("{v:.0}")
     } else if a >= 1.0 {
         format!("{v:.1}")
@@ -156,15 +156,52 @@ fn render<DB: DrawingBackend>(
                             .label(s.label.clone())
                             .legend(move |(x, y)| Circle::new((x + 8, y), 4, color.filled()));
                     }
+                }
+                // Point labels where they overlap nothing; a point without room is numbered
+                // and named in a key.
+                let all: Vec<(i32, i32)> = series
+                    .iter()
+                    .flat_map(|s| s.points.iter().map(|p| chart.backend_coord(p)))
+                    .collect();
+                let area_px = chart.plotting_area().strip_coord_spec();
+                let base = area_px.get_base_pixel();
+                let (pw, ph) = area_px.dim_in_pixel();
+                let mut placer = Placer::new(
+                    (base.0, base.1, base.0 + pw as i32, base.1 + ph as i32),
+                    &all,
+                );
+                let mut key = Vec::new();
+                for s in &series {
                     for (p, t) in s.points.iter().zip(&s.labels) {
-                        chart
-                            .draw_series(std::iter::once(Text::new(
-                                t.clone(),
-                                *p,
-                                ("sans-serif", 12),
-                            )))
-                            .map_err(err)?;
+                        let at = chart.backend_coord(p);
+                        let text = match placer.place(at, t) {
+                            Some(spot) => (t.clone(), spot),
+                            None => {
+                                key.push(format!("{}: {t}", key.len() + 1));
+                                let n = key.len().to_string();
+                                let spot = placer.force(at, &n);
+                                (n, spot)
+                            }
+                        };
+                        area.draw(&Text::new(
+                            text.0,
+                            (
+                                text.1 .0 - area.get_base_pixel().0,
+                                text.1 .1 - area.get_base_pixel().1,
+                            ),
+                            ("sans-serif", LABEL_PX),
+                        ))
+                        .map_err(err)?;
                     }
+                }
+                for (i, line) in key.iter().enumerate() {
+                    let (x0, y0) = (base.0 + 10, base.1 + 10 + i as i32 * (LABEL_PX + 4));
+                    area.draw(&Text::new(
+                        line.clone(),
+                        (x0 - area.get_base_pixel().0, y0 - area.get_base_pixel().1),
+                        ("sans-serif", LABEL_PX),
+                    ))
+                    .map_err(err)?;
                 }
                 chart
                     .configure_series_labels()
@@ -175,25 +212,128 @@ fn render<DB: DrawingBackend>(
                     .map_err(err)?;
             }};
         }
+        // Log axes get round ticks inside the range ([`log_ticks`]), so the data's decade
+        // is always labelled.
+        let (xt, yt) = (log_ticks(x), log_ticks(y));
         match (log_x, log_y) {
             (false, false) => body!(b.build_cartesian_2d(x.0..x.1, y.0..y.1).map_err(err)?),
             (false, true) => {
                 body!(b
-                    .build_cartesian_2d(x.0..x.1, (y.0..y.1).log_scale())
+                    .build_cartesian_2d(x.0..x.1, (y.0..y.1).log_scale().with_key_points(yt))
                     .map_err(err)?)
             }
             (true, false) => {
                 body!(b
-                    .build_cartesian_2d((x.0..x.1).log_scale(), y.0..y.1)
+                    .build_cartesian_2d((x.0..x.1).log_scale().with_key_points(xt), y.0..y.1)
                     .map_err(err)?)
             }
             (true, true) => body!(b
-                .build_cartesian_2d((x.0..x.1).log_scale(), (y.0..y.1).log_scale())
+                .build_cartesian_2d(
+                    (x.0..x.1).log_scale().with_key_points(xt),
+                    (y.0..y.1).log_scale().with_key_points(yt)
+                )
                 .map_err(err)?),
         }
         Ok(())
     };
     draw(&mut sink)
+}
+
+/// Height of a point label, pixels.
+const LABEL_PX: i32 = 12;
+
+/// Ticks of a log axis over `range`: 1, 2, 3, 5 and 7 times each power of ten inside it
+/// over two decades or less, 1, 2 and 5 over three, the powers of ten alone beyond.
+fn log_ticks((lo, hi): (f64, f64)) -> Vec<f64> {
+    if !(lo > 0.0 && hi > lo) {
+        return Vec::new();
+    }
+    let steps: &[f64] = match hi / lo {
+        r if r > 1e3 => &[1.0],
+        r if r > 1e2 => &[1.0, 2.0, 5.0],
+        _ => &[1.0, 2.0, 3.0, 5.0, 7.0],
+    };
+    let mut out = Vec::new();
+    // Each tick parsed from its decimal text, so 3 × 0.1 is 0.3 and not 0.30000000000000004.
+    let first = lo.log10().floor() as i32;
+    for k in first..=hi.log10().ceil() as i32 {
+        for &m in steps {
+            let v: f64 = format!("{m}e{k}").parse().unwrap_or(f64::NAN);
+            if v >= lo && v <= hi {
+                out.push(v);
+            }
+        }
+    }
+    out
+}
+
+/// Puts point labels where they cover no other label, no point and stay inside the plot.
+struct Placer {
+    /// The plotting area, `(x0, y0, x1, y1)` pixels.
+    bounds: (i32, i32, i32, i32),
+    /// Boxes taken: labels and the points' markers.
+    taken: Vec<(i32, i32, i32, i32)>,
+}
+
+impl Placer {
+    fn new(bounds: (i32, i32, i32, i32), points: &[(i32, i32)]) -> Placer {
+        let taken = points
+            .iter()
+            .map(|&(x, y)| (x - 5, y - 5, x + 5, y + 5))
+            .collect();
+        Placer { bounds, taken }
+    }
+
+    /// The box of `text` drawn from `(x, y)` (its top left), pixels.
+    fn rect((x, y): (i32, i32), text: &str) -> (i32, i32, i32, i32) {
+        // DejaVu Sans at 12 px: about 7 px a character.
+        (x, y, x + 7 * text.chars().count() as i32, y + LABEL_PX + 2)
+    }
+
+    fn free(&self, r: (i32, i32, i32, i32)) -> bool {
+        let (b0, b1, b2, b3) = self.bounds;
+        r.0 >= b0
+            && r.1 >= b1
+            && r.2 <= b2
+            && r.3 <= b3
+            && self
+                .taken
+                .iter()
+                .all(|t| r.2 <= t.0 || t.2 <= r.0 || r.3 <= t.1 || t.3 <= r.1)
+    }
+
+    /// Where `text` for the point at `p` goes (top left of the text), if anywhere free.
+    fn place(&mut self, (x, y): (i32, i32), text: &str) -> Option<(i32, i32)> {
+        let w = 7 * text.chars().count() as i32;
+        let h = LABEL_PX + 2;
+        for d in [1, 2, 3] {
+            let g = 7 * d;
+            let spots = [
+                (x + g, y - h / 2),
+                (x - g - w, y - h / 2),
+                (x - w / 2, y - g - h),
+                (x - w / 2, y + g),
+                (x + g, y - g - h),
+                (x + g, y + g),
+                (x - g - w, y - g - h),
+                (x - g - w, y + g),
+            ];
+            if let Some(&s) = spots.iter().find(|&&s| self.free(Placer::rect(s, text))) {
+                self.taken.push(Placer::rect(s, text));
+                return Some(s);
+            }
+        }
+        None
+    }
+
+    /// A spot for a short `text` (a key number) even when none is free: right of the
+    /// point, kept inside the plot.
+    fn force(&mut self, at: (i32, i32), text: &str) -> (i32, i32) {
+        let spot = self.place(at, text).unwrap_or((at.0 + 6, at.1 - LABEL_PX));
+        let spot = (spot.0.min(self.bounds.2 - 20), spot.1.max(self.bounds.1));
+        self.taken.push(Placer::rect(spot, text));
+        spot
+    }
 }
 
 /// Error (log, in tolerances; unmeasurable frames drawn at the top) and flag rate against
@@ -326,7 +466,7 @@ pub fn tradeoff_chart(dir: &Path, rows: &[Row], front: &[usize], use_instr: bool
         .collect();
     f.sort_by(|a, b| a.0.total_cmp(&b.0));
     let points: Vec<(f64, f64)> = ok.iter().map(|r| (cost(r), r.depth_error)).collect();
-    let labels: Vec<String> = ok.iter().map(|r| format!("  {}", r.config.name)).collect();
+    let labels: Vec<String> = ok.iter().map(|r| r.config.name.clone()).collect();
     both(dir, "tradeoff", (1000, 700), |sink| {
         sink(Shape::Chart {
             panel: 2,
@@ -359,4 +499,53 @@ pub fn tradeoff_chart(dir: &Path, rows: &[Row], front: &[usize], use_instr: bool
             ],
         })
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn labels_of_crowded_points_never_overlap_or_leave_the_plot() {
+        // Five points almost on top of each other near the right edge, as the trade-off
+        // chart's configurations at one cost are.
+        let points: Vec<(i32, i32)> = (0..5).map(|i| (880 + 3 * i, 500 + i)).collect();
+        let mut placer = Placer::new((70, 40, 990, 650), &points);
+        let mut boxes = Vec::new();
+        let mut keyed = 0;
+        for (i, &p) in points.iter().enumerate() {
+            let text = format!("fixed ÷2, configuration {i}");
+            match placer.place(p, &text) {
+                Some(at) => boxes.push(Placer::rect(at, &text)),
+                None => {
+                    keyed += 1;
+                    boxes.push(Placer::rect(placer.force(p, &keyed.to_string()), "9"));
+                }
+            }
+        }
+        for (i, a) in boxes.iter().enumerate() {
+            assert!(
+                a.0 >= 70 && a.2 <= 990 && a.1 >= 40 && a.3 <= 650,
+                "{a:?} outside"
+            );
+            for b in &boxes[i + 1..] {
+                let apart = a.2 <= b.0 || b.2 <= a.0 || a.3 <= b.1 || b.3 <= a.1;
+                assert!(apart, "{a:?} overlaps {b:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn log_ticks_label_the_data_decade() {
+        assert_eq!(
+            log_ticks((0.056, 0.85)),
+            vec![0.07, 0.1, 0.2, 0.3, 0.5, 0.7]
+        );
+        assert_eq!(
+            log_ticks((1e-3, 100.0)),
+            vec![1e-3, 1e-2, 0.1, 1.0, 10.0, 100.0]
+        );
+        assert_eq!(tick(20.0), "20");
+        assert_eq!(tick(0.07), "0.07");
+    }
 }
