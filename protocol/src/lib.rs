@@ -9,9 +9,10 @@
 //!  (device)                          0x00 COBS(postcard · CRC-32) 0x00
 //! ```
 //!
-//! * [`msg`]: the messages. Device → host: [`Hello`], [`Summary`], [`Map`], [`Status`],
-//!   [`DeviceError`], `Pong`, `Ack`, [`ClockReading`], and a guided calibration's
-//!   [`KitCaptured`], [`KitVerdict`], [`CalibrationFitted`]. Host → device: [`HostMsg`].
+//! * [`msg`]: the messages. Device → host: [`Hello`], [`Summary`], [`Map`] (coarse) and
+//!   [`MapChunk`] (a piece of a full map), [`Status`], [`DeviceError`], `Pong`, `Ack`,
+//!   [`ClockReading`], and a guided calibration's [`KitCaptured`], [`KitVerdict`],
+//!   [`CalibrationFitted`]. Host → device: [`HostMsg`].
 //! * [`frame`]: framing, with compile-time maximum frame sizes and a streaming decoder
 //!   that resynchronises after garbage and counts every drop.
 //! * [`flags`]: the quality-flag bitfield of a summary.
