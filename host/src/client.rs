@@ -9,13 +9,12 @@ use vistaf_protocol::frame::HOST_FRAME_MAX;
 use vistaf_protocol::{
     encode, schema, CalibrationFitted, ClockReading, Command, DeviceDecoder, DeviceMsg, DropCounts,
     ErrorCode, FrameError, Hello, HostMsg, KitCaptured, KitStep, KitVerdict, Map, MapKind, SetLed,
-    Summary,
 };
 
 use crate::clock::{next_request, ClockEstimator, ClockMap, Exchange, HostTimeline, MappedTime};
 use crate::error::HostError;
 use crate::link::Link;
-use crate::maps::{Assembler, WholeMap};
+use crate::maps::{Collector, Snapshot};
 
 /// Default wait for a command's answer.
 pub const DEFAULT_TIMEOUT: Duration = Duration::from_secs(2);
@@ -101,16 +100,6 @@ pub enum Next {
     Timeout,
     /// The stream ended (end of file, port closed).
     End,
-}
-
-/// One frame's full maps and, when it was streamed, its summary
-/// ([`Client::request_full_maps`]).
-#[derive(Debug, Clone, PartialEq)]
-pub struct Snapshot {
-    /// The frame's summary.
-    pub summary: Option<Summary>,
-    /// The maps, in the order asked for.
-    pub maps: Vec<WholeMap>,
 }
 
 /// A client of one skin.
@@ -588,35 +577,11 @@ impl Client {
         for &kind in kinds {
             self.send(&HostMsg::RequestFullMap(kind))?;
         }
-        let mut assembler = Assembler::new();
-        let mut maps: Vec<WholeMap> = Vec::new();
-        let mut recent: VecDeque<Summary> = VecDeque::new();
-        let seq = self.wait_for("full map", timeout, |m| {
-            match m {
-                DeviceMsg::Summary(s) => {
-                    recent.push_back(*s);
-                    if recent.len() > 16 {
-                        recent.pop_front();
-                    }
-                }
-                DeviceMsg::MapChunk(c) => {
-                    if let Some(w) = assembler.add(c) {
-                        maps.retain(|m| m.kind != w.kind);
-                        maps.push(w);
-                    }
-                }
-                _ => {}
-            }
-            let done = kinds.iter().all(|k| maps.iter().any(|m| m.kind == *k));
-            done.then(|| maps.first().map_or(0, |m| m.seq))
-        })?;
+        let mut collector = Collector::new(kinds);
+        let shot = self.wait_for("full map", timeout, |m| collector.take(m))?;
         self.queue
             .retain(|r| !matches!(&r.msg, DeviceMsg::MapChunk(c) if kinds.contains(&c.kind)));
-        maps.sort_by_key(|m| kinds.iter().position(|k| *k == m.kind));
-        Ok(Snapshot {
-            summary: recent.into_iter().rev().find(|s| s.seq == seq),
-            maps,
-        })
+        Ok(shot)
     }
 }
 

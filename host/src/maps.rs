@@ -1,9 +1,12 @@
 //! Maps as the host uses them: a coarse [`Map`] or the pieces of a full one
-//! ([`MapChunk`]s, put together by an [`Assembler`]) as one [`WholeMap`], read in SI units.
+//! ([`MapChunk`]s, put together by an [`Assembler`]) as one [`WholeMap`], read in SI units;
+//! one frame's maps with its summary ([`Snapshot`], collected by a [`Collector`]).
+
+use std::collections::VecDeque;
 
 use serde_json::{json, Value};
 use vistaf_protocol::msg::MAP_NO_DATA;
-use vistaf_protocol::{Map, MapChunk, MapKind};
+use vistaf_protocol::{DeviceMsg, Map, MapChunk, MapKind, Summary};
 
 /// A whole map: the cells in the wire's units, with their size and pitch.
 #[derive(Debug, Clone, PartialEq)]
@@ -181,6 +184,71 @@ impl Assembler {
     }
 }
 
+/// One frame's full maps and, when it was streamed, its summary.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Snapshot {
+    /// The frame's summary.
+    pub summary: Option<Summary>,
+    /// The maps, in the order asked for.
+    pub maps: Vec<WholeMap>,
+}
+
+/// Summaries kept to find the one of a frame whose maps come after it.
+const RECENT_SUMMARIES: usize = 16;
+
+/// Collects one frame's full maps of the kinds asked for, with the frame's summary, from
+/// the device's messages as they come: a [`Snapshot`] once every kind has come whole from
+/// the same frame (a map of a newer frame starts the set afresh).
+#[derive(Debug)]
+pub struct Collector {
+    kinds: Vec<MapKind>,
+    assembler: Assembler,
+    maps: Vec<WholeMap>,
+    recent: VecDeque<Summary>,
+}
+
+impl Collector {
+    /// A collector of the maps of `kinds`.
+    pub fn new(kinds: &[MapKind]) -> Collector {
+        Collector {
+            kinds: kinds.to_vec(),
+            assembler: Assembler::new(),
+            maps: Vec::new(),
+            recent: VecDeque::new(),
+        }
+    }
+
+    /// Takes one message; the snapshot when it completed one.
+    pub fn take(&mut self, msg: &DeviceMsg) -> Option<Snapshot> {
+        match msg {
+            DeviceMsg::Summary(s) => {
+                if self.recent.len() == RECENT_SUMMARIES {
+                    self.recent.pop_front();
+                }
+                self.recent.push_back(*s);
+                None
+            }
+            DeviceMsg::MapChunk(c) if self.kinds.contains(&c.kind) => {
+                let whole = self.assembler.add(c)?;
+                self.maps
+                    .retain(|m| m.seq == whole.seq && m.kind != whole.kind);
+                self.maps.push(whole);
+                if self.maps.len() < self.kinds.len() {
+                    return None;
+                }
+                let mut maps = std::mem::take(&mut self.maps);
+                maps.sort_by_key(|m| self.kinds.iter().position(|k| *k == m.kind));
+                let seq = maps[0].seq;
+                Some(Snapshot {
+                    summary: self.recent.iter().rev().find(|s| s.seq == seq).copied(),
+                    maps,
+                })
+            }
+            _ => None,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -236,6 +304,58 @@ mod tests {
         assert_eq!(whole.len(), 1);
         assert_eq!(whole[0].seq, 2);
         assert_eq!(a.dropped(), 1);
+    }
+
+    #[test]
+    fn a_snapshot_is_one_frames_maps_with_its_summary() {
+        let summary = |seq| {
+            DeviceMsg::Summary(Summary {
+                seq,
+                capture_us: 0,
+                latency_us: 0,
+                force_mn: 1000 + seq,
+                peak_depth_um: 0,
+                contact_area_centi_mm2: 0,
+                volume_milli_mm3: 0,
+                centroid: None,
+                temp_min_centi_c: 0,
+                temp_mean_centi_c: 0,
+                temp_max_centi_c: 0,
+                contact_temp_centi_c: None,
+                flags: vistaf_protocol::QualityFlags::default(),
+            })
+        };
+        let mut c = Collector::new(&[MapKind::Camera, MapKind::Depth]);
+        let mut got = Vec::new();
+        // Frame 4's depth, then frame 5's summary and its maps: the camera first (with
+        // frame 4's depth it would make a set of two frames), a temperature map not asked
+        // for, then the depth.
+        let mut feed = |m: DeviceMsg| got.extend(c.take(&m));
+        let order = [
+            (4, MapKind::Depth),
+            (5, MapKind::Camera),
+            (5, MapKind::Temperature),
+            (5, MapKind::Depth),
+        ];
+        feed(summary(5));
+        for (seq, kind) in order {
+            for p in pieces(seq, kind, 40, 30, 768) {
+                feed(DeviceMsg::MapChunk(p));
+            }
+        }
+        assert_eq!(
+            got.len(),
+            1,
+            "one whole set, not frame 4's depth with frame 5's camera"
+        );
+        let kinds: Vec<MapKind> = got[0].maps.iter().map(|m| m.kind).collect();
+        assert_eq!(
+            kinds,
+            [MapKind::Camera, MapKind::Depth],
+            "in the order asked for"
+        );
+        assert!(got[0].maps.iter().all(|m| m.seq == 5));
+        assert_eq!(got[0].summary.map(|s| s.force_mn), Some(1005));
     }
 
     #[test]

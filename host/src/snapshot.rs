@@ -6,8 +6,7 @@ use std::path::Path;
 use vistaf_figure::{Frame, Grid, Picture, Readout};
 use vistaf_protocol::MapKind;
 
-use crate::client::Snapshot;
-use crate::maps::WholeMap;
+use crate::maps::{Snapshot, WholeMap};
 use crate::record::SummaryRecord;
 
 /// The maps a figure shows, in the order they are asked for.

@@ -208,20 +208,19 @@ impl<'a> Pixels<'a> {
         }
     }
 
-    /// The image shrunk to `w × h`: each pixel the mean colour of the `factor × factor`
-    /// pixels it stands for (the working resolution's picture of what the pipeline saw),
-    /// 8-bit RGB. Blocks past the image's edge average what is inside it. Not on the
-    /// per-frame path: for figures and full maps on request.
-    pub fn box_rgb(&self, factor: usize, w: usize, h: usize) -> Vec<u8> {
+    /// The mean of each of a pixel's three bytes over `factor × factor` blocks, for the
+    /// `w × h` blocks from the top left, 8.8 fixed point, in the image's own encoding
+    /// (three values a block, row-major). A block past the image's edge averages what is
+    /// inside it. Not on the per-frame path: for settling tests, figures and full maps.
+    pub fn box_means_q8(&self, factor: usize, w: usize, h: usize) -> Vec<u16> {
         let f = factor.max(1);
         let mut out = Vec::with_capacity(w * h * 3);
-        let (mut sums, mut counts, mut buf) = (vec![0u32; w * 3], vec![0u32; w], Vec::new());
+        let (mut sums, mut counts) = (vec![0u32; w * 3], vec![0u32; w]);
         for y in 0..h {
             sums.fill(0);
             counts.fill(0);
             for yy in (y * f..(y + 1) * f).take_while(|&yy| yy < self.height as usize) {
-                let row = self.rgb_row(yy, 0, w * f, &mut buf);
-                for (x, px) in row.as_chunks::<3>().0.iter().enumerate() {
+                for (x, px) in self.row(yy, 0, w * f).as_chunks::<3>().0.iter().enumerate() {
                     counts[x / f] += 1;
                     for (s, &c) in sums[(x / f) * 3..][..3].iter_mut().zip(px) {
                         *s += u32::from(c);
@@ -230,10 +229,25 @@ impl<'a> Pixels<'a> {
             }
             for (s, &n) in sums.as_chunks::<3>().0.iter().zip(&counts) {
                 let n = n.max(1);
-                out.extend(s.map(|v| ((v + n / 2) / n).min(255) as u8));
+                out.extend(s.map(|v| (((v << 8) + n / 2) / n) as u16));
             }
         }
         out
+    }
+
+    /// The image shrunk to `w × h`: each pixel the mean colour of the `factor × factor`
+    /// pixels it stands for ([`Pixels::box_means_q8`], converted to sRGB per block: the
+    /// colour conversions are affine, so the mean converts as the pixels would), 8-bit RGB.
+    pub fn box_rgb(&self, factor: usize, w: usize, h: usize) -> Vec<u8> {
+        self.box_means_q8(factor, w, h)
+            .as_chunks::<3>()
+            .0
+            .iter()
+            .flat_map(|m| {
+                self.colour
+                    .to_rgb(m.map(|v| ((u32::from(v) + 128) >> 8).min(255) as u8))
+            })
+            .collect()
     }
 
     /// The bytes of pixels `x0..x1` of row `y`, clipped to the image.

@@ -19,8 +19,11 @@ use vistaf_calibrate::{calibrate, Quiet};
 use vistaf_hardware::decode::Decoded;
 use vistaf_hardware::frame::Frame;
 use vistaf_hardware::frameset::{FrameEntry, FrameSet, FrameSetWriter};
+use vistaf_pipeline::input::Pixels;
 use vistaf_pipeline::{Calibration, Implementation};
 use vistaf_protocol::{KitCaptured, KitQuantity, KitStep};
+
+use super::reference::mean_abs_diff;
 
 /// How long a step may take to settle.
 pub const SETTLE_TIMEOUT: Duration =
@@ -122,7 +125,7 @@ impl Kit {
             return Offered::Waiting;
         }
         let means = block_means(img);
-        let change = p.last.as_ref().map(|l| mean_abs_change(l, &means));
+        let change = p.last.as_ref().map(|l| mean_abs_diff(l, &means));
         p.last = Some(means);
         match change {
             Some(c) if c < stable_dn => p.calm += 1,
@@ -282,36 +285,11 @@ fn new_kit_dir(root: &Path) -> Result<PathBuf, String> {
     Err(format!("{}: no free kit folder name", root.display()))
 }
 
-/// Means of every channel over [`BLOCK_PX`]-pixel blocks, 8.8 fixed point.
+/// Means of every channel over [`BLOCK_PX`]-pixel blocks (whole blocks only), 8.8 fixed
+/// point.
 fn block_means(img: &Decoded) -> Vec<u16> {
     let (w, h) = (img.width as usize, img.height as usize);
-    let (bw, bh) = (w / BLOCK_PX, h / BLOCK_PX);
-    let mut sums = vec![0u32; bw * bh * 3];
-    for y in 0..bh * BLOCK_PX {
-        let row = &img.data[y * w * 3..(y * w + bw * BLOCK_PX) * 3];
-        let out = &mut sums[(y / BLOCK_PX) * bw * 3..][..bw * 3];
-        for (x, px) in row.chunks_exact(3).enumerate() {
-            let o = &mut out[(x / BLOCK_PX) * 3..][..3];
-            for c in 0..3 {
-                o[c] += u32::from(px[c]);
-            }
-        }
-    }
-    let n = (BLOCK_PX * BLOCK_PX) as u32;
-    sums.iter().map(|s| ((s << 8) / n) as u16).collect()
-}
-
-/// Mean absolute difference of two block-mean images, 8-bit steps.
-fn mean_abs_change(a: &[u16], b: &[u16]) -> f32 {
-    if a.len() != b.len() || a.is_empty() {
-        return f32::INFINITY;
-    }
-    let s: u64 = a
-        .iter()
-        .zip(b)
-        .map(|(x, y)| u64::from(x.abs_diff(*y)))
-        .sum();
-    s as f32 / 256.0 / a.len() as f32
+    Pixels::from(img).box_means_q8(BLOCK_PX, w / BLOCK_PX, h / BLOCK_PX)
 }
 
 #[cfg(test)]

@@ -23,10 +23,10 @@ use vistaf_protocol::{
 };
 
 use super::clock::Clock;
-use super::full_map;
 use super::kit::{Kit, Offered};
+use super::maps::{self, Size};
 use super::reference::{ReferenceKeeper, Verdict};
-use super::wire::{depth_tile, summary_of, temperature_tile};
+use super::wire::summary_of;
 use super::{Counters, Settings};
 
 /// How often a `Status` goes out.
@@ -131,11 +131,8 @@ pub struct Service<'a, C: Clock> {
     max_rate_hz: u16,
     /// When the next summary may go out under the rate limit (`None`: now).
     next_due: Option<Instant>,
-    /// Maps asked for, sent with the next analysed frame: [depth, temperature].
-    maps_requested: [bool; 2],
-    /// Maps at the working resolution asked for, sent in pieces with the next analysed
-    /// frame.
-    full_maps: Vec<MapKind>,
+    /// Maps asked for, sent with the next analysed frame (each once).
+    maps_requested: Vec<(MapKind, Size)>,
     /// When the last `Status` went out (`None`: one is due now).
     last_status: Option<Instant>,
     camera_lost: bool,
@@ -224,8 +221,7 @@ impl<'a, C: Clock> Service<'a, C> {
             streaming: true,
             max_rate_hz: settings.max_rate_hz,
             next_due: None,
-            maps_requested: [false; 2],
-            full_maps: Vec::new(),
+            maps_requested: Vec::new(),
             last_status: Some(now),
             camera_lost: false,
             seq: 0,
@@ -347,16 +343,8 @@ impl<'a, C: Clock> Service<'a, C> {
                 ErrorCode::UnsupportedCommand,
                 "the camera image is sent whole only: RequestFullMap",
             ),
-            HostMsg::RequestMap(kind) => {
-                self.maps_requested[usize::from(kind == MapKind::Temperature)] = true;
-                DeviceMsg::Ack(Command::RequestMap)
-            }
-            HostMsg::RequestFullMap(kind) => {
-                if !self.full_maps.contains(&kind) {
-                    self.full_maps.push(kind);
-                }
-                DeviceMsg::Ack(Command::RequestFullMap)
-            }
+            HostMsg::RequestMap(kind) => self.request_map(kind, Size::Coarse),
+            HostMsg::RequestFullMap(kind) => self.request_map(kind, Size::Full),
             HostMsg::Start => {
                 self.streaming = true;
                 DeviceMsg::Ack(Command::Start)
@@ -373,6 +361,17 @@ impl<'a, C: Clock> Service<'a, C> {
             HostMsg::CalibrationActivate { calibration_id } => self.activate(calibration_id),
             HostMsg::CalibrationRollback => self.roll_back(),
         }
+    }
+
+    /// Notes a map to send with the next analysed frame (asked twice, sent once).
+    fn request_map(&mut self, kind: MapKind, size: Size) -> DeviceMsg {
+        if !self.maps_requested.contains(&(kind, size)) {
+            self.maps_requested.push((kind, size));
+        }
+        DeviceMsg::Ack(match size {
+            Size::Coarse => Command::RequestMap,
+            Size::Full => Command::RequestFullMap,
+        })
     }
 
     /// Sets the bench (when software drives it) to `step` and waits for its frame.
@@ -639,20 +638,13 @@ impl<'a, C: Clock> Service<'a, C> {
             self.seq = self.seq.wrapping_add(1);
         }
         let last_seq = self.seq.wrapping_sub(1);
-        if std::mem::take(&mut self.maps_requested[0]) {
-            out.push(DeviceMsg::Map(depth_tile(&d, last_seq, mm_per_px)));
-        }
-        if std::mem::take(&mut self.maps_requested[1]) {
-            out.extend(temperature_tile(&d, last_seq).map(DeviceMsg::Map));
-        }
-        for kind in std::mem::take(&mut self.full_maps) {
-            let plane = match kind {
-                MapKind::Depth => Some(full_map::depth_plane(&d, mm_per_px)),
-                MapKind::Temperature => full_map::temperature_plane(&d),
-                MapKind::Camera => Some(full_map::camera_plane(img, &d, mm_per_px)),
+        for (kind, size) in std::mem::take(&mut self.maps_requested) {
+            let Some(p) = maps::plane(kind, &d, img, mm_per_px) else {
+                continue;
             };
-            if let Some(p) = plane {
-                out.extend(full_map::chunks(&p, last_seq).map(DeviceMsg::MapChunk));
+            match size {
+                Size::Coarse => out.push(DeviceMsg::Map(p.tile(last_seq))),
+                Size::Full => out.extend(maps::chunks(&p, last_seq).map(DeviceMsg::MapChunk)),
             }
         }
         if verdict == Verdict::Renew {

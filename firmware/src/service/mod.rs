@@ -20,8 +20,8 @@
 //!   `RunState::CameraLost` in `Status` while the source retries with back-off; frames
 //!   resuming count in `Status.camera_restarts`.
 //! * Host commands are handled between frames: `Ping`, `GetInfo`, `CaptureReference`,
-//!   `SetRate`, `SetLed`, `RequestMap`, `RequestFullMap` ([`full_map`]: the next frame's
-//!   map at the working resolution, in pieces), `Start`, `Stop`, `Clock`, and a guided
+//!   `SetRate`, `SetLed`, `RequestMap` and `RequestFullMap` ([`maps`]: the next frame's
+//!   map, coarse in one message or whole in pieces), `Start`, `Stop`, `Clock`, and a guided
 //!   calibration's `KitCapture`, `KitFit`, `CalibrationActivate`, `CalibrationRollback`
 //!   ([`kit`]: the kit captured and fitted on the device; [`persist`]: the calibration
 //!   file and the one it replaced). A `Clock` request is
@@ -32,9 +32,9 @@
 //!   counted and the service keeps running (the host may come back).
 
 pub mod clock;
-pub mod full_map;
 pub mod kit;
 pub mod machine;
+pub mod maps;
 pub mod persist;
 pub mod pty;
 pub mod reference;
@@ -46,7 +46,7 @@ pub use clock::{Clock, ManualClock, SystemClock};
 pub use machine::{CameraEvent, EdgeCounters, Service};
 pub use reference::{ReferenceKeeper, Verdict, TEMPERATURE_EXPLAINS_C};
 pub use runner::run;
-pub use wire::{depth_tile, summary_of, temperature_tile};
+pub use wire::summary_of;
 
 pub use crate::config::ReferencePolicy;
 use std::path::PathBuf;

@@ -111,7 +111,7 @@ impl ReferenceKeeper {
         let stable = s
             .last_gray
             .as_ref()
-            .is_some_and(|p| p.len() == g.len() && mean_abs_diff(p, &g) < self.policy.stable_dn);
+            .is_some_and(|p| mean_abs_diff(p, &g) < self.policy.stable_dn);
         s.frames += 1;
         s.last_gray = Some(g);
         if !(stable || s.frames >= self.policy.max_wait_frames) {
@@ -190,12 +190,16 @@ fn brightness(img: Pixels<'_>) -> f32 {
     l.mean_q8(sum, n) as f32 / 256.0
 }
 
-/// Mean absolute difference of two Q8 luminance images, 8-bit steps.
-fn mean_abs_diff(a: &[u16], b: &[u16]) -> f32 {
+/// Mean absolute difference of two Q8 images (luminance, or block means), 8-bit steps;
+/// infinite for images of different sizes or none (nothing shows they agree).
+pub(super) fn mean_abs_diff(a: &[u16], b: &[u16]) -> f32 {
+    if a.len() != b.len() || a.is_empty() {
+        return f32::INFINITY;
+    }
     let s: u64 = a
         .iter()
         .zip(b)
         .map(|(x, y)| u64::from(x.abs_diff(*y)))
         .sum();
-    s as f32 / 256.0 / a.len().max(1) as f32
+    s as f32 / 256.0 / a.len() as f32
 }

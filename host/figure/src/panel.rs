@@ -49,7 +49,7 @@ fn scaled_chart<'a, DB: DrawingBackend>(
     area: &'a DrawingArea<DB, Shift>,
     caption: &str,
     e: &Extent,
-) -> Result<ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>, String> {
+) -> Result<MapChart<'a, DB>, String> {
     let (aw, ah) = area.dim_in_pixel();
     let free_w = f64::from(aw.saturating_sub(Y_LABELS_PX + 16));
     let free_h = f64::from(ah.saturating_sub(X_LABELS_PX + CAPTION_PX + 16));
@@ -85,7 +85,7 @@ fn scaled_chart<'a, DB: DrawingBackend>(
 
 /// Fills the chart's plotting area with `pixel(x, y)` of a `w × h` raster, scaled to fit.
 fn blit<DB: DrawingBackend>(
-    chart: &mut ChartContext<'_, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    chart: &mut MapChart<'_, DB>,
     (w, h): (usize, usize),
     pixel: impl Fn(usize, usize) -> [u8; 3],
 ) -> Drawn {
@@ -106,8 +106,41 @@ fn blit<DB: DrawingBackend>(
     Ok(())
 }
 
+/// The chart type of a map panel: mm on both axes.
+type MapChart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// A `w × h` raster of `pitch_mm` cells, `pixel(x, y)` each, drawn to scale on mm axes
+/// ([`scaled_chart`], [`blit`]); the chart, for marks on top.
+fn raster<'a, DB: DrawingBackend>(
+    area: &'a DrawingArea<DB, Shift>,
+    caption: &str,
+    (w, h, pitch_mm): (usize, usize, f64),
+    pixel: impl Fn(usize, usize) -> [u8; 3],
+) -> Result<MapChart<'a, DB>, String> {
+    let e = Extent {
+        w_mm: w as f64 * pitch_mm,
+        h_mm: h as f64 * pitch_mm,
+    };
+    let mut chart = scaled_chart(area, caption, &e)?;
+    blit(&mut chart, (w, h), pixel)?;
+    Ok(chart)
+}
+
+/// The part of a panel left of where a colour bar goes (a panel without one keeps the
+/// space, so every map is drawn at the same size).
+fn beside_bar<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+) -> (DrawingArea<DB, Shift>, DrawingArea<DB, Shift>) {
+    let (aw, _) = area.dim_in_pixel();
+    area.split_horizontally(aw.saturating_sub(BAR_AREA_PX))
+}
+
 /// A panel that has nothing to show says so.
-fn empty<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, caption: &str, why: &str) -> Drawn {
+pub(crate) fn empty<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    caption: &str,
+    why: &str,
+) -> Drawn {
     let (w, h) = area.dim_in_pixel();
     area.draw(&Text::new(
         format!("{caption}: {why}"),
@@ -137,20 +170,15 @@ pub fn heat<DB: DrawingBackend>(
     (title, unit): (&str, &str),
     marks: &[Mark],
 ) -> Drawn {
-    let (aw, _) = area.dim_in_pixel();
-    let (main, bar) = area.split_horizontally(aw.saturating_sub(BAR_AREA_PX));
+    let (main, bar) = beside_bar(area);
     colour_bar(&bar, map, range, title, unit)?;
     let Some(g) = grid.filter(|g| g.is_consistent()) else {
         return empty(&main, caption, "no map");
     };
-    let e = Extent {
-        w_mm: g.width as f64 * g.pitch_mm,
-        h_mm: g.height as f64 * g.pitch_mm,
-    };
-    let mut chart = scaled_chart(&main, caption, &e)?;
-    blit(&mut chart, (g.width, g.height), |x, y| {
+    let chart = raster(&main, caption, (g.width, g.height, g.pitch_mm), |x, y| {
         map.of(g.values[y * g.width + x], range)
     })?;
+    let w_mm = g.width as f64 * g.pitch_mm;
     for m in marks {
         let at = (
             (m.cell.0 as f64 + 0.5) * g.pitch_mm,
@@ -171,7 +199,7 @@ pub fn heat<DB: DrawingBackend>(
         .map_err(err)?;
         // The text goes where the panel has room: left of marks in the right half. White
         // on a black shadow, so it reads on the hottest and the coldest colour alike.
-        let right_half = at.0 > e.w_mm / 2.0;
+        let right_half = at.0 > w_mm / 2.0;
         let dx = if right_half {
             -12 - 8 * m.text.chars().count() as i32
         } else {
@@ -196,20 +224,15 @@ pub fn camera<DB: DrawingBackend>(
     caption: &str,
     picture: Option<&Picture>,
 ) -> Drawn {
-    let (aw, _) = area.dim_in_pixel();
-    let (main, _) = area.split_horizontally(aw.saturating_sub(BAR_AREA_PX));
+    let (main, _) = beside_bar(area);
     let Some(p) = picture.filter(|p| p.is_consistent()) else {
         return empty(&main, caption, "no image");
     };
-    let e = Extent {
-        w_mm: p.width as f64 * p.pitch_mm,
-        h_mm: p.height as f64 * p.pitch_mm,
-    };
-    let mut chart = scaled_chart(&main, caption, &e)?;
-    blit(&mut chart, (p.width, p.height), |x, y| {
+    raster(&main, caption, (p.width, p.height, p.pitch_mm), |x, y| {
         let i = (y * p.width + x) * 3;
         [p.rgb[i], p.rgb[i + 1], p.rgb[i + 2]]
     })
+    .map(|_| ())
 }
 
 /// A vertical colour bar from `range.0` (bottom) to `range.1` (top), a tick and a number

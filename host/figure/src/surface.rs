@@ -12,7 +12,7 @@ use plotters::prelude::*;
 
 use crate::colour::ColourMap;
 use crate::font::FAMILY;
-use crate::panel::{err, Drawn};
+use crate::panel::{empty, err, Drawn};
 use crate::Grid;
 
 /// Facets along the long side of the relief, at most.
@@ -54,14 +54,7 @@ pub fn relief<DB: DrawingBackend>(
     range: (f64, f64),
 ) -> Drawn {
     let Some(g) = depth.filter(|g| g.is_consistent() && g.width > 1 && g.height > 1) else {
-        let (w, h) = area.dim_in_pixel();
-        return area
-            .draw(&Text::new(
-                format!("{caption}: no map"),
-                (w as i32 / 6, h as i32 / 2),
-                (FAMILY, 16).into_font().color(&RGBColor(90, 90, 90)),
-            ))
-            .map_err(err);
+        return empty(area, caption, "no map");
     };
     let c = coarse(g, MAX_FACETS);
     let (w_mm, h_mm) = (c.width as f64 * c.pitch_mm, c.height as f64 * c.pitch_mm);

@@ -2,13 +2,12 @@
 //! figure of the strongest press: full maps asked for whenever the force passes its
 //! maximum so far (they come from the next frame), the set of the strongest frame kept.
 
-use std::collections::VecDeque;
 use std::path::Path;
 use std::time::Duration;
 
 use anyhow::{Context, Result};
-use vistaf_host::client::{describe, Client, Received, Snapshot, DEFAULT_TIMEOUT};
-use vistaf_host::maps::{Assembler, WholeMap};
+use vistaf_host::client::{describe, Client, Received, DEFAULT_TIMEOUT};
+use vistaf_host::maps::{Collector, Snapshot};
 use vistaf_host::monitor::Monitor;
 use vistaf_host::multi::DeviceStats;
 use vistaf_host::record::{Recorder, SummaryRecord};
@@ -44,21 +43,14 @@ struct PeakWatch {
     seen: Watched,
     /// The strongest force asked for so far, mN.
     strongest_mn: u32,
-    /// The last few summaries, to find the one of a frame whose maps came.
-    recent: VecDeque<Summary>,
-    assembler: Assembler,
-    /// Whole maps of the frame being put together.
-    arriving: Vec<WholeMap>,
+    /// The maps of the frame after each new maximum.
+    collector: Collector,
 }
 
 impl PeakWatch {
     /// Asks for the next frame's maps when `s` is the strongest press so far.
     fn summary(&mut self, s: &Summary) {
         self.seen.summaries.push(SummaryRecord::from(s));
-        self.recent.push_back(*s);
-        if self.recent.len() > 8 {
-            self.recent.pop_front();
-        }
         if s.force_mn > self.strongest_mn {
             self.strongest_mn = s.force_mn;
             for kind in FIGURE_MAPS {
@@ -69,23 +61,16 @@ impl PeakWatch {
         }
     }
 
-    /// A whole map came: kept with the others of its frame, and that frame kept as the
-    /// peak once all its maps are in, when it is the strongest so far.
-    fn whole(&mut self, map: WholeMap) {
-        if self.arriving.first().is_some_and(|m| m.seq != map.seq) {
-            self.arriving.clear();
-        }
-        self.arriving.push(map);
-        if self.arriving.len() < FIGURE_MAPS.len() {
-            return;
-        }
-        let maps = std::mem::take(&mut self.arriving);
-        let seq = maps[0].seq;
-        let summary = self.recent.iter().rev().find(|s| s.seq == seq).cloned();
-        let force = summary.as_ref().map_or(0, |s| s.force_mn);
-        let kept = self.seen.peak.as_ref().and_then(|p| p.summary.as_ref());
-        if kept.is_none_or(|k| force >= k.force_mn) {
-            self.seen.peak = Some(Snapshot { summary, maps });
+    /// A frame's maps came whole: kept when it is the strongest frame so far.
+    fn snapshot(&mut self, shot: Snapshot) {
+        let force = |s: &Snapshot| s.summary.map_or(0, |s| s.force_mn);
+        if self
+            .seen
+            .peak
+            .as_ref()
+            .is_none_or(|kept| force(&shot) >= force(kept))
+        {
+            self.seen.peak = Some(shot);
         }
     }
 }
@@ -97,15 +82,13 @@ impl Consumer for PeakWatch {
         stats: &[DeviceStats],
         received: &Received,
     ) -> Result<(), HostError> {
+        if let Some(shot) = self.collector.take(&received.msg) {
+            self.snapshot(shot);
+        }
         match &received.msg {
             DeviceMsg::Summary(s) => self.summary(s),
             // The pieces go into the figure, not into the session's record.
-            DeviceMsg::MapChunk(c) => {
-                if let Some(m) = self.assembler.add(c) {
-                    self.whole(m);
-                }
-                return Ok(());
-            }
+            DeviceMsg::MapChunk(_) => return Ok(()),
             _ => {}
         }
         self.readout.message(device, stats, received)
@@ -137,9 +120,7 @@ pub fn watch(device: &SimulatedSkin, frames: usize, out: &Path) -> Result<Watche
         commander,
         seen: Watched::default(),
         strongest_mn: FIRST_PEAK_MN,
-        recent: VecDeque::new(),
-        assembler: Assembler::new(),
-        arriving: Vec::new(),
+        collector: Collector::new(&FIGURE_MAPS),
     };
     let limits = Limits {
         summaries: Some(frames as u64),
