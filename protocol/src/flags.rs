@@ -21,8 +21,10 @@ pub struct QualityFlags(pub u16);
 pub enum Flag {
     /// Fringe contrast too low to demodulate (dark, washed out, no grating in view).
     LowContrast = 0,
-    /// Local phase slope beyond the carrier band: the first order overlaps its neighbours,
-    /// so depth at the steepest part of the indentation is underestimated.
+    /// Local phase slope beyond the carrier band (the first order overlaps its neighbours,
+    /// so depth at the steepest part of the indentation is underestimated), or a contact
+    /// much sharper or blunter than the calibrated indenter (the band's blur takes a
+    /// different share of its peak than the calibration learnt).
     PhaseSlope = 1,
     /// Phase unwrapping met residues or paths that disagree.
     UnwrapFailure = 2,

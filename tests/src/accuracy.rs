@@ -66,6 +66,8 @@ pub struct Scored {
     pub unit: u64,
     /// Scene kind.
     pub kind: Kind,
+    /// The indenter and its size (`sphere R5`, `disc r3`, `letter 10 mm`; `none`).
+    pub indenter: String,
     /// True peak depth, mm.
     pub depth_mm: f32,
     /// Peak depth error, mm (None without a press).
@@ -369,6 +371,7 @@ fn score(
     let mut s = Scored {
         unit: seed,
         kind,
+        indenter: indenter_label(state),
         depth_mm: truth.peak_depth_mm,
         depth_err_mm: None,
         centre_err_mm: None,
@@ -417,6 +420,45 @@ fn score(
         s.failures.push("phantom");
     }
     score_temperature(&mut s, state, truth, m);
+    s
+}
+
+/// The scene's indenter and its size, for per-frame tables.
+fn indenter_label(state: &SkinState) -> String {
+    match state.contacts.first().map(|c| &c.indenter) {
+        None => "none".into(),
+        Some(Indenter::Sphere { r_mm }) => format!("sphere R{r_mm}"),
+        Some(Indenter::Punch(Footprint::Disc { r_mm })) => format!("disc r{r_mm}"),
+        Some(Indenter::Punch(fp)) => format!("punch {:.0} mm", 2.0 * fp.bound_mm()),
+    }
+}
+
+/// Every scored frame as CSV, one row per frame (errors empty where not measured).
+pub fn frames_csv(results: &[UnitResult]) -> String {
+    use std::fmt::Write as _;
+    let opt = |v: Option<f32>| v.map(|v| format!("{v:.4}")).unwrap_or_default();
+    let mut s = String::from(
+        "unit,kind,indenter,depth_mm,depth_err_mm,force_err_n,force_n,centre_err_mm,\
+         contact_temp_err_c,mean_temp_err_c,failures,flags\n",
+    );
+    for f in results.iter().flatten().flatten() {
+        let _ = writeln!(
+            s,
+            "{},{},{},{:.4},{},{},{},{},{},{},{},{}",
+            f.unit,
+            f.kind.name(),
+            f.indenter,
+            f.depth_mm,
+            opt(f.depth_err_mm),
+            opt(f.force_err_n.map(|e| e.0)),
+            opt(f.force_err_n.map(|e| e.1)),
+            opt(f.centre_err_mm),
+            opt(f.contact_temp_err_c),
+            opt(f.mean_temp_err_c),
+            f.failures.join(" "),
+            f.flags.join(" "),
+        );
+    }
     s
 }
 

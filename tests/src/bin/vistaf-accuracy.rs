@@ -14,7 +14,7 @@ use anyhow::{Context, Result};
 use clap::Parser;
 use vistaf_sim::sets::{write_calibration_kit, SetOptions};
 use vistaf_sim::SensorUnit;
-use vistaf_tests::accuracy::{report, run_units, without, Camera, EFFECTS};
+use vistaf_tests::accuracy::{frames_csv, report, run_units, without, Camera, EFFECTS};
 
 /// First held-out unit seed.
 const HELD_OUT: u64 = 900_000;
@@ -40,6 +40,9 @@ struct Args {
     /// `vistaf-skin calibrate` and look closer).
     #[arg(long)]
     write_kit: Option<PathBuf>,
+    /// Also write every scored frame here as CSV (indenter, truth, errors, flags).
+    #[arg(long)]
+    frames: Option<PathBuf>,
     /// Worker threads.
     #[arg(long, default_value_t = 2)]
     jobs: usize,
@@ -80,6 +83,10 @@ fn main() -> Result<()> {
     });
     bar.finish_and_clear();
     let _ = std::fs::remove_dir_all(&work);
+    if let Some(path) = &args.frames {
+        std::fs::write(path, frames_csv(&results))
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
     let body = report(&results);
     let held = if args.first >= HELD_OUT {
         "held-out"

@@ -18,6 +18,15 @@
 //! demodulator's own kernel, so no scale is chosen. The step is first order: exact for a
 //! paraboloid, a partial restoration where the kernels reach a punch's rim. The loss is
 //! bounded to `[0, s₁]`: at a maximum a blur cannot raise the peak.
+//!
+//! **Where it stops.** A sphere is a paraboloid only inside its contact radius `a`; with
+//! `a` under about three of the kernel's σ (σ is about 0.4 of a grating period, whatever
+//! the camera) the kernels reach Hertz's flatter surround and the step restores only part
+//! of the loss, and a flat punch of such a size, which lost little, is raised. Neither can
+//! be told from the map: a sphere's and a punch's blurred profiles, surrounds included,
+//! match to under a percent at depths a tenth apart. The calibration's depth model, fitted
+//! on a sphere, takes up the sphere's remainder; contacts much blunter or sharper than the
+//! calibrated indenter are flagged ([`super::BLUNTNESS_RATIO`], [`super::SHARPNESS_RATIO`]).
 
 /// The blur-corrected peak of a window's depth map (`w` pixels wide, deepest value
 /// `peak_um`), µm: at the deepest

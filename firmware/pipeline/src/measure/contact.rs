@@ -8,8 +8,9 @@ use super::coarse::{samples_in, Coarse, Margin};
 use super::features::slope_p98_exceeds;
 use super::window::upsample2;
 use super::{
-    Context, Features, Grid, Unwrap, BAND_LOSS_FRACTION, BAND_LOSS_MIN, DEPTH_RANGE_SLACK,
-    DIPOLE_RATIO, MAX_RESIDUES, SHARPNESS_RATIO, SLOPE_LIMIT, TILE_PX, UNWRAP_TRIGGER_RAD,
+    Context, Features, Grid, Unwrap, BAND_LOSS_FRACTION, BAND_LOSS_MIN, BLUNTNESS_RATIO,
+    DEPTH_RANGE_SLACK, DIPOLE_RATIO, MAX_RESIDUES, SHARPNESS_RATIO, SLOPE_LIMIT, TILE_PX,
+    UNWRAP_TRIGGER_RAD,
 };
 use crate::ftp::band::BAND_HALF_WIDTH;
 use crate::ftp::carrier::Carrier;
@@ -239,14 +240,16 @@ impl<P> Limits<'_, P> {
     ) -> QualityFlags {
         let mut flags = QualityFlags::NONE;
         // A contact much sharper than the calibrated indenter (less area at the same depth)
-        // is smoothed by the band more than the calibration knows: its depth reads low.
-        let sharper = ctx.calib.shape.as_ref().is_some_and(|s| {
-            f64::from(feats.area_mm2) < SHARPNESS_RATIO * s.area_mm2_at(f64::from(feats.peak_mm))
+        // is smoothed by the band more than the calibration knows: its depth reads low; a
+        // much blunter one is smoothed less: its depth reads deep.
+        let unlike = ctx.calib.shape.as_ref().is_some_and(|s| {
+            let calibrated = s.area_mm2_at(f64::from(feats.peak_mm));
+            let area = f64::from(feats.area_mm2);
+            area < SHARPNESS_RATIO * calibrated || area > BLUNTNESS_RATIO * calibrated
         });
         let slope_limit = SLOPE_LIMIT * 65_536.0 * BAND_HALF_WIDTH * carrier.freq();
         let ((_, (bw, bh)), deformed) = (self.win.pixels(), &self.pass.deformed);
-        if sharper || self.band_lost() || slope_p98_exceeds(self.up, deformed, bw, bh, slope_limit)
-        {
+        if unlike || self.band_lost() || slope_p98_exceeds(self.up, deformed, bw, bh, slope_limit) {
             flags.insert(Flag::PhaseSlope);
         }
         let (unreached, residues) = self.unwrap;

@@ -79,6 +79,15 @@ pub const BAND_LOSS_MIN: usize = 2;
 /// Phase-slope flag: a contact area below this fraction of the calibrated indenter's area at
 /// the same depth.
 pub const SHARPNESS_RATIO: f64 = 0.7;
+/// Phase-slope flag: a contact area above this multiple of the calibrated indenter's area at
+/// the same depth. The demodulator's blur (a grating period wide) lowers a rounded apex
+/// and spares a plateau; the calibration, made on a sphere, carries the sphere's loss into
+/// the depth model, so a blunter contact (a flat punch, a letter) reads deep. Below about
+/// three blur σ of contact radius a sphere's and a punch's blurred profiles match to under
+/// a percent at depths a tenth apart, so the map cannot tell them: a contact this much
+/// wider than the calibrated indenter is flagged instead (the development units' blunt
+/// presses outside the depth tolerance, at no cost to spheres up to twice its radius).
+pub const BLUNTNESS_RATIO: f64 = 2.0;
 /// Misregistration flag: a global offset beyond this, rad (0.4 of a period: up to there the
 /// offset is removed exactly; towards half a period it becomes ambiguous).
 pub const MISREGISTRATION_RAD: f32 = 0.8 * std::f32::consts::PI;
