@@ -66,7 +66,8 @@ pub struct Scored {
     pub unit: u64,
     /// Scene kind.
     pub kind: Kind,
-    /// The indenter and its size (`sphere R5`, `disc r3`, `letter 10 mm`; `none`).
+    /// The indenter and its size (`sphere R5`, `disc r3`, `punch 10 mm` for a footprint of that
+    /// extent such as a letter; `none`).
     pub indenter: String,
     /// True peak depth, mm.
     pub depth_mm: f32,
