@@ -8,6 +8,7 @@
 use vistaf_hardware::source::{FrameSource, Pacing, SetReplay};
 use vistaf_pipeline::calibration::Calibration;
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement};
+use vistaf_protocol::Flag;
 use vistaf_tests::{fixture, truth_depth_mm};
 
 const IMPLS: [Implementation; 2] = [Implementation::Fixed, Implementation::Float];
@@ -113,14 +114,19 @@ fn letter_and_nut_contacts_are_found_and_centred() {
             assert!(err_mm <= 0.5, "{name}: centre off by {err_mm} mm");
             // Flat punches read deeper than they are: the calibration maps the smoothed
             // peak phase of a sphere, and a flat punch's phase is not smoothed down the
-            // same way (a known limit of peak-based calibration, about +0.06 mm here).
+            // same way (`measure::apex`). Beyond the depth tolerance the phase-slope flag
+            // says so, and no other flag is raised.
             let want = f.depth_mm.unwrap() as f32;
+            let err = (d.peak_depth_mm - want).abs();
+            assert!(err <= 0.1, "{name}: {} vs {want}", d.peak_depth_mm);
+            let mut others = d.flags;
+            others.0 &= !Flag::PhaseSlope.bit();
+            assert!(others.is_empty(), "{name}: {:?}", d.flags);
             assert!(
-                (d.peak_depth_mm - want).abs() <= 0.1,
-                "{name}: {} vs {want}",
+                err <= 0.03 * want + 0.02 || d.flags.contains(Flag::PhaseSlope),
+                "{name}: {} vs {want} without a flag",
                 d.peak_depth_mm
             );
-            assert!(d.flags.is_empty(), "{name}: {:?}", d.flags);
         }
     }
 }
