@@ -23,11 +23,7 @@ use vistaf_sim::{Renderer, SensorUnit, SkinState};
 const FPS: f64 = 30.0;
 
 fn unit() -> SensorUnit {
-    SensorUnit {
-        width_px: 320,
-        height_px: 240,
-        ..SensorUnit::reference()
-    }
+    SensorUnit::reference_sized(320, 240)
 }
 
 fn settings(reference: ReferencePolicy) -> Settings {

@@ -91,11 +91,7 @@ fn mutated(json: &str, changes: &[(usize, usize)]) -> String {
 }
 
 fn unit() -> SensorUnit {
-    SensorUnit {
-        width_px: 320,
-        height_px: 240,
-        ..SensorUnit::reference()
-    }
+    SensorUnit::reference_sized(320, 240)
 }
 
 struct Frames {
@@ -154,11 +150,7 @@ fn sample_set() -> PathBuf {
     DIR.get_or_init(|| {
         let dir = std::env::temp_dir().join(format!("vistaf-hostile-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
-        let u = SensorUnit {
-            width_px: 64,
-            height_px: 48,
-            ..SensorUnit::reference()
-        };
+        let u = SensorUnit::reference_sized(64, 48);
         let states = vistaf_sim::scene::states("press-sphere", &u, 3).unwrap();
         let opts = vistaf_sim::sets::SetOptions {
             truth_maps: false,

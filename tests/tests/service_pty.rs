@@ -58,11 +58,7 @@ fn serve(
 
 #[test]
 fn summaries_cross_a_pty_in_order_and_match_the_scene() {
-    let unit = SensorUnit {
-        width_px: 320,
-        height_px: 240,
-        ..SensorUnit::reference()
-    };
+    let unit = SensorUnit::reference_sized(320, 240);
     let depths: Vec<f32> = (0..24).map(|i| 0.1 * i as f32).collect();
     let mut states = vec![SkinState::idle(ROOM_C); 3];
     for &d in &depths {
@@ -205,11 +201,7 @@ fn summaries_cross_a_pty_in_order_and_match_the_scene() {
 /// a shared machine is not a test).
 #[test]
 fn the_status_reports_capture_to_link_latency_at_60_and_120_frames_per_second() {
-    let unit = SensorUnit {
-        width_px: 320,
-        height_px: 240,
-        ..SensorUnit::reference()
-    };
+    let unit = SensorUnit::reference_sized(320, 240);
     for fps in [60.0f32, 120.0] {
         let mut states = vec![SkinState::idle(ROOM_C); 3];
         for i in 0..(2.5 * fps) as usize {

@@ -18,11 +18,7 @@ const DEPTH_MM: f32 = 1.0;
 
 #[test]
 fn full_maps_cross_the_link_whole_and_draw_as_a_labelled_figure() {
-    let unit = SensorUnit {
-        width_px: 320,
-        height_px: 240,
-        ..SensorUnit::reference()
-    };
+    let unit = SensorUnit::reference_sized(320, 240);
     let (cx, cy) = center_mm(&unit);
     let mut pressed = SkinState::idle(ROOM_C);
     pressed.contacts.push(Contact {

@@ -11,11 +11,7 @@ use vistaf_sim::scene::{center_mm, ROOM_C};
 use vistaf_sim::{Renderer, SensorUnit, SkinState};
 
 fn unit() -> SensorUnit {
-    SensorUnit {
-        width_px: 320,
-        height_px: 240,
-        ..SensorUnit::reference()
-    }
+    SensorUnit::reference_sized(320, 240)
 }
 
 fn analyze(state: &SkinState, imp: Implementation) -> Measurement {

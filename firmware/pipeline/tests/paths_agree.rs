@@ -55,11 +55,7 @@ fn compare(unit: SensorUnit, states: &[SkinState], calib: &Calibration) -> f32 {
 
 #[test]
 fn fixed_matches_float_within_one_percent_of_peak() {
-    let unit = SensorUnit {
-        width_px: 320,
-        height_px: 240,
-        ..SensorUnit::reference()
-    };
+    let unit = SensorUnit::reference_sized(320, 240);
     let states = scene::states("sweep-depth", &unit, 5).unwrap();
     let worst = compare(unit, &states, &Calibration::default_sim());
     assert!(

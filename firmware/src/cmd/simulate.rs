@@ -147,11 +147,7 @@ pub const FIXTURES: &[(&str, &str, usize)] = &[
 ];
 
 fn fixtures(dir: &Path) -> Result<()> {
-    let unit = SensorUnit {
-        width_px: 320,
-        height_px: 240,
-        ..SensorUnit::reference()
-    };
+    let unit = SensorUnit::reference_sized(320, 240);
     for (k, (name, scene_name, n)) in FIXTURES.iter().enumerate() {
         let states =
             scene::states(scene_name, &unit, *n).ok_or_else(|| anyhow!("scene {scene_name}"))?;
@@ -172,11 +168,7 @@ fn fixtures(dir: &Path) -> Result<()> {
 }
 
 fn montage(png: &Path) -> Result<()> {
-    let unit = SensorUnit {
-        width_px: 320,
-        height_px: 240,
-        ..SensorUnit::reference()
-    };
+    let unit = SensorUnit::reference_sized(320, 240);
     let r = Renderer::new(unit.clone());
     let pick = |name: &str, frac: f32| -> Result<SkinState> {
         let s = scene::states(name, &unit, 11).ok_or_else(|| anyhow!("scene {name}"))?;

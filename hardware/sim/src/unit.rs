@@ -85,6 +85,16 @@ pub struct SensorUnit {
 }
 
 impl SensorUnit {
+    /// The reference build behind a camera of another size (the grating period in pixels
+    /// kept).
+    pub fn reference_sized(width_px: u32, height_px: u32) -> SensorUnit {
+        SensorUnit {
+            width_px,
+            height_px,
+            ..SensorUnit::reference()
+        }
+    }
+
     /// The reference build.
     pub fn reference() -> SensorUnit {
         SensorUnit {

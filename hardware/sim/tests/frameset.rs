@@ -15,11 +15,7 @@ fn tmp(name: &str) -> PathBuf {
 }
 
 fn small_unit() -> SensorUnit {
-    SensorUnit {
-        width_px: 96,
-        height_px: 64,
-        ..SensorUnit::reference()
-    }
+    SensorUnit::reference_sized(96, 64)
 }
 
 fn sample_set(dir: &Path) -> FrameSet {

@@ -11,11 +11,7 @@ use vistaf_sim::{SensorUnit, SimSource};
 
 #[test]
 fn recording_a_simulated_camera_gives_a_valid_set_with_times() {
-    let unit = SensorUnit {
-        width_px: 96,
-        height_px: 64,
-        ..SensorUnit::reference()
-    };
+    let unit = SensorUnit::reference_sized(96, 64);
     let mut src = SimSource::scene("press-sphere", unit, 5, None, 3).unwrap();
     let dir = std::env::temp_dir().join(format!("vistaf-rec-{}", std::process::id()));
     let set = record(&mut src, &dir, 3, 2.0).unwrap();

@@ -35,11 +35,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     } else {
         vistaf_pipeline::ftp::band::BandWindow::Matched
     };
-    let unit = SensorUnit {
-        width_px: w,
-        height_px: h,
-        ..SensorUnit::reference()
-    };
+    let unit = SensorUnit::reference_sized(w, h);
     let r = Renderer::new(unit.clone());
     let (reference, _) = r.render(&SkinState::idle(scene::ROOM_C), 1);
     let state = if idle {

@@ -127,11 +127,7 @@ impl Bench {
 }
 
 fn small_unit() -> SensorUnit {
-    SensorUnit {
-        width_px: 320,
-        height_px: 240,
-        ..SensorUnit::reference()
-    }
+    SensorUnit::reference_sized(320, 240)
 }
 
 /// Force-and-shape flags (everything but the temperature range).
