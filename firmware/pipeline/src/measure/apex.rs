@@ -193,6 +193,85 @@ mod tests {
             .collect()
     }
 
+    /// Unit-depth elastic surfaces at radius `r` for contact radius `a`: Hertz's sphere
+    /// (surround included) and Boussinesq's flat punch.
+    fn hertz(r: f64, a: f64) -> f64 {
+        if r <= a {
+            return 1.0 - r * r / (2.0 * a * a);
+        }
+        let p = r / a;
+        ((2.0 - p * p) * (1.0 / p).asin() + (p * p - 1.0).sqrt()) / std::f64::consts::PI
+    }
+    fn punch(r: f64, a: f64) -> f64 {
+        if r <= a {
+            1.0
+        } else {
+            2.0 / std::f64::consts::PI * (a / r).asin()
+        }
+    }
+
+    /// `surface` of depth `d` µm about the centre of an `n × n` window, as the
+    /// demodulator's triangle of box length `l` blurs it.
+    fn blurred(surface: fn(f64, f64) -> f64, a: f64, d: f64, n: usize, l: usize) -> Vec<i32> {
+        let c = (n / 2) as f64;
+        let z: Vec<i32> = (0..n * n)
+            .map(|i| {
+                let r = ((i % n) as f64 - c).hypot((i / n) as f64 - c);
+                (d * surface(r, a)).round() as i32
+            })
+            .collect();
+        blur(&z, n, (l, l))
+    }
+
+    /// Where the step stops (the module's last paragraph): with the contact radius at 2σ a
+    /// sphere's reading keeps about a fifth of its loss, and a punch at 3σ is raised above
+    /// its plateau.
+    #[test]
+    fn narrow_spheres_read_shallow_and_punches_deep() {
+        let (l, n, d) = (7, 121, 1000.0);
+        let sigma = 8.0f64.sqrt();
+        let sphere = blurred(hertz, 2.0 * sigma, d, n, l);
+        let got = corrected(&sphere, n, (l, l));
+        assert!((760..=820).contains(&got), "sphere at 2σ: {got}");
+        let flat = blurred(punch, 3.0 * sigma, d, n, l);
+        let got = corrected(&flat, n, (l, l));
+        assert!((1040..=1110).contains(&got), "punch at 3σ: {got}");
+    }
+
+    /// …and the map cannot tell them there: a sphere of contact radius 2σ and a punch of
+    /// 1.5σ about an eighth shallower blur to profiles within a percent of each other.
+    #[test]
+    fn a_narrow_sphere_and_a_shallower_punch_blur_alike() {
+        let (l, n) = (7, 121);
+        let sigma = 8.0f64.sqrt();
+        let sphere = blurred(hertz, 2.0 * sigma, 1000.0, n, l);
+        let flat = blurred(punch, 1.5 * sigma, 1000.0, n, l);
+        // The centre row out to 5σ, the punch scaled to fit the sphere.
+        let row = (n / 2) * n + n / 2;
+        let span = (5.0 * sigma) as usize;
+        let (s, f): (Vec<f64>, Vec<f64>) = (0..span)
+            .map(|x| (f64::from(sphere[row + x]), f64::from(flat[row + x])))
+            .unzip();
+        let scale = s.iter().zip(&f).map(|(a, b)| a * b).sum::<f64>()
+            / f.iter().map(|b| b * b).sum::<f64>();
+        let rms = (s
+            .iter()
+            .zip(&f)
+            .map(|(a, b)| (a - scale * b).powi(2))
+            .sum::<f64>()
+            / span as f64)
+            .sqrt();
+        assert!(
+            rms < 0.01 * s[0],
+            "profiles differ by {rms} µm rms of {}",
+            s[0]
+        );
+        assert!(
+            (0.84..=0.92).contains(&scale),
+            "punch depth {scale} of the sphere's"
+        );
+    }
+
     /// Two boxes of length `l` have variance `(l² − 1)/6`: lengths 5 and 7 give 4 and 8 px².
     #[test]
     fn a_paraboloid_gets_back_half_the_variance_times_its_curvature() {

@@ -85,8 +85,8 @@ pub const SHARPNESS_RATIO: f64 = 0.7;
 /// the depth model, so a blunter contact (a flat punch, a letter) reads deep. Below about
 /// three blur σ of contact radius a sphere's and a punch's blurred profiles match to under
 /// a percent at depths a tenth apart, so the map cannot tell them: a contact this much
-/// wider than the calibrated indenter is flagged instead (the development units' blunt
-/// presses outside the depth tolerance, at no cost to spheres up to twice its radius).
+/// wider than the calibrated indenter is flagged instead. (A sphere's contact area at a
+/// given depth grows with its radius, so spheres up to twice the calibrated one pass.)
 pub const BLUNTNESS_RATIO: f64 = 2.0;
 /// Misregistration flag: a global offset beyond this, rad (0.4 of a period: up to there the
 /// offset is removed exactly; towards half a period it becomes ambiguous).
