@@ -440,12 +440,12 @@ pub fn frames_csv(results: &[UnitResult]) -> String {
     let opt = |v: Option<f32>| v.map(|v| format!("{v:.4}")).unwrap_or_default();
     let mut s = String::from(
         "unit,kind,indenter,depth_mm,depth_err_mm,force_err_n,force_n,centre_err_mm,\
-         contact_temp_err_c,mean_temp_err_c,failures,flags\n",
+         contact_temp_err_c,mean_temp_err_c,max_temp_excess_c,failures,flags\n",
     );
     for f in results.iter().flatten().flatten() {
         let _ = writeln!(
             s,
-            "{},{},{},{:.4},{},{},{},{},{},{},{},{}",
+            "{},{},{},{:.4},{},{},{},{},{},{},{},{},{}",
             f.unit,
             f.kind.name(),
             f.indenter,
@@ -456,6 +456,7 @@ pub fn frames_csv(results: &[UnitResult]) -> String {
             opt(f.centre_err_mm),
             opt(f.contact_temp_err_c),
             opt(f.mean_temp_err_c),
+            opt(f.max_temp_excess_c),
             f.failures.join(" "),
             f.flags.join(" "),
         );

@@ -239,17 +239,21 @@ fn temperature_model<O: Observer>(
             }
             let g = an.thermometer().geometry();
             let pooled = pool(&sums, g.bw, g.bh, BLACK_POOL);
-            let inv = |b: &Sums| {
+            // As the thermometer reads them: the coloured stripes against the
+            // neighbourhood's black stripes.
+            let inv = |b: &Sums, white: &Sums| {
                 let (c, k) = b.means();
-                b.enough().then(|| Invariants::from_linear(c, k)).flatten()
+                (b.enough() && white.enough())
+                    .then(|| Invariants::from_linear(c, k, white.means().1))
+                    .flatten()
             };
             let good: Vec<BlockSample> = sums
                 .iter()
                 .zip(&pooled)
                 .filter_map(|(b, p)| {
                     Some(BlockSample {
-                        v: inv(b)?,
-                        pooled: inv(p)?,
+                        v: inv(b, p)?,
+                        pooled: inv(p, p)?,
                         t_c: t,
                     })
                 })

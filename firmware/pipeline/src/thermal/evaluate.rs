@@ -4,6 +4,8 @@
 //!
 //! A block's reading fuses two populations: the coloured stripes read per block, the
 //! black stripes over its neighbourhood (they are dark and their model is the coarse one).
+//! The coloured stripes' colour is measured against the neighbourhood's black stripes too:
+//! the same light and camera gains, and nine blocks' worth of dark samples instead of one.
 //! The blend reads the populations' variances first at a guess, the median black estimate
 //! of the block's neighbourhood, then at the result.
 
@@ -21,9 +23,10 @@ pub trait Evaluator {
     /// Where the blend first reads the populations' variances, prepared once for every
     /// block that shares it.
     type Guess: Copy;
-    /// A population's estimate from sums that hold enough samples; `None` when their
-    /// colours say nothing (the coloured stripes black).
-    fn population(&self, p: Population, s: &Sums) -> Option<Self::Estimate>;
+    /// A population's estimate from sums that hold enough samples, the coloured
+    /// chromaticity measured against the black stripes of `white` (see
+    /// [`Invariants::from_linear`]); `None` when their colours say nothing (a channel black).
+    fn population(&self, p: Population, s: &Sums, white: &Sums) -> Option<Self::Estimate>;
     /// An integer that orders estimates as their temperatures.
     fn key(e: &Self::Estimate) -> i64;
     /// The blend's first pass at a black estimate.
@@ -40,9 +43,9 @@ impl Evaluator for FloatModel {
     type Estimate = (f64, bool);
     type Guess = f64;
 
-    fn population(&self, p: Population, s: &Sums) -> Option<(f64, bool)> {
+    fn population(&self, p: Population, s: &Sums, white: &Sums) -> Option<(f64, bool)> {
         let (c, k) = s.means();
-        let v = Invariants::from_linear(c, k)?;
+        let v = Invariants::from_linear(c, k, white.means().1)?;
         Some((self.0.population(p, &v), self.0.domain.contains(&v)))
     }
 
@@ -72,8 +75,8 @@ impl Evaluator for FixedModel {
     /// The black estimate's weight at the guess, Q16 ([`FixedModel::guess_weight`]).
     type Guess = i64;
 
-    fn population(&self, p: Population, s: &Sums) -> Option<(i64, bool)> {
-        Some(FixedModel::population(self, p, invariants_q16(s)?))
+    fn population(&self, p: Population, s: &Sums, white: &Sums) -> Option<(i64, bool)> {
+        Some(FixedModel::population(self, p, invariants_q16(s, white)?))
     }
 
     fn key(e: &(i64, bool)) -> i64 {
@@ -116,18 +119,19 @@ pub trait Temperatures: std::fmt::Debug + Send + Sync {
     fn map(&self, blocks: &[Sums], bw: usize, bh: usize) -> BlockMap;
 }
 
-/// A population's estimate, when the sums hold enough samples.
-fn estimate<E: Evaluator>(e: &E, p: Population, s: &Sums) -> Option<E::Estimate> {
-    if !s.enough() {
+/// A population's estimate, when the sums (and the black stripes they are measured
+/// against) hold enough samples.
+fn estimate<E: Evaluator>(e: &E, p: Population, s: &Sums, white: &Sums) -> Option<E::Estimate> {
+    if !s.enough() || !white.enough() {
         return None;
     }
-    e.population(p, s)
+    e.population(p, s, white)
 }
 
 impl<E: Evaluator + std::fmt::Debug + Send + Sync> Temperatures for E {
     fn read(&self, own: &Sums, pooled: &Sums) -> Option<Reading> {
-        let c = estimate(self, Population::Coloured, own)?;
-        let b = estimate(self, Population::Black, pooled)?;
+        let c = estimate(self, Population::Coloured, own, pooled)?;
+        let b = estimate(self, Population::Black, pooled, pooled)?;
         Some(self.fuse(c, b, self.guess(b)))
     }
 
@@ -135,11 +139,12 @@ impl<E: Evaluator + std::fmt::Debug + Send + Sync> Temperatures for E {
         // The black stripes' estimate on every other block each way (their 3 × 3 pooling
         // makes neighbours nearly the same), shared by the 2 × 2 blocks it stands for.
         let (gw, gh) = (bw.div_ceil(2), bh.div_ceil(2));
-        let black: Vec<Option<E::Estimate>> = (0..gw * gh)
-            .map(|k| {
-                let p = pool_at(blocks, bw, bh, 2 * (k % gw), 2 * (k / gw), BLACK_POOL);
-                estimate(self, Population::Black, &p)
-            })
+        let pooled: Vec<Sums> = (0..gw * gh)
+            .map(|k| pool_at(blocks, bw, bh, 2 * (k % gw), 2 * (k / gw), BLACK_POOL))
+            .collect();
+        let black: Vec<Option<E::Estimate>> = pooled
+            .iter()
+            .map(|p| estimate(self, Population::Black, p, p))
             .collect();
         let guess = guesses(self, &black, (gw, gh));
         let mut m = BlockMap {
@@ -152,7 +157,7 @@ impl<E: Evaluator + std::fmt::Debug + Send + Sync> Temperatures for E {
             let cell = (b / bw / 2) * gw + (b % bw) / 2;
             let Some(r) = black[cell]
                 .zip(guess[cell])
-                .and_then(|k| Some((estimate(self, Population::Coloured, s)?, k)))
+                .and_then(|k| Some((estimate(self, Population::Coloured, s, &pooled[cell])?, k)))
                 .map(|(c, (k, guess))| self.fuse(c, k, guess))
             else {
                 continue;

@@ -1,7 +1,8 @@
 //! The device path's colour → temperature: the calibration's models in integer arithmetic.
 //!
-//! Per block, from the 64-bit colour sums: the invariants (chromaticity r, g and the
-//! black-to-coloured luminance ratio q) in Q16 by integer division; CIELAB's XYZ matrix in
+//! Per block, from the 64-bit colour sums: the invariants (the chromaticity r, g of the
+//! coloured stripes over the black, and the black over the coloured weighted as luminance,
+//! q; see [`super::lab`]) in Q16 by integer division; CIELAB's XYZ matrix in
 //! Q16; its cube root `f(t)` from a 4097-entry table over t ∈ [0, 4] with linear
 //! interpolation (error below 10⁻⁶, far under the features' noise); then each population's
 //! model — a polynomial in standardised features or the calibration curve's nearest segment —
@@ -13,8 +14,8 @@
 //! calibration curve where its nearest segment changes (errors above 1 °C at the default
 //! resolution).
 //!
-//! Cost per block: three divisions for the invariants, one per chromaticity channel, six
-//! table reads, and per model either its monomials or three multiply-adds per curve segment.
+//! Cost per block: eight divisions for the invariants (the two ratios per channel, then the
+//! chromaticity), one per chromaticity channel for the features, six table reads, and per model either its monomials or three multiply-adds per curve segment.
 
 use super::lab::D65;
 use super::model::{ColourModel, Population, TemperatureModel, VarianceTable};
@@ -244,8 +245,8 @@ impl Pop {
 
 impl CurveQ {
     /// The calibration curve's temperature at features `x` (Q16), as `Curve::eval` in the
-    /// float model: the nearest points of the segments meeting at the two nearest knots,
-    /// blended by likelihood. Whitened values in Q12 (2⁻¹² σ); distances clamped at 4096 σ
+    /// float model: the nearest points of the end segments and of those meeting at the two
+    /// nearest knots, blended by likelihood. Whitened values in Q12 (2⁻¹² σ); distances clamped at 4096 σ
     /// (far outside any calibrated colour): squares and dot products stay below 2⁵⁰, and
     /// only the projection's product takes 128 bits (a multiplication, no division).
     /// Fixed-size feature vectors and one pass over the knots.
@@ -291,13 +292,15 @@ impl CurveQ {
         }
         let last = n - 2;
         let mut segs = [
+            0,
             k1.1.saturating_sub(1),
             k1.1.min(last),
             k2.1.saturating_sub(1),
             k2.1.min(last),
+            last,
         ];
         segs.sort_unstable();
-        let mut found = [(i64::MAX, 0i64); 4];
+        let mut found = [(i64::MAX, 0i64); 6];
         for (i, &k) in segs.iter().enumerate() {
             if i > 0 && segs[i - 1] == k {
                 continue;
@@ -366,25 +369,26 @@ pub struct FixedModel {
     domain: [[i64; 2]; 3],
 }
 
-/// Invariants of a block in Q16 (r, g, q), or `None` when the coloured stripes are black.
-/// Means first (Q16 linear), so every product fits 64 bits.
-pub fn invariants_q16(s: &Sums) -> Option<[i64; 3]> {
-    if s.n[0] == 0 || s.n[1] == 0 {
+/// Invariants of a block in Q16 (r, g, q; see [`super::lab::Invariants`]), the coloured
+/// chromaticity measured against the black stripes of `white`; `None` when a channel of
+/// either population is black. Means first (Q16 linear), so every ratio stays below 2³²
+/// and every product fits 64 bits.
+pub fn invariants_q16(s: &Sums, white: &Sums) -> Option<[i64; 3]> {
+    if s.n[0] == 0 || s.n[1] == 0 || white.n[1] == 0 {
         return None;
     }
-    let mean = |p: usize| s.sum[p].map(|v| (v / u64::from(s.n[p])) as i64);
-    let (c, k) = (mean(0), mean(1));
-    let total: i64 = c.iter().sum();
-    let y = |m: [i64; 3]| -> i64 { m.iter().zip(Y_Q16).map(|(v, w)| v * w).sum() }; // Q32
-    let yc = y(c);
-    if total == 0 || yc == 0 {
+    let mean = |s: &Sums, p: usize| s.sum[p].map(|v| (v / u64::from(s.n[p])) as i64);
+    let (c, k, w) = (mean(s, 0), mean(s, 1), mean(white, 1));
+    if c.iter().chain(&k).chain(&w).any(|v| *v <= 0) {
         return None;
     }
-    Some([
-        (c[0] << 16) / total,
-        (c[1] << 16) / total,
-        (y(k) << 16) / yc,
-    ])
+    let ratio: [i64; 3] = std::array::from_fn(|j| (c[j] << 16) / w[j]);
+    let total: i64 = ratio.iter().sum();
+    let q: i64 = (0..3)
+        .map(|j| Y_Q16[j] * ((k[j] << 16) / c[j]))
+        .sum::<i64>()
+        >> 16;
+    Some([(ratio[0] << 16) / total, (ratio[1] << 16) / total, q])
 }
 
 impl FixedModel {

@@ -2,13 +2,23 @@
 //! as the standards define them, and the illumination-invariant stripe colour features.
 //!
 //! **Why invariants.** A block's colour is the pigment's reflectance times the light that
-//! reaches it: vignetting, LED-ring reflections, exposure and — under an indentation — the
-//! darkening of the tilted surface. All of these are (close to) achromatic and common to a
-//! coloured stripe and the black stripe beside it, a millimetre away. So the features are
-//! the coloured stripes' chromaticity (their CIELAB a*, b* at a fixed lightness) and the
-//! black stripes' lightness measured against the coloured stripes beside them as the white
-//! (CIELAB L* with the coloured stripe as the reference white). Neither moves when the
-//! light does, which is what keeps indentation shading out of the temperature.
+//! reaches it: vignetting, LED-ring reflections, exposure, the camera's white balance and —
+//! under an indentation — the darkening of the tilted surface. The light's brightness and
+//! the camera's gain per channel are common to a coloured stripe and the black stripe
+//! beside it, a millimetre away, so the features are built from the two stripes' ratio per
+//! channel, `C_k / K_k`, which neither changes:
+//! - the coloured stripes' colour with the black stripes beside them as the white: the
+//!   chromaticity of `C_k / K_k` (its CIELAB a*, b* at a fixed lightness);
+//! - the black stripes' lightness against the coloured stripes: CIELAB L* of
+//!   `Σ_k Y_k · K_k / C_k` (Y_k the luminance weights).
+//!
+//! The coloured stripes' own chromaticity would follow a drifting white balance (a camera's
+//! automatic white balance, or one a few per cent off after the reference): ±4 % in red and
+//! blue moves it as far as a degree of the transition does. The ratio leaves that out by
+//! construction, whatever the pigments. What it gives up is the dark black stripes' noise in
+//! every feature; so the chromaticity takes its white from the black stripes of the block's
+//! neighbourhood (the same light and gains a few millimetres away, nine times the samples),
+//! and the calibration's variance tables carry what noise is left.
 
 /// sRGB-encoded value (0…1) → linear light (IEC 61966-2-1).
 pub fn srgb_to_linear(v: f64) -> f64 {
@@ -69,27 +79,40 @@ pub fn lightness(y_ratio: f64) -> f64 {
 /// Luminance the coloured stripes' chromaticity is evaluated at: mid-grey (L* ≈ 76).
 pub const CHROMA_Y: f64 = 0.5;
 
-/// What a block's stripes say about temperature, independent of the light on them.
+/// What a block's stripes say about temperature, independent of the light on them and of the
+/// camera's gain per channel (see the module doc).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Invariants {
-    /// Coloured stripes' chromaticity: linear R, G over R + G + B.
+    /// Chromaticity of the coloured stripes over the black, per channel: `ρ_R / Σρ` with
+    /// `ρ_k = C_k / K_k`.
     pub r: f64,
     /// See `r`.
     pub g: f64,
-    /// Black stripes' luminance over the coloured stripes'.
+    /// The black stripes over the coloured, per channel, weighted as luminance:
+    /// `Σ_k Y_k · K_k / C_k`.
     pub q: f64,
 }
 
 impl Invariants {
-    /// From mean linear colours of the coloured and black stripes; `None` when the coloured
-    /// stripes are black (nothing to measure against).
-    pub fn from_linear(coloured: [f64; 3], black: [f64; 3]) -> Option<Invariants> {
-        let s: f64 = coloured.iter().sum();
-        let y = luminance(coloured);
-        (s > 1e-6 && y > 1e-6).then(|| Invariants {
-            r: coloured[0] / s,
-            g: coloured[1] / s,
-            q: luminance(black) / y,
+    /// From mean linear colours of the coloured and black stripes of a region, and of the
+    /// black stripes the coloured chromaticity is measured against (`white`: the region's
+    /// own, or its neighbourhood's, whose mean over more stripes is less noisy); `None` when
+    /// a channel of any is black (nothing to measure against).
+    pub fn from_linear(coloured: [f64; 3], black: [f64; 3], white: [f64; 3]) -> Option<Invariants> {
+        if [coloured, black, white]
+            .iter()
+            .flatten()
+            .any(|v| *v <= 1e-9)
+        {
+            return None;
+        }
+        let ratio: [f64; 3] = std::array::from_fn(|k| coloured[k] / white[k]);
+        let s: f64 = ratio.iter().sum();
+        let q = luminance(std::array::from_fn(|k| black[k] / coloured[k]));
+        Some(Invariants {
+            r: ratio[0] / s,
+            g: ratio[1] / s,
+            q,
         })
     }
 
@@ -147,13 +170,21 @@ mod tests {
     }
 
     #[test]
-    fn invariants_ignore_the_light() {
+    fn invariants_ignore_the_light_and_the_white_balance() {
         let c = [0.31, 0.22, 0.12];
         let k = [0.05, 0.048, 0.046];
-        let a = Invariants::from_linear(c, k).unwrap();
-        let b = Invariants::from_linear(c.map(|v| v * 0.6), k.map(|v| v * 0.6)).unwrap();
-        assert!((a.r - b.r).abs() < 1e-12 && (a.q - b.q).abs() < 1e-12);
+        let a = Invariants::from_linear(c, k, k).unwrap();
+        let gain = [0.6 * 1.04, 0.6, 0.6 * 0.96];
+        let k2: [f64; 3] = std::array::from_fn(|j| k[j] * gain[j]);
+        let b = Invariants::from_linear(std::array::from_fn(|j| c[j] * gain[j]), k2, k2).unwrap();
+        assert!((a.r - b.r).abs() < 1e-12 && (a.g - b.g).abs() < 1e-12);
+        assert!((a.q - b.q).abs() < 1e-12);
+        // A warmer coloured stripe (more red against the same black) moves r.
+        let warm = Invariants::from_linear([0.34, 0.22, 0.12], k, k).unwrap();
+        assert!(warm.r > a.r + 0.01);
         assert_eq!(a.black_features().len(), 3);
-        assert!(Invariants::from_linear([0.0; 3], k).is_none());
+        assert!(Invariants::from_linear([0.0; 3], k, k).is_none());
+        assert!(Invariants::from_linear(c, [0.05, 0.0, 0.046], k).is_none());
+        assert!(Invariants::from_linear(c, k, [0.05, 0.0, 0.046]).is_none());
     }
 }

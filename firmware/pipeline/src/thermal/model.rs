@@ -140,8 +140,10 @@ impl Polynomial {
 /// The calibration curve: the per-setpoint mean features as knots, joined by straight
 /// segments. A block reads the temperature of the nearest point on the curve (distance in
 /// units of each feature's block-to-block noise; the segments searched are those at the
-/// two nearest knots), linear beyond the end segments. It has as
-/// many parameters as knots × features, so the parsimony rule only takes it when the
+/// two nearest knots and the two end segments), linear beyond the end segments. The end
+/// segments are always searched because a colour beyond the calibrated range lies past an
+/// end, where the nearest knots may be ones of the far end of a curve that bends back
+/// towards its start. It has as many parameters as knots × features, so the parsimony rule only takes it when the
 /// polynomials cannot follow the colour's path.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Curve {
@@ -156,8 +158,9 @@ pub struct Curve {
 }
 
 impl Curve {
-    /// Temperature of the nearest point on the segments that meet at the two nearest knots
-    /// (on a curve sampled as finely as a calibration's, the nearest point of all), °C.
+    /// Temperature of the nearest point on the end segments and on those that meet at the
+    /// two nearest knots (on a curve sampled as finely as a calibration's, the nearest point
+    /// of all), °C.
     pub fn eval(&self, x: &[f64]) -> f64 {
         let n = self.t_c.len();
         if n < 2 {
@@ -170,7 +173,7 @@ impl Curve {
                 .map(|((v, c), s)| ((v - c) / s).powi(2))
                 .sum()
         };
-        // The two nearest knots, and the segments meeting at either.
+        // The two nearest knots, the segments meeting at either, and the end segments.
         let (mut k1, mut k2) = ((f64::INFINITY, 0usize), (f64::INFINITY, 0usize));
         for k in 0..n {
             let d = dist2(k);
@@ -184,6 +187,7 @@ impl Curve {
         let mut segments: Vec<usize> = [k1.1, k2.1]
             .iter()
             .flat_map(|&k| [k.saturating_sub(1), k.min(n - 2)])
+            .chain([0, n - 2])
             .collect();
         segments.sort_unstable();
         segments.dedup();
@@ -416,11 +420,11 @@ pub struct PopulationModel {
 /// this box.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Domain {
-    /// Chromaticity r (lowest, highest).
+    /// Invariant r, the coloured-over-black chromaticity (lowest, highest).
     pub r: [f64; 2],
-    /// Chromaticity g.
+    /// Invariant g.
     pub g: [f64; 2],
-    /// Black-to-coloured luminance ratio q.
+    /// Invariant q, the black over the coloured.
     pub q: [f64; 2],
 }
 
