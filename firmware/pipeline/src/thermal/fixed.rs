@@ -15,7 +15,8 @@
 //! resolution).
 //!
 //! Cost per block: eight divisions for the invariants (the two ratios per channel, then the
-//! chromaticity), one per chromaticity channel for the features, six table reads, and per model either its monomials or three multiply-adds per curve segment.
+//! chromaticity), one per chromaticity channel for the features, six table reads, and per
+//! model either its monomials or three multiply-adds per curve segment.
 
 use super::lab::D65;
 use super::model::{ColourModel, Population, TemperatureModel, VarianceTable};
@@ -246,9 +247,10 @@ impl Pop {
 impl CurveQ {
     /// The calibration curve's temperature at features `x` (Q16), as `Curve::eval` in the
     /// float model: the nearest points of the end segments and of those meeting at the two
-    /// nearest knots, blended by likelihood. Whitened values in Q12 (2⁻¹² σ); distances clamped at 4096 σ
-    /// (far outside any calibrated colour): squares and dot products stay below 2⁵⁰, and
-    /// only the projection's product takes 128 bits (a multiplication, no division).
+    /// nearest knots, blended by likelihood. Whitened values in Q12 (2⁻¹² σ); distances
+    /// clamped at 4096 σ (far outside any calibrated colour): squares and dot products stay
+    /// below 2⁵⁰, and only the projection's product takes 128 bits (a multiplication, no
+    /// division).
     /// Fixed-size feature vectors and one pass over the knots.
     fn eval(&self, x: [i64; FEATURES]) -> i64 {
         let CurveQ {

@@ -6,7 +6,7 @@
 //! under an indentation — the darkening of the tilted surface. The light's brightness and
 //! the camera's gain per channel are common to a coloured stripe and the black stripe
 //! beside it, a millimetre away, so the features are built from the two stripes' ratio per
-//! channel, `C_k / K_k`, which neither changes:
+//! channel, `C_k / K_k`, which neither the light nor the gains change:
 //! - the coloured stripes' colour with the black stripes beside them as the white: the
 //!   chromaticity of `C_k / K_k` (its CIELAB a*, b* at a fixed lightness);
 //! - the black stripes' lightness against the coloured stripes: CIELAB L* of

@@ -141,10 +141,10 @@ impl Polynomial {
 /// segments. A block reads the temperature of the nearest point on the curve (distance in
 /// units of each feature's block-to-block noise; the segments searched are those at the
 /// two nearest knots and the two end segments), linear beyond the end segments. The end
-/// segments are always searched because a colour beyond the calibrated range lies past an
-/// end, where the nearest knots may be ones of the far end of a curve that bends back
-/// towards its start. It has as many parameters as knots × features, so the parsimony rule only takes it when the
-/// polynomials cannot follow the colour's path.
+/// segments are always searched: a colour beyond the calibrated range lies past an end,
+/// and its nearest knots may belong to the other end of a curve that bends back towards
+/// its start. It has as many parameters as knots × features, so the parsimony rule only
+/// takes it when the polynomials cannot follow the colour's path.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Curve {
     /// Feature names, in order.
