@@ -13,9 +13,9 @@
 //!   `Σ_k Y_k · K_k / C_k` (Y_k the luminance weights).
 //!
 //! The coloured stripes' own chromaticity would follow a drifting white balance (a camera's
-//! automatic white balance, or one a few per cent off after the reference): ±4 % in red and
-//! blue moves it as far as a degree of the transition does. The ratio leaves that out by
-//! construction, whatever the pigments. What it gives up is the dark black stripes' noise in
+//! automatic white balance, or one a few per cent off after the reference) as if the
+//! temperature had changed; the ratio leaves that out by construction, whatever the
+//! pigments. What it gives up is the dark black stripes' noise in
 //! every feature; so the chromaticity takes its white from the black stripes of the block's
 //! neighbourhood (the same light and gains a few millimetres away, nine times the samples),
 //! and the calibration's variance tables carry what noise is left.
