@@ -81,6 +81,8 @@ pub struct Scored {
     pub contact_temp_err_c: Option<f32>,
     /// Skin mean temperature error, °C (wherever the skin is at one temperature).
     pub mean_temp_err_c: Option<f32>,
+    /// The contact temperature's standard deviation as the pipeline states it, °C.
+    pub contact_temp_sigma_c: Option<f32>,
     /// Hottest block above the truth's hottest point, °C.
     pub max_temp_excess_c: Option<f32>,
     /// A press of 0.2 mm or more reported as no contact.
@@ -378,6 +380,7 @@ fn score(
         centre_err_mm: None,
         force_err_n: None,
         contact_temp_err_c: None,
+        contact_temp_sigma_c: None,
         mean_temp_err_c: None,
         max_temp_excess_c: None,
         missed: false,
@@ -440,12 +443,12 @@ pub fn frames_csv(results: &[UnitResult]) -> String {
     let opt = |v: Option<f32>| v.map(|v| format!("{v:.4}")).unwrap_or_default();
     let mut s = String::from(
         "unit,kind,indenter,depth_mm,depth_err_mm,force_err_n,force_n,centre_err_mm,\
-         contact_temp_err_c,mean_temp_err_c,max_temp_excess_c,failures,flags\n",
+         contact_temp_err_c,contact_temp_sigma_c,mean_temp_err_c,max_temp_excess_c,failures,flags\n",
     );
     for f in results.iter().flatten().flatten() {
         let _ = writeln!(
             s,
-            "{},{},{},{:.4},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{:.4},{},{},{},{},{},{},{},{},{},{}",
             f.unit,
             f.kind.name(),
             f.indenter,
@@ -455,6 +458,7 @@ pub fn frames_csv(results: &[UnitResult]) -> String {
             opt(f.force_err_n.map(|e| e.1)),
             opt(f.centre_err_mm),
             opt(f.contact_temp_err_c),
+            opt(f.contact_temp_sigma_c),
             opt(f.mean_temp_err_c),
             opt(f.max_temp_excess_c),
             f.failures.join(" "),
@@ -472,6 +476,7 @@ fn score_temperature(s: &mut Scored, state: &SkinState, truth: &Truth, m: &Measu
     if let (Some(want), Some(got)) = (truth.contact_temp_c, t.contact_c) {
         let e = got - want;
         s.contact_temp_err_c = Some(e);
+        s.contact_temp_sigma_c = t.contact_sigma_c;
         if e.abs() > 1.0 {
             s.failures.push("contact temperature");
         }

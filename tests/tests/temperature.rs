@@ -21,7 +21,11 @@ struct Bench {
 }
 
 fn bench() -> Bench {
-    let r = Renderer::new(SensorUnit::reference());
+    bench_of(SensorUnit::reference())
+}
+
+fn bench_of(unit: SensorUnit) -> Bench {
+    let r = Renderer::new(unit);
     let (reference, _) = r.render(&SkinState::idle(ROOM_C), 4242);
     let an = |imp| {
         Analyzer::new(
@@ -147,6 +151,40 @@ fn a_drifting_white_balance_does_not_move_temperature() {
                     "{t} °C skin: white balance {wb:?} reads {got:.3} °C, {steady_c:.3} without"
                 );
             }
+        }
+    }
+}
+
+/// Beyond the coloured transition only the black stripes' slow brightening speaks, and a
+/// pattern of a few per cent in their ratio to the coloured stripes reads as degrees. A
+/// strong, off-centre vignetting puts such a pattern on every block (the two populations'
+/// samples see the fall-off at different places); the reference shows it and the
+/// thermometer takes it out ([`vistaf_pipeline::thermal::ratio_field`]), so a uniform hot
+/// skin reads flat on both paths: block-to-block spread within 0.5 °C, hottest place within
+/// 1 °C of the truth.
+#[test]
+fn a_vignetted_unit_reads_a_hot_skin_flat() {
+    let mut unit = SensorUnit::reference();
+    unit.vignetting = 0.55;
+    unit.imperfections.vignetting_offset = (0.12, -0.08);
+    let b = bench_of(unit);
+    for (k, t) in [38.0f32, 42.0].into_iter().enumerate() {
+        let (fx, fl, _) = b.run(&SkinState::idle(t), 1400 + k as u64);
+        for (path, m) in [("device", &fx), ("float", &fl)] {
+            let temp = m.temperature.as_ref().unwrap();
+            let v: Vec<f32> = temp
+                .map_c
+                .iter()
+                .copied()
+                .filter(|v| v.is_finite())
+                .collect();
+            let mean = v.iter().sum::<f32>() / v.len() as f32;
+            let sd = (v.iter().map(|x| (x - mean).powi(2)).sum::<f32>() / v.len() as f32).sqrt();
+            assert!(
+                sd <= 0.5 && temp.max_c - t <= 1.0,
+                "{path}: {t} °C skin reads {mean:.2} ± {sd:.2} °C, hottest {:.2} °C",
+                temp.max_c
+            );
         }
     }
 }

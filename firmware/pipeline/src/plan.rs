@@ -281,10 +281,8 @@ impl Analyzer {
             size: reference.dimensions(),
             ref_saturation: image_ops::saturated_fraction(reference),
         };
-        if an.thermo.has_model() {
-            let (_, sums) = an.colour_sums(reference)?;
-            an.thermo.learn_static_light(&sums);
-        }
+        let (_, sums) = an.colour_sums(reference)?;
+        an.thermo.learn_reference(&sums);
         Ok(an)
     }
 

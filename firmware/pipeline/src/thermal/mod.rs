@@ -5,6 +5,7 @@
 //!  reference ─▶ grating phase per working pixel (once)
 //!  frame + FTP's Δφ ─▶ frame's grating phase ─▶ stripe centres, per input pixel
 //!        ─▶ linear colour sums per block (one stripe pair) and over the contact
+//!        ─▶ black stripes flat-fielded by the reference's pattern of their ratio
 //!        ─▶ invariants (chromaticity, black/coloured ratio)
 //!        ─▶ float: CIELAB + both polynomials + inverse-variance fusion
 //!           device: integer invariants + 3-D look-up table of the same
@@ -14,8 +15,9 @@
 //! [`lab`] holds the colour science, [`stripes`] the segmentation, [`model`] the
 //! calibration's models and their fusion, [`evaluate`] the map over blocks in either
 //! arithmetic ([`Evaluator`]), and [`fixed`] the device path's integer evaluation of the
-//! models. [`static_light`] finds the blocks glare misreads, from the reference, and
-//! [`extremes`] reads the map's coldest and hottest places. Fitting the models is the
+//! models. [`static_light`] finds the blocks glare misreads, from the reference,
+//! [`ratio_field`] takes the reference's block-to-block pattern out of the stripes' ratio,
+//! and [`extremes`] reads the map's coldest and hottest places. Fitting the models is the
 //! calibration's job (`vistaf-calibrate`).
 
 pub mod evaluate;
@@ -23,6 +25,7 @@ pub mod extremes;
 pub mod fixed;
 pub mod lab;
 pub mod model;
+pub mod ratio_field;
 pub mod static_light;
 pub mod stripes;
 
@@ -31,6 +34,7 @@ use crate::input::Pixels;
 pub use self::evaluate::{BlockMap, Evaluator, FloatModel, Temperatures};
 use self::fixed::FixedModel;
 use self::model::TemperatureModel;
+use self::ratio_field::RatioField;
 use self::stripes::{Geometry, Regions, Sums};
 
 /// A frame's temperatures.
@@ -55,6 +59,8 @@ pub struct Temperature {
     pub hottest_px: Option<(f32, f32)>,
     /// Temperature over the contact region, °C, when there is contact.
     pub contact_c: Option<f32>,
+    /// Its standard deviation by the calibration's variance tables, °C.
+    pub contact_sigma_c: Option<f32>,
     /// A block read outside the calibrated range (or outside the calibrated colours).
     pub out_of_range: bool,
     /// Blocks measured.
@@ -99,6 +105,8 @@ pub struct Thermometer {
     mm_per_px: f32,
     /// Blocks the reference shows misread by static light ([`static_light`]).
     misread: Vec<bool>,
+    /// The reference's pattern in the stripes' ratio ([`ratio_field`]).
+    ratio: RatioField,
 }
 
 impl Thermometer {
@@ -127,15 +135,24 @@ impl Thermometer {
             evaluator,
             mm_per_px,
             misread: Vec::new(),
+            ratio: RatioField::default(),
         }
     }
 
-    /// Learns where static light (glare) misreads the skin from the reference's colour
-    /// sums per block (`reference`: a skin at rest, one temperature throughout); those blocks
-    /// go unmeasured from then on. Without a model nothing is learnt.
-    pub fn learn_static_light(&mut self, reference: &[Sums]) {
+    /// Learns what the reference shows of the light and the skin from its colour sums per
+    /// block (`reference`: a skin at rest, one temperature throughout, summed before any
+    /// of this was learnt): where static light misreads the skin, and the pattern of the
+    /// stripes' ratio ([`ratio_field`]), taken out of every later frame.
+    pub fn learn_reference(&mut self, reference: &[Sums]) {
+        self.misread = self.static_light(reference);
+        self.ratio = RatioField::learn(reference, &self.misread);
+    }
+
+    /// The blocks static light (glare) misreads in `reference` ([`static_light`]): they go
+    /// unmeasured from then on. Without a model none (the reading is what shows them).
+    fn static_light(&self, reference: &[Sums]) -> Vec<bool> {
         let Some(evaluator) = self.evaluator.as_ref() else {
-            return;
+            return Vec::new();
         };
         let g = &self.geom;
         let map = evaluator.map(reference, g.bw, g.bh);
@@ -152,7 +169,7 @@ impl Thermometer {
                 }
             })
             .collect();
-        self.misread = static_light::misread(&view, g.bw, g.bh);
+        static_light::misread(&view, g.bw, g.bh)
     }
 
     /// Whether temperatures can be measured (the calibration has a model).
@@ -170,7 +187,7 @@ impl Thermometer {
     /// row (`reference`), over the working pixels the FTP found `reliable`; `regions` marks
     /// the contact region and its core. Blocks that saw only a sliver of a stripe pair
     /// ([`drop_partial`]) and blocks static light misreads ([`static_light`]) come back
-    /// empty.
+    /// empty; the others' black stripes are flat-fielded ([`ratio_field`]).
     pub fn sums(
         &self,
         frame: Pixels<'_>,
@@ -179,7 +196,7 @@ impl Thermometer {
         regions: Option<Regions<'_>>,
     ) -> (Vec<Sums>, [Sums; 2]) {
         let w = self.geom.w;
-        let (mut blocks, contact) = stripes::accumulate(
+        let (mut blocks, mut contact) = stripes::accumulate(
             frame,
             &self.geom,
             |y, row: &mut [u16]| {
@@ -191,6 +208,10 @@ impl Thermometer {
             &self.lin,
         );
         drop_partial(&mut blocks);
+        self.ratio.apply(&mut blocks);
+        if let Some(r) = &regions {
+            self.ratio.apply_regions(r, &self.geom, &mut contact);
+        }
         for (s, _) in blocks.iter_mut().zip(&self.misread).filter(|(_, &m)| m) {
             *s = Sums::default();
         }
@@ -230,12 +251,8 @@ impl Thermometer {
         };
         let n = map.measured;
         let mut out_of_range = map.outside >= OUT_OF_RANGE_BLOCKS.max(n / 100);
-        let contact_c = regions
-            .and_then(|_| evaluator.read(&region, &region))
-            .map(|r| {
-                out_of_range |= !r.trusted;
-                r.t_c
-            });
+        let contact = regions.and_then(|_| evaluator.read(&region, &region));
+        out_of_range |= contact.is_some_and(|r| !r.trusted);
         let ext = extremes::extremes(&map.map_c, g.bw, g.bh);
         let nan = |v: f32| if v.is_finite() { v } else { f32::NAN };
         Some(Temperature {
@@ -251,7 +268,8 @@ impl Thermometer {
             max_c: nan(ext.max_c),
             hottest_px: ext.hottest.map(|b| g.block_center_px(b)),
             map_c: map.map_c,
-            contact_c,
+            contact_c: contact.map(|r| r.t_c),
+            contact_sigma_c: contact.map(|r| r.var_c2.max(0.0).sqrt()),
             out_of_range,
             measured: n,
         })

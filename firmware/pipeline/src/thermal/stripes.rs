@@ -103,6 +103,16 @@ impl<'a> Regions<'a> {
         Regions { codes, x0, y0, w }
     }
 
+    /// Every working pixel of the box as (column, row, code).
+    pub fn cells(&self) -> impl Iterator<Item = (usize, usize, u8)> + '_ {
+        let w = self.w.max(1);
+        let rows = if self.w == 0 { 0 } else { self.codes.len() / w };
+        self.codes[..rows * self.w]
+            .iter()
+            .enumerate()
+            .map(move |(i, &c)| (self.x0 + i % w, self.y0 + i / w, c))
+    }
+
     /// Working row `y`'s codes and the column of the first; empty outside the box.
     fn row(&self, y: usize) -> (usize, &'a [u8]) {
         let w = self.w;
