@@ -5,10 +5,11 @@
 //! coloured stripes' centres in one band, the black ones' in another), so wherever the light
 //! changes across a block (vignetting falls off by several per cent per block near the
 //! border) the two populations see it differently, and their ratio carries a fixed pattern
-//! of a few per cent from block to block. So does pigment mottle, which darkens the
-//! coloured stripes alone. Inside the pigments' transition that is a fraction of a degree;
-//! beyond it, where the colours hardly change with temperature, the same few per cent read
-//! as degrees, and the hottest place of a uniform skin stands out from it by several.
+//! of a few per cent from block to block. Pigment mottle, which darkens the coloured
+//! stripes alone, can add to it. Inside the pigments' transition that is a fraction of a
+//! degree; beyond it, where the colours hardly change with temperature, the same few per
+//! cent read as degrees, and the hottest place of a uniform skin stands out from it by
+//! several.
 //!
 //! The pattern belongs to the camera and the skin, not to the temperature: the reference,
 //! a skin at rest and one temperature throughout, shows it, and every later frame's black
