@@ -181,8 +181,7 @@ fn temperature_model<O: Observer>(
     calib: &Calibration,
 ) -> Result<Option<vistaf_pipeline::thermal::model::TemperatureModel>, CalibrateError> {
     use crate::temperature::{fit_temperature, BlockSample};
-    use vistaf_pipeline::thermal::lab::Invariants;
-    use vistaf_pipeline::thermal::stripes::{pool, Sums};
+    use vistaf_pipeline::thermal::stripes::pool;
     use vistaf_pipeline::thermal::BLACK_POOL;
     let no_contact = |f: &vistaf_hardware::frameset::FrameEntry| {
         f.temperature_c.is_some()
@@ -241,19 +240,13 @@ fn temperature_model<O: Observer>(
             let pooled = pool(&sums, g.bw, g.bh, BLACK_POOL);
             // As the thermometer reads them: the coloured stripes against the
             // neighbourhood's black stripes.
-            let inv = |b: &Sums, white: &Sums| {
-                let (c, k) = b.means();
-                (b.enough() && white.enough())
-                    .then(|| Invariants::from_linear(c, k, white.means().1))
-                    .flatten()
-            };
             let good: Vec<BlockSample> = sums
                 .iter()
                 .zip(&pooled)
                 .filter_map(|(b, p)| {
                     Some(BlockSample {
-                        v: inv(b, p)?,
-                        pooled: inv(p, p)?,
+                        v: b.invariants(p)?,
+                        pooled: p.invariants(p)?,
                         t_c: t,
                     })
                 })

@@ -10,7 +10,6 @@
 //! of the block's neighbourhood, then at the result.
 
 use super::fixed::{invariants_q16, FixedModel};
-use super::lab::Invariants;
 use super::model::{Population, TemperatureModel};
 use super::stripes::{pool_at, Sums};
 use super::{Reading, BLACK_POOL};
@@ -25,7 +24,7 @@ pub trait Evaluator {
     type Guess: Copy;
     /// A population's estimate from sums that hold enough samples, the coloured
     /// chromaticity measured against the black stripes of `white` (see
-    /// [`Invariants::from_linear`]); `None` when their colours say nothing (a channel black).
+    /// [`Sums::invariants`]); `None` when their colours say nothing (a channel black).
     fn population(&self, p: Population, s: &Sums, white: &Sums) -> Option<Self::Estimate>;
     /// An integer that orders estimates as their temperatures.
     fn key(e: &Self::Estimate) -> i64;
@@ -44,8 +43,7 @@ impl Evaluator for FloatModel {
     type Guess = f64;
 
     fn population(&self, p: Population, s: &Sums, white: &Sums) -> Option<(f64, bool)> {
-        let (c, k) = s.means();
-        let v = Invariants::from_linear(c, k, white.means().1)?;
+        let v = s.invariants(white)?;
         Some((self.0.population(p, &v), self.0.domain.contains(&v)))
     }
 

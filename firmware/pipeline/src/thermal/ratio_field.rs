@@ -20,7 +20,6 @@
 //! by more than [`MAX_GAIN_LN`]: a departure larger than that is light added (a glare
 //! spot, [`super::static_light`]), not the pattern.
 
-use super::lab::luminance;
 use super::stripes::{region, Geometry, Regions, Sums};
 
 /// Largest correction, as a natural log (about 20 %).
@@ -43,10 +42,8 @@ impl RatioField {
             .iter()
             .enumerate()
             .map(|(b, s)| {
-                if skip.get(b).copied().unwrap_or(false) || !s.enough() {
-                    return None;
-                }
-                black_over_coloured(s)
+                let skipped = skip.get(b).copied().unwrap_or(false);
+                black_over_coloured(s).filter(|_| !skipped)
             })
             .collect();
         let mut seen: Vec<f64> = ratio.iter().flatten().copied().collect();
@@ -77,25 +74,26 @@ impl RatioField {
     /// Scales the contact region's black-stripe sums (`contact`: the region, its core) by
     /// the mean gain of the blocks its working pixels lie in (`regions`, blocks of
     /// `geom`): read over several blocks, the region's ratio carries their pattern in
-    /// proportion.
+    /// proportion. Each row is taken a block's run of pixels at a time.
     pub fn apply_regions(&self, regions: &Regions<'_>, geom: &Geometry, contact: &mut [Sums; 2]) {
         if self.gain_q16.is_empty() {
             return;
         }
-        // (Σ gain, pixels) of the region and of its core.
+        // (Σ gain × pixels, pixels) of the region and of its core.
         let mut acc = [(0u64, 0u64); 2];
         let side = geom.block_px.max(1);
-        for (x, y, code) in regions.cells() {
-            if code == region::NONE || x >= geom.w || y >= geom.h {
-                continue;
-            }
-            let b = (y / side) * geom.bw + x / side;
-            let g = u64::from(self.gain_q16.get(b).copied().unwrap_or(ONE as u32));
-            acc[0].0 += g;
-            acc[0].1 += 1;
-            if code == region::CORE {
-                acc[1].0 += g;
-                acc[1].1 += 1;
+        for (y, x0, codes) in regions.rows().filter(|&(y, ..)| y < geom.h) {
+            let codes = &codes[..codes.len().min(geom.w.saturating_sub(x0))];
+            let (mut x, mut rest) = (x0, codes);
+            while !rest.is_empty() {
+                let (run, next) = rest.split_at(rest.len().min(side - x % side));
+                let b = (y / side) * geom.bw + x / side;
+                let g = u64::from(self.gain_q16.get(b).copied().unwrap_or(ONE as u32));
+                for (a, n) in acc.iter_mut().zip(region_pixels(run)) {
+                    *a = (a.0 + g * n, a.1 + n);
+                }
+                x += run.len();
+                rest = next;
             }
         }
         for (s, (sum, n)) in contact.iter_mut().zip(acc) {
@@ -106,11 +104,22 @@ impl RatioField {
     }
 
     /// A block's gain (1 where none was learnt).
+    #[cfg(test)]
     pub fn gain(&self, block: usize) -> f64 {
         self.gain_q16
             .get(block)
             .map_or(1.0, |&g| f64::from(g) / ONE as f64)
     }
+}
+
+/// Pixels of a run of region codes in the region, and in its core.
+fn region_pixels(run: &[u8]) -> [u64; 2] {
+    run.iter().fold([0, 0], |[n, core], &c| {
+        [
+            n + u64::from(c != region::NONE),
+            core + u64::from(c == region::CORE),
+        ]
+    })
 }
 
 /// Scales the black stripes' sums by `gain_q16`.
@@ -120,16 +129,10 @@ fn scale_black(s: &mut Sums, gain_q16: u64) {
     }
 }
 
-/// The black stripes' linear brightness over the coloured stripes', per channel and
-/// weighted as luminance (the lightness feature's ratio, [`super::lab::Invariants`]);
-/// `None` when a channel of the coloured stripes is black.
+/// The black stripes over the coloured, the lightness feature's ratio (`q` of
+/// [`super::lab::Invariants`]); `None` when a channel of either is black.
 fn black_over_coloured(s: &Sums) -> Option<f64> {
-    let (c, k) = s.means();
-    if c.iter().any(|&v| v <= 1e-9) {
-        return None;
-    }
-    let q = luminance(std::array::from_fn(|j| k[j] / c[j]));
-    (q > 0.0).then_some(q)
+    s.invariants(s).map(|v| v.q)
 }
 
 #[cfg(test)]
@@ -173,14 +176,11 @@ mod tests {
         };
         assert!(spread(&before) > 0.08, "{before:?}");
         assert!(spread(&after) < 1e-3, "{after:?}");
-        let chroma = |s: &Sums| {
-            let (c, k) = s.means();
-            let r: [f64; 3] = std::array::from_fn(|j| c[j] / k[j]);
-            r[0] / r.iter().sum::<f64>()
-        };
+        let chroma = |s: &Sums| s.invariants(s).map(|v| (v.r, v.g));
         let plain = at([0.45, 0.40, 0.33], [0.07, 0.066, 0.065]);
         for (a, b) in hot.iter().zip(&plain) {
-            assert!((chroma(a) - chroma(b)).abs() < 1e-4);
+            let ((ra, ga), (rb, gb)) = (chroma(a).unwrap(), chroma(b).unwrap());
+            assert!((ra - rb).abs() < 1e-4 && (ga - gb).abs() < 1e-4);
         }
     }
 
@@ -229,14 +229,19 @@ mod tests {
             region::CORE,
             0,
         ];
-        let regions = Regions::new(&codes, 0, 0, 8);
-        let mut contact = [block(c, k, 100), block(c, k, 50)];
-        field.apply_regions(&regions, &geom, &mut contact);
         let g1 = 1.0 / 1.1;
         let want = [(1.0 + g1) / 2.0, g1];
-        for (s, w) in contact.iter().zip(want) {
-            let got = s.means().1[0] / k[0];
-            assert!((got - w).abs() < 1e-3, "{got} {w}");
+        // The whole row, and the same region in a box that starts at its first pixel.
+        for regions in [
+            Regions::new(&codes, 0, 0, 8),
+            Regions::new(&codes[1..7], 1, 0, 6),
+        ] {
+            let mut contact = [block(c, k, 100), block(c, k, 50)];
+            field.apply_regions(&regions, &geom, &mut contact);
+            for (s, w) in contact.iter().zip(want) {
+                let got = s.means().1[0] / k[0];
+                assert!((got - w).abs() < 1e-3, "{got} {w}");
+            }
         }
     }
 }

@@ -21,7 +21,7 @@
 
 use crate::input::Pixels;
 
-use super::lab::linear_table;
+use super::lab::{linear_table, Invariants};
 
 /// Half-width of the kept band around a stripe centre, phase units (±45°).
 pub const KEEP_UNITS: i32 = 65_536 / 8;
@@ -73,6 +73,17 @@ impl Sums {
         let m = |p: usize| self.sum[p].map(|v| v as f64 / 65_536.0 / f64::from(self.n[p].max(1)));
         (m(0), m(1))
     }
+
+    /// The colour invariants of these stripes, the coloured chromaticity measured against
+    /// the black stripes of `white` ([`Invariants::from_linear`]); `None` when either holds
+    /// too few samples or a channel is black.
+    pub fn invariants(&self, white: &Sums) -> Option<Invariants> {
+        if !self.enough() || !white.enough() {
+            return None;
+        }
+        let (c, k) = self.means();
+        Invariants::from_linear(c, k, white.means().1)
+    }
 }
 
 /// Where a working pixel lies relative to the contact, for [`accumulate`].
@@ -103,14 +114,13 @@ impl<'a> Regions<'a> {
         Regions { codes, x0, y0, w }
     }
 
-    /// Every working pixel of the box as (column, row, code).
-    pub fn cells(&self) -> impl Iterator<Item = (usize, usize, u8)> + '_ {
-        let w = self.w.max(1);
-        let rows = if self.w == 0 { 0 } else { self.codes.len() / w };
-        self.codes[..rows * self.w]
-            .iter()
-            .enumerate()
-            .map(move |(i, &c)| (self.x0 + i % w, self.y0 + i / w, c))
+    /// The box's rows as (working row, column of the first code, codes).
+    pub fn rows(&self) -> impl Iterator<Item = (usize, usize, &'a [u8])> + '_ {
+        let rows = self.codes.len().checked_div(self.w).unwrap_or(0);
+        (self.y0..self.y0 + rows).map(|y| {
+            let (x0, codes) = self.row(y);
+            (y, x0, codes)
+        })
     }
 
     /// Working row `y`'s codes and the column of the first; empty outside the box.
