@@ -37,6 +37,7 @@ pub mod calibrate;
 pub mod client;
 pub mod clock;
 pub mod error;
+pub mod heatmap;
 pub mod link;
 pub mod maps;
 pub mod monitor;

@@ -35,6 +35,17 @@ enum Cmd {
         /// Links: /dev/ttyACM0, serial:PATH@BAUD, file:CAPTURE, or - for stdin.
         #[arg(required = true)]
         ports: Vec<String>,
+        /// Draw each skin's latest map under its line: depth or temperature (asked for
+        /// `--maps-hz` times a second).
+        #[arg(long, value_parser = map_kind)]
+        map: Option<MapKind>,
+        /// The map's colour bar, LO,HI in its unit (mm or °C), fixed for the session
+        /// [default: depth 0,1; temperature 20,40].
+        #[arg(long, value_parser = range_pair)]
+        map_range: Option<(f64, f64)>,
+        /// How often maps are asked for, Hz.
+        #[arg(long, default_value_t = 2.0, value_parser = rate_hz)]
+        maps_hz: f64,
         #[command(flatten)]
         run: RunArgs,
     },
@@ -302,10 +313,33 @@ fn main() {
 
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
-        Cmd::Monitor { ports, run } => stream(&ports, &run, None, true),
+        Cmd::Monitor {
+            ports,
+            map,
+            map_range,
+            maps_hz,
+            run,
+        } => {
+            let mut monitor = Monitor::new(ports.len(), true);
+            let mut maps = Maps::none();
+            if let Some(kind) = map {
+                let d = vistaf_figure::Ranges::default();
+                let range = map_range.unwrap_or(match kind {
+                    MapKind::Temperature => d.temperature_c,
+                    _ => d.depth_mm,
+                });
+                monitor = monitor.with_maps(range);
+                maps = Maps {
+                    kinds: vec![kind],
+                    every: Duration::from_secs_f64(1.0 / maps_hz),
+                };
+            }
+            stream(&ports, &run, None, monitor, &maps)
+        }
         Cmd::Record { ports, out, run } => {
             let rec = Recorder::create(&out)?;
-            stream(&ports, &run, Some(rec), false)
+            let monitor = Monitor::new(ports.len(), false);
+            stream(&ports, &run, Some(rec), monitor, &Maps::none())
         }
         Cmd::Bridge {
             ports,
@@ -318,14 +352,17 @@ fn run(cli: Cli) -> Result<()> {
             maps_hz,
             run,
         } => {
-            let maps = (maps, Duration::from_secs_f64(1.0 / maps_hz));
+            let maps = Maps {
+                kinds: maps,
+                every: Duration::from_secs_f64(1.0 / maps_hz),
+            };
             let sinks = Outputs {
                 ros2,
                 mcap: mcap.as_deref(),
                 jsonl: jsonl.as_deref(),
                 serve: serve.as_deref(),
             };
-            bridge(&ports, &run, &sinks, frame_id, maps)
+            bridge(&ports, &run, &sinks, frame_id, &maps)
         }
         Cmd::Decode { file, json: _ } => decode(&file),
         Cmd::Info { port, timeout_ms } => {
@@ -608,16 +645,22 @@ fn decode(file: &str) -> Result<()> {
     }
 }
 
-/// Reads the links until `run` says stop, recording to `rec`, with a live readout when
-/// `live`.
+/// Reads the links until `run` says stop, recording to `rec`, with `monitor`'s readout,
+/// asking live skins for `maps`.
 ///
 /// A serial link that goes away is opened again (and greeted) for `--reconnect-s`; one
 /// that does not come back, or ends with reconnecting off, is an error.
-fn stream(ports: &[String], run: &RunArgs, rec: Option<Recorder>, live: bool) -> Result<()> {
-    let links = open_links(ports, run)?;
+fn stream(
+    ports: &[String],
+    run: &RunArgs,
+    rec: Option<Recorder>,
+    monitor: Monitor,
+    maps: &Maps,
+) -> Result<()> {
+    let links = open_links(ports, run, maps)?;
     let mut readout = Readout {
         recorder: rec,
-        monitor: Monitor::new(links.len(), live),
+        monitor,
     };
     let outcome = vistaf_host::stream::stream_with(links, &limits(run), &mut readout)?;
     readout.finish(&outcome);
@@ -627,9 +670,29 @@ fn stream(ports: &[String], run: &RunArgs, rec: Option<Recorder>, live: bool) ->
     }
 }
 
-/// Opens every link; serial ones are greeted, read with their clock kept, and opened
-/// again when they go away.
-fn open_links(ports: &[String], run: &RunArgs) -> Result<Vec<(Client, Option<Reopen>)>> {
+/// The maps asked of live skins while streaming, and how often.
+#[derive(Debug, Clone)]
+struct Maps {
+    kinds: Vec<MapKind>,
+    every: Duration,
+}
+
+impl Maps {
+    fn none() -> Maps {
+        Maps {
+            kinds: Vec::new(),
+            every: Duration::from_secs(1),
+        }
+    }
+}
+
+/// Opens every link, asking for `maps`; serial ones are greeted, read with their clock
+/// kept, and opened again (asking for the same maps) when they go away.
+fn open_links(
+    ports: &[String],
+    run: &RunArgs,
+    maps: &Maps,
+) -> Result<Vec<(Client, Option<Reopen>)>> {
     let mut links = Vec::new();
     for p in ports {
         let serial = matches!(p.parse::<LinkSpec>()?, LinkSpec::Serial { .. });
@@ -638,7 +701,8 @@ fn open_links(ports: &[String], run: &RunArgs) -> Result<Vec<(Client, Option<Reo
             greet(&mut c, p)?;
             c.keep_clock(CLOCK_PERIOD);
         }
-        let reopen = serial.then(|| reopen(p, run));
+        c.keep_maps(&maps.kinds, maps.every);
+        let reopen = serial.then(|| reopen(p, run, maps.clone()));
         links.push((c, reopen));
     }
     Ok(links)
@@ -678,7 +742,7 @@ fn bridge(
     run: &RunArgs,
     out: &Outputs<'_>,
     frame_id: Option<String>,
-    (maps, maps_every): (Vec<MapKind>, Duration),
+    maps: &Maps,
 ) -> Result<()> {
     if !out.ros2 && out.mcap.is_none() && out.jsonl.is_none() && out.serve.is_none() {
         bail!("nothing to bridge to: give --ros2, --mcap FILE, --jsonl FILE|- and/or --serve ADDR");
@@ -689,10 +753,7 @@ fn bridge(
         .collect::<Result<Vec<_>, _>>()?
         .iter()
         .all(|s| !matches!(s, LinkSpec::Serial { .. }));
-    let mut links = open_links(ports, run)?;
-    for (client, _) in &mut links {
-        client.keep_maps(&maps, maps_every);
-    }
+    let links = open_links(ports, run, maps)?;
     let stamps = if replay { Stamps::Device } else { Stamps::Host };
     let mut b = Bridge::new(links.len(), stamps, frame_id);
     if out.ros2 {
@@ -733,8 +794,9 @@ fn bridge(
     }
 }
 
-/// How a serial link `port` is opened again after it went away: greeted as at the start.
-fn reopen(port: &str, run: &RunArgs) -> Reopen {
+/// How a serial link `port` is opened again after it went away: greeted and asked for
+/// `maps` as at the start.
+fn reopen(port: &str, run: &RunArgs, maps: Maps) -> Reopen {
     let (port, handshake) = (port.to_string(), !run.no_handshake);
     Reopen {
         open: Box::new(move || {
@@ -743,6 +805,7 @@ fn reopen(port: &str, run: &RunArgs) -> Reopen {
                 c.handshake(DEFAULT_TIMEOUT)?;
                 c.keep_clock(CLOCK_PERIOD);
             }
+            c.keep_maps(&maps.kinds, maps.every);
             Ok(c)
         }),
         give_up_after: Duration::from_secs_f64(run.reconnect_s),

@@ -1,13 +1,15 @@
 //! The live readout of `vistaf-host monitor`: one line per skin, named by its serial,
 //! flags first, cut to the terminal's width (what matters most comes first, so an 80-column
 //! terminal shows flags, force, depth and temperatures), redrawn in place on a terminal,
-//! appended otherwise.
+//! appended otherwise; with a map kind chosen, each skin's latest map under its line as a
+//! small heat map ([`crate::heatmap`]).
 
 use std::io::{IsTerminal, Write};
 use std::time::{Duration, Instant};
 
-use vistaf_protocol::Summary;
+use vistaf_protocol::{Map, Summary};
 
+use crate::maps::WholeMap;
 use crate::multi::DeviceStats;
 
 /// How long a skin may send nothing before the readout says it fell silent (a skin sends
@@ -21,6 +23,8 @@ pub struct Monitor {
     names: Vec<Option<String>>,
     heard: Vec<Instant>,
     rate: Vec<(Instant, u64, f64)>,
+    maps: Vec<Option<WholeMap>>,
+    map_range: Option<(f64, f64)>,
     drawn: Option<Instant>,
     live: bool,
     tty: bool,
@@ -35,10 +39,26 @@ impl Monitor {
             names: vec![None; devices],
             heard: vec![Instant::now(); devices],
             rate: vec![(Instant::now(), 0, 0.0); devices],
+            maps: vec![None; devices],
+            map_range: None,
             drawn: None,
             live,
             tty: std::io::stdout().is_terminal(),
             lines_drawn: 0,
+        }
+    }
+
+    /// Draws each skin's latest map under its line, coloured on the bar `range` (the map's
+    /// unit: mm or °C). The maps must be asked for ([`crate::client::Client::keep_maps`]).
+    pub fn with_maps(mut self, range: (f64, f64)) -> Monitor {
+        self.map_range = Some(range);
+        self
+    }
+
+    /// Takes a skin's newest coarse map.
+    pub fn map(&mut self, device: usize, m: &Map) {
+        if let Some(slot) = self.maps.get_mut(device) {
+            *slot = WholeMap::from_coarse(m).or(slot.take());
         }
     }
 
@@ -106,19 +126,37 @@ impl Monitor {
             })
             .collect();
         let name_width = names.iter().map(|n| n.chars().count()).max().unwrap_or(0);
+        let mut drawn = 0;
         for (i, st) in stats.iter().enumerate() {
             let line = fit(
                 &format!("{:<name_width$}", names[i]),
                 &self.parts(i, st, now),
                 width,
             );
-            text.push_str(&line);
-            text.push_str(if self.tty { "\x1b[K\n" } else { "\n" });
+            let mut lines = vec![line];
+            lines.extend(self.heat_map(i, width));
+            for line in lines {
+                text.push_str(&line);
+                text.push_str(if self.tty { "\x1b[K\n" } else { "\n" });
+                drawn += 1;
+            }
         }
-        self.lines_drawn = stats.len();
+        self.lines_drawn = drawn;
         let mut out = std::io::stdout().lock();
         let _ = out.write_all(text.as_bytes());
         let _ = out.flush();
+    }
+
+    /// Skin `i`'s heat map lines, indented by two columns (none without a map).
+    fn heat_map(&self, i: usize, width: Option<usize>) -> Vec<String> {
+        let (Some(range), Some(Some(map))) = (self.map_range, self.maps.get(i)) else {
+            return Vec::new();
+        };
+        let cols = width.unwrap_or(80).saturating_sub(2);
+        crate::heatmap::render(map, range, cols)
+            .into_iter()
+            .map(|l| format!("  {l}"))
+            .collect()
     }
 
     /// Skin `i`'s readout, most important first: its state or flags, force, depth,

@@ -161,6 +161,7 @@ impl Consumer for Readout {
         match &received.msg {
             DeviceMsg::Summary(s) => self.monitor.summary(device, s),
             DeviceMsg::Hello(h) => self.monitor.name(device, &h.serial),
+            DeviceMsg::Map(m) => self.monitor.map(device, m),
             DeviceMsg::Error(e) => eprintln!(
                 "{}: device error {:?}: {}",
                 name_of(stats, device),
