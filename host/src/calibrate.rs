@@ -10,8 +10,9 @@
 //! The [`Plan`] lists the setpoints (the defaults are the kit of `docs/calibration.md`);
 //! a [`Guide`] asks a person at a terminal ([`Terminal`]) or answers by itself
 //! ([`Scripted`], the `--plan` mode). A press step's value can be corrected by typing the
-//! reading of a load cell or depth gauge; a temperature step can run a heater command and
-//! waits for the colour to settle on the device, retrying while it has not.
+//! reading of a load cell or depth gauge, or read from the load cell's indicator over a
+//! serial port ([`WithScale`], `scale` in the plan); a temperature step can run a heater
+//! command and waits for the colour to settle on the device, retrying while it has not.
 
 use std::io::{BufRead, Write};
 use std::path::Path;
@@ -72,6 +73,9 @@ pub struct Plan {
     pub settle_timeout_s: f64,
     /// When to activate the fit.
     pub activate: Activate,
+    /// The load cell's indicator, streaming readings on a serial port (`serial:PATH@BAUD`,
+    /// or a path at 9600 baud): each force step's value is its reading once the step is set.
+    pub scale: Option<String>,
 }
 
 impl Default for Plan {
@@ -85,6 +89,7 @@ impl Default for Plan {
             heater: None,
             settle_timeout_s: 120.0,
             activate: Activate::Pass,
+            scale: None,
         }
     }
 }
@@ -169,6 +174,16 @@ pub trait Guide {
     fn ask(&mut self, step: &KitStep, n: usize, total: usize) -> Answer;
     /// Tells something.
     fn say(&mut self, text: &str);
+}
+
+impl<G: Guide + ?Sized> Guide for Box<G> {
+    fn ask(&mut self, step: &KitStep, n: usize, total: usize) -> Answer {
+        (**self).ask(step, n, total)
+    }
+
+    fn say(&mut self, text: &str) {
+        (**self).say(text);
+    }
 }
 
 /// A person at a terminal: each step asked for, Enter to capture.
@@ -256,6 +271,54 @@ impl<W: Write> Guide for Scripted<W> {
 
     fn say(&mut self, text: &str) {
         let _ = writeln!(self.out, "{text}");
+    }
+}
+
+/// A guide whose force steps take their value from a scale: when the step is set as asked,
+/// the scale is read and its reading is the step's value (a reading typed in still wins).
+pub struct WithScale<G: Guide> {
+    inner: G,
+    scale: Box<dyn crate::scale::Scale>,
+}
+
+impl<G: Guide> std::fmt::Debug for WithScale<G> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("WithScale").finish_non_exhaustive()
+    }
+}
+
+impl<G: Guide> WithScale<G> {
+    /// Asks through `inner`, reading `scale` for force steps.
+    pub fn new(inner: G, scale: Box<dyn crate::scale::Scale>) -> WithScale<G> {
+        WithScale { inner, scale }
+    }
+}
+
+/// Attempts at reading the scale before a session ends.
+const SCALE_ATTEMPTS: usize = 3;
+
+impl<G: Guide> Guide for WithScale<G> {
+    fn ask(&mut self, step: &KitStep, n: usize, total: usize) -> Answer {
+        for _ in 0..SCALE_ATTEMPTS {
+            let answer = self.inner.ask(step, n, total);
+            if step.quantity != KitQuantity::Force || answer != Answer::Ready {
+                return answer;
+            }
+            match self.scale.read_n() {
+                Ok(n) => {
+                    self.inner.say(&format!("  the scale reads {n:.3} N"));
+                    return Answer::Measured(n);
+                }
+                Err(e) => self.inner.say(&format!("  {e}")),
+            }
+        }
+        self.inner
+            .say("the scale gave no reading: ending the session (the frames so far are kept)");
+        Answer::Quit
+    }
+
+    fn say(&mut self, text: &str) {
+        self.inner.say(text);
     }
 }
 
@@ -464,6 +527,29 @@ mod tests {
         assert_eq!(steps[2].value_milli, 100);
     }
 
+    /// The plan `docs/calibration.md` shows, with every key, is one this code reads.
+    #[test]
+    fn the_documented_plan_reads() {
+        let doc = include_str!("../../docs/calibration.md");
+        let toml = doc
+            .split("```toml\n")
+            .nth(1)
+            .and_then(|b| b.split("```").next())
+            .unwrap();
+        let plan: Plan = toml::from_str(toml).unwrap();
+        plan.check().unwrap();
+        assert_eq!(
+            plan,
+            Plan {
+                heater: plan.heater.clone(),
+                scale: plan.scale.clone(),
+                ..Plan::default()
+            },
+            "the other keys are the defaults"
+        );
+        assert_eq!(plan.scale.as_deref(), Some("serial:/dev/ttyUSB0@9600"));
+    }
+
     #[test]
     fn a_plan_file_with_a_bad_key_or_value_is_refused_by_name() {
         let bad: Result<Plan, _> = toml::from_str("depth_mm = [1.0]");
@@ -511,6 +597,41 @@ mod tests {
         assert_eq!(got.settle_ms, 31_000);
         let mut c = client(&[error(ErrorCode::Calibration), captured]);
         assert!(capture_settled(&mut c, &plan, step).is_err());
+    }
+
+    /// A scale that reads what it is given, then fails.
+    struct Readings(Vec<f64>);
+
+    impl crate::scale::Scale for Readings {
+        fn read_n(&mut self) -> Result<f64, String> {
+            self.0
+                .pop()
+                .ok_or_else(|| "scale /dev/null: 0 readings".to_string())
+        }
+    }
+
+    #[test]
+    fn a_force_step_takes_the_scale_reading_and_other_steps_do_not() {
+        let step = |quantity, value_milli| KitStep {
+            quantity,
+            value_milli,
+        };
+        let mut out = Vec::new();
+        let mut g = WithScale::new(Scripted::new(&mut out), Box::new(Readings(vec![6.02])));
+        let depth = step(KitQuantity::Depth, 500);
+        let force = step(KitQuantity::Force, 6_000);
+        assert_eq!(g.ask(&depth, 1, 3), Answer::Ready);
+        assert_eq!(g.ask(&force, 2, 3), Answer::Measured(6.02));
+        assert_eq!(g.ask(&force, 3, 3), Answer::Quit, "no reading, three times");
+        let text = String::from_utf8(out).unwrap();
+        assert!(text.contains("the scale reads 6.020 N"), "{text}");
+        assert_eq!(text.matches("0 readings").count(), SCALE_ATTEMPTS);
+        // A typed reading wins over the scale.
+        let mut g = WithScale::new(
+            Terminal::new(&b"5.9\n"[..], Vec::new()),
+            Box::new(Readings(vec![6.02])),
+        );
+        assert_eq!(g.ask(&force, 1, 1), Answer::Measured(5.9));
     }
 
     #[test]

@@ -209,6 +209,10 @@ enum Cmd {
         /// When to put the fit in use [default: the plan's, else pass].
         #[arg(long, value_enum)]
         activate: Option<vistaf_host::calibrate::Activate>,
+        /// The load cell's indicator on a serial port (serial:PATH@BAUD, or a path at
+        /// 9600 baud): each force step's value is read from it [default: the plan's].
+        #[arg(long)]
+        scale: Option<String>,
     },
     /// Put back the calibration the last activation replaced.
     Rollback {
@@ -444,7 +448,8 @@ fn run(cli: Cli) -> Result<()> {
             port,
             plan,
             activate,
-        } => calibrate(&port, plan.as_deref(), activate),
+            scale,
+        } => calibrate(&port, plan.as_deref(), activate, scale),
         Cmd::Rollback { port } => {
             let mut c = open_client(&port)?;
             c.handshake(DEFAULT_TIMEOUT)?;
@@ -556,8 +561,9 @@ fn calibrate(
     port: &str,
     plan_file: Option<&std::path::Path>,
     activate: Option<vistaf_host::calibrate::Activate>,
+    scale: Option<String>,
 ) -> Result<()> {
-    use vistaf_host::calibrate::{self, Plan, Scripted, Terminal};
+    use vistaf_host::calibrate::{self, Guide, Plan, Scripted, Terminal, WithScale};
     let mut plan = match plan_file {
         Some(p) => Plan::load(p).map_err(anyhow::Error::msg)?,
         None => Plan::default(),
@@ -565,6 +571,17 @@ fn calibrate(
     if let Some(a) = activate {
         plan.activate = a;
     }
+    if scale.is_some() {
+        plan.scale = scale;
+    }
+    // Opened before the device is, so a wrong scale path is said before any step.
+    let scale = match &plan.scale {
+        Some(spec) => Some(
+            vistaf_host::scale::SerialScale::open(spec, SCALE_TIMEOUT)
+                .map_err(anyhow::Error::msg)?,
+        ),
+        None => None,
+    };
     let mut client = open_client(port)?;
     let hello = client.handshake(DEFAULT_TIMEOUT)?;
     println!(
@@ -573,21 +590,25 @@ fn calibrate(
         vistaf_host::record::calibration_id_text(hello.calibration_id),
         plan.steps().len()
     );
-    let outcome = if plan_file.is_some() {
-        calibrate::run(&mut client, &plan, &mut Scripted::new(std::io::stdout()))
+    let stdin = std::io::stdin();
+    let guide: Box<dyn Guide> = if plan_file.is_some() {
+        Box::new(Scripted::new(std::io::stdout()))
     } else {
-        let stdin = std::io::stdin();
-        calibrate::run(
-            &mut client,
-            &plan,
-            &mut Terminal::new(stdin.lock(), std::io::stdout()),
-        )
-    }?;
+        Box::new(Terminal::new(stdin.lock(), std::io::stdout()))
+    };
+    let mut guide: Box<dyn Guide> = match scale {
+        Some(s) => Box::new(WithScale::new(guide, Box::new(s))),
+        None => guide,
+    };
+    let outcome = calibrate::run(&mut client, &plan, guide.as_mut())?;
     if outcome.fitted.is_some_and(|f| !f.pass) {
         bail!("the calibration misses a target (see the table above)");
     }
     Ok(())
 }
+
+/// How long a scale may take to give one reading (a few lines of a streaming indicator).
+const SCALE_TIMEOUT: Duration = Duration::from_secs(5);
 
 fn open_client(port: &str) -> Result<Client> {
     let spec: LinkSpec = port.parse()?;
