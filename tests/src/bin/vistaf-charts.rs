@@ -157,12 +157,37 @@ fn main() -> Result<()> {
     Ok(())
 }
 
+/// Builds the programs callgrind runs, beside this one and in its profile, when a build of
+/// this program alone (`cargo run --bin vistaf-charts`) did not.
+fn build_siblings(exes: &[&std::path::Path]) -> Result<()> {
+    if exes.iter().all(|e| e.exists()) {
+        return Ok(());
+    }
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let mut build = std::process::Command::new(cargo);
+    build.args(["build", "-q", "-p", "vistaf-tests"]);
+    if !cfg!(debug_assertions) {
+        build.arg("--release");
+    }
+    for e in exes {
+        if let Some(name) = e.file_name() {
+            build.arg("--bin").arg(name);
+        }
+    }
+    let status = build
+        .status()
+        .context("running cargo to build the counted programs")?;
+    anyhow::ensure!(status.success(), "building the counted programs: {status}");
+    Ok(())
+}
+
 /// Instructions per frame of each configuration: callgrind over `pipeline-frames` (or, for
 /// a camera format, `camera-frames`: the device from the camera's bytes) with 1 and 11
 /// frames, the difference over 10.
 fn count_instructions(rows: &mut [tradeoff::Row]) -> Result<()> {
     let pipeline = std::env::current_exe()?.with_file_name("pipeline-frames");
     let camera = std::env::current_exe()?.with_file_name("camera-frames");
+    build_siblings(&[&pipeline, &camera])?;
     let b = bar(rows.len() as u64, "callgrind");
     for (k, r) in rows.iter_mut().enumerate() {
         b.set_position(k as u64);
