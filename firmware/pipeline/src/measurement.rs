@@ -23,7 +23,7 @@ pub struct Measurement {
     pub contact: bool,
     /// Deepest point, mm, with the demodulator's blur taken out (`crate::measure::apex`).
     pub peak_depth_mm: f32,
-    /// The depth map's deepest value, µm (the blurred peak; 0 without contact).
+    /// The depth map's value at the contact's apex, µm (the blurred peak; 0 without contact).
     pub map_peak_um: i32,
     /// Contact area (depth ≥ half the peak: the Hertz contact radius for a sphere), mm².
     pub contact_area_mm2: f32,

@@ -28,24 +28,34 @@
 //! on a sphere, takes up the sphere's remainder; contacts much blunter or sharper than the
 //! calibrated indenter are flagged ([`super::BLUNTNESS_RATIO`], [`super::SHARPNESS_RATIO`]).
 
-/// The blur-corrected peak of a window's depth map (`w` pixels wide, deepest value
-/// `peak_um`), µm: at the deepest
-/// point of `s₁ = K∗b`, `s₁ + 2·(s₁ − K∗s₁)`, `K` the separable triangle of two boxes of
-/// lengths `(lx, ly)`, its weights renormalised where the window crops it.
+/// A contact's apex: its blur-corrected depth and where it is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Apex {
+    /// The peak depth with the blur taken out, µm.
+    pub peak_um: i32,
+    /// The deepest point of the once-blurred map, an index into the depth map.
+    pub at: usize,
+}
+
+/// The apex of the contact whose region is `region` (indices into `depth_um`, `w` pixels
+/// wide; `super::features::dominant_component`): at the deepest point of `s₁ = K∗b`,
+/// `s₁ + 2·(s₁ − K∗s₁)`, `K` the separable triangle of two boxes of lengths `(lx, ly)`, its
+/// weights renormalised where the window crops it. `None` without depth.
 ///
-/// `s₁` is sought over the bounding box of the pixels at least half as deep as the map's
-/// deepest (no shallower point can hold its maximum), and only that box grown by two kernel
-/// reaches is blurred: `K∗s₁` reads one reach around it, so every value used sees the map
-/// as the whole window would.
-pub fn corrected_peak_um(
+/// `s₁` is sought over the bounding box of the region's pixels at least half as deep as its
+/// deepest (no shallower point can hold its maximum; another blob of the window is no part
+/// of this contact), and only that box grown by two kernel reaches is blurred: `K∗s₁` reads
+/// one reach around it, so every value used sees the map as the whole window would. The
+/// blurred maximum, not the raw one, places the apex: a few pixels that read deeper than
+/// the contact around them cannot.
+pub fn apex(
     depth_um: &[i32],
     w: usize,
-    peak_um: i32,
+    region: &[usize],
     (lx, ly): (usize, usize),
-) -> i32 {
-    let Some(bbox) = half_peak_box(depth_um, w, peak_um) else {
-        return 0;
-    };
+) -> Option<Apex> {
+    let deepest = region.iter().map(|&i| depth_um[i]).max()?;
+    let bbox = deep_box(depth_um, w, region, deepest)?;
     let h = depth_um.len() / w;
     let (rx, ry) = (lx.max(1) - 1, ly.max(1) - 1);
     let grow = |(a, b): (usize, usize), r: usize, n: usize| (a.saturating_sub(r), (b + r).min(n));
@@ -55,30 +65,35 @@ pub fn corrected_peak_um(
         .flat_map(|y| depth_um[y * w + xs.0..y * w + xs.1].iter().copied())
         .collect();
     let once = blur(&sub, sw, (lx, ly));
-    let Some(((ax, ay), s1)) = (bbox.1 .0..bbox.1 .1)
+    let ((ax, ay), s1) = (bbox.1 .0..bbox.1 .1)
         .flat_map(|y| (bbox.0 .0..bbox.0 .1).map(move |x| (x, y)))
         .map(|(x, y)| ((x, y), once[(y - ys.0) * sw + x - xs.0]))
-        .max_by_key(|&((x, y), d)| (d, std::cmp::Reverse((y, x))))
-    else {
-        return 0;
-    };
+        .max_by_key(|&((x, y), d)| (d, std::cmp::Reverse((y, x))))?;
     if s1 <= 0 {
-        return 0;
+        return None;
     }
     let (tx, ty) = (triangle(lx), triangle(ly));
     let s2 = weighted_mean(&once, sw, (ax - xs.0, ay - ys.0), &tx, &ty);
     let loss = (f64::from(s1) - s2).clamp(0.0, f64::from(s1));
-    (f64::from(s1) + 2.0 * loss).round() as i32
+    Some(Apex {
+        peak_um: (f64::from(s1) + 2.0 * loss).round() as i32,
+        at: ay * w + ax,
+    })
 }
 
-/// The half-open column and row spans of a map's pixels at least half as deep as its
-/// deepest, `peak` (`None` without depth).
-fn half_peak_box(z: &[i32], w: usize, peak: i32) -> Option<((usize, usize), (usize, usize))> {
-    if peak <= 0 || w == 0 || z.is_empty() {
+/// The half-open column and row spans of the pixels of `region` at least half as deep as
+/// `deepest` (`None` without any, or a map `w` = 0 wide).
+fn deep_box(
+    depth_um: &[i32],
+    w: usize,
+    region: &[usize],
+    deepest: i32,
+) -> Option<((usize, usize), (usize, usize))> {
+    if w == 0 || deepest <= 0 {
         return None;
     }
     let (mut xs, mut ys) = ((usize::MAX, 0), (usize::MAX, 0));
-    for (i, _) in z.iter().enumerate().filter(|&(_, &d)| 2 * d >= peak) {
+    for &i in region.iter().filter(|&&i| 2 * depth_um[i] >= deepest) {
         let (x, y) = (i % w, i / w);
         xs = (xs.0.min(x), xs.1.max(x + 1));
         ys = (ys.0.min(y), ys.1.max(y + 1));
@@ -177,9 +192,10 @@ fn weighted_mean(z: &[i32], w: usize, (cx, cy): (usize, usize), kx: &[i64], ky: 
 mod tests {
     use super::*;
 
-    /// The blur-corrected peak of `z`, its deepest value found here.
+    /// The blur-corrected peak of `z`, its region found as the measurement finds it.
     fn corrected(z: &[i32], w: usize, blur: (usize, usize)) -> i32 {
-        corrected_peak_um(z, w, z.iter().copied().max().unwrap_or(0), blur)
+        let region = super::super::features::dominant_component(z, w, 0);
+        apex(z, w, &region, blur).map_or(0, |a| a.peak_um)
     }
 
     /// A paraboloid of curvature `k` µm/px² and apex depth `d` µm at `(cx, cy)` on a
@@ -191,6 +207,30 @@ mod tests {
                 (d - 0.5 * k * (x * x + y * y)).round() as i32
             })
             .collect()
+    }
+
+    /// A few pixels reading deeper than the press at its rim, in its region: the apex stays
+    /// at the press's centre with its depth, not at the spot.
+    #[test]
+    fn a_deeper_spot_at_the_rim_does_not_place_the_apex() {
+        let (w, h) = (81, 81);
+        let z0: Vec<i32> = paraboloid(w, h, (40.0, 40.0), 800.0, 4.0)
+            .into_iter()
+            .map(|v| v.max(0))
+            .collect();
+        let alone = corrected(&z0, w, (5, 5));
+        let mut z = z0.clone();
+        for (x, y) in [(55, 40), (56, 40), (55, 41)] {
+            z[y * w + x] = 1_200;
+        }
+        let region = super::super::features::dominant_component(&z, w, 0);
+        let a = apex(&z, w, &region, (5, 5)).unwrap();
+        assert_eq!((a.at % w, a.at / w), (40, 40));
+        assert!(
+            (a.peak_um - alone).abs() <= 30,
+            "{} against {alone}",
+            a.peak_um
+        );
     }
 
     /// Unit-depth elastic surfaces at radius `r` for contact radius `a`: Hertz's sphere
@@ -298,8 +338,8 @@ mod tests {
         );
     }
 
-    /// Blurring only around the deep pixels sees what the whole window would: a shallower
-    /// blob elsewhere in the window leaves the corrected peak as it was.
+    /// Blurring only around the contact sees what the whole window would: a shallower,
+    /// smaller blob elsewhere in the window leaves the corrected peak as it was.
     #[test]
     fn a_blob_elsewhere_does_not_move_the_peak() {
         let (w, h) = (120, 41);
@@ -308,8 +348,8 @@ mod tests {
             .map(|v| v.max(0))
             .collect();
         let alone = corrected(&z, w, (5, 5));
-        for y in 10..30 {
-            for x in 90..110 {
+        for y in 15..22 {
+            for x in 90..97 {
                 z[y * w + x] = 700;
             }
         }

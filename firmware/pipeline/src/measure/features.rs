@@ -21,8 +21,8 @@ pub struct Features {
 /// Features of a working-resolution depth map (µm), in integer sums: shared by both paths.
 ///
 /// `depth_um` may be a window of the working image whose top-left pixel is `origin`;
-/// `peak` is its deepest value and `contact` its peak's component ([`peak_component`]),
-/// whose centre is the contact's.
+/// `peak` is the map's value at the contact's apex and `contact` the apex's component
+/// ([`peak_component`]), whose centre is the contact's.
 pub fn summarize(
     depth_um: &[i32],
     contact: &[usize],
@@ -71,34 +71,128 @@ pub fn summarize(
     }
 }
 
-/// The pixels of the contact holding the peak: its 8-connected component deeper than half
-/// the peak (and than `thr_um`), as indices into `depth_um` (`w` wide, deepest value
-/// `peak`). Empty without depth.
-pub fn peak_component(depth_um: &[i32], w: usize, (peak, thr_um): (i32, i32)) -> Vec<usize> {
+/// The contact's region: of the 8-connected components deeper than `thr_um` (`w` wide),
+/// the one that holds the most indentation (the largest depth sum), as indices into
+/// `depth_um`. A press wins over a spot of a few pixels that reads deeper (a glare spot
+/// whose light the skin's colour change altered, a phase residue at the border): its depth
+/// is spread over the contact, the spot's is not. Empty without depth.
+pub fn dominant_component(depth_um: &[i32], w: usize, thr_um: i32) -> Vec<usize> {
+    // Runs of pixels deeper than the level, row by row, joined to the runs of the row above
+    // that they touch (diagonals included): one scan of the window, however many regions.
+    let level = thr_um.max(0);
+    let mut runs: Vec<Run> = Vec::new();
+    let mut parent: Vec<usize> = Vec::new();
+    let mut above = 0..0;
+    for (y, row) in depth_um.chunks_exact(w.max(1)).enumerate() {
+        let first = runs.len();
+        let mut x = 0;
+        while x < row.len() {
+            if row[x] <= level {
+                x += 1;
+                continue;
+            }
+            let (x0, mut sum) = (x, 0i64);
+            while x < row.len() && row[x] > level {
+                sum += i64::from(row[x]);
+                x += 1;
+            }
+            let id = runs.len();
+            runs.push(Run { y, x0, x1: x, sum });
+            parent.push(id);
+            for a in above.clone() {
+                if runs[a].x0 <= x && x0 <= runs[a].x1 {
+                    let (ra, rb) = (root(&mut parent, a), root(&mut parent, id));
+                    parent[ra.max(rb)] = ra.min(rb);
+                }
+            }
+        }
+        above = first..runs.len();
+    }
+    let mut totals = vec![0i64; runs.len()];
+    for (i, run) in runs.iter().enumerate() {
+        let r = root(&mut parent, i);
+        totals[r] += run.sum;
+    }
+    let Some(best) = (0..runs.len()).rev().max_by_key(|&i| totals[i]) else {
+        return Vec::new();
+    };
+    let mut out = Vec::new();
+    for (i, &Run { y, x0, x1, .. }) in runs.iter().enumerate() {
+        if root(&mut parent, i) == best {
+            out.extend(y * w + x0..y * w + x1);
+        }
+    }
+    out
+}
+
+/// A row's run of pixels deeper than a level: `[x0, x1)` on row `y`, and their depth sum.
+#[derive(Debug, Clone, Copy)]
+struct Run {
+    y: usize,
+    x0: usize,
+    x1: usize,
+    sum: i64,
+}
+
+/// The root of `i`'s set (halving the path on the way).
+fn root(parent: &mut [usize], mut i: usize) -> usize {
+    while parent[i] != i {
+        parent[i] = parent[parent[i]];
+        i = parent[i];
+    }
+    i
+}
+
+/// The pixels of the contact whose peak is at `peak_at` (its apex, `super::apex`): its
+/// 8-connected component deeper than half the peak (and than `thr_um`), as indices into
+/// `depth_um` (`w` wide). Empty without depth.
+pub fn peak_component(depth_um: &[i32], w: usize, peak_at: usize, thr_um: i32) -> Vec<usize> {
+    let Some(&peak) = depth_um.get(peak_at) else {
+        return Vec::new();
+    };
     if peak <= thr_um.max(0) {
         return Vec::new();
     }
-    let Some(start) = depth_um.iter().position(|&d| d == peak) else {
-        return Vec::new();
-    };
-    let (h, half) = (depth_um.len() / w.max(1), peak / 2);
+    let half = peak / 2;
     let mut seen = vec![false; depth_um.len()];
-    let (mut stack, mut out) = (vec![start], Vec::new());
+    let mut out = Vec::new();
+    flood(
+        depth_um,
+        w,
+        peak_at,
+        |d| d >= half && d > thr_um,
+        &mut seen,
+        |i| out.push(i),
+    );
+    out
+}
+
+/// Visits the 8-connected component of `start` (`w` wide) whose values `keep`, marking it
+/// in `seen`; `start` must be kept.
+fn flood(
+    depth_um: &[i32],
+    w: usize,
+    start: usize,
+    keep: impl Fn(i32) -> bool,
+    seen: &mut [bool],
+    mut visit: impl FnMut(usize),
+) {
+    let h = depth_um.len() / w.max(1);
+    let mut stack = vec![start];
     seen[start] = true;
     while let Some(i) = stack.pop() {
-        out.push(i);
+        visit(i);
         let (x, y) = (i % w, i / w);
         for ny in y.saturating_sub(1)..(y + 2).min(h) {
             for nx in x.saturating_sub(1)..(x + 2).min(w) {
                 let j = ny * w + nx;
-                if !seen[j] && depth_um[j] >= half && depth_um[j] > thr_um {
+                if !seen[j] && keep(depth_um[j]) {
                     seen[j] = true;
                     stack.push(j);
                 }
             }
         }
     }
-    out
 }
 
 /// Force from the calibration's model.
@@ -296,5 +390,59 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// A press (a wide cone, 600 µm deep) and a spot of four pixels reading deeper (700 µm)
+    /// far from it: the press is the contact's region, and its centre the contact's.
+    #[test]
+    fn a_deeper_spot_of_a_few_pixels_does_not_take_the_press_s_place() {
+        let w = 60;
+        let mut z: Vec<i32> = (0..w * 40)
+            .map(|i| {
+                let (x, y) = ((i % w) as f32 - 20.0, (i / w) as f32 - 20.0);
+                (600.0 - 60.0 * x.hypot(y)).max(0.0) as i32
+            })
+            .collect();
+        for i in [55 + 35 * w, 56 + 35 * w, 55 + 36 * w, 56 + 36 * w] {
+            z[i] = 700;
+        }
+        let region = dominant_component(&z, w, 20);
+        assert!(
+            region.iter().all(|&i| (i % w) < 40),
+            "the spot is no part of the region"
+        );
+        let at = 20 + 20 * w;
+        assert!(region.contains(&at));
+        let contact = peak_component(&z, w, at, 20);
+        assert!(
+            contact.iter().all(|&i| (i % w) < 40),
+            "the spot is no part of it"
+        );
+        let f = summarize(&z, &contact, w, (0, 0), 1, 0.1, (z[at], 20));
+        let (cx, cy) = f.centroid_px.unwrap();
+        assert!(
+            (cx - 20.5).abs() < 0.1 && (cy - 20.5).abs() < 0.1,
+            "{cx}, {cy}"
+        );
+        // Without the press, the spot is the contact.
+        let spot: Vec<i32> = z.iter().map(|&d| if d == 700 { d } else { 0 }).collect();
+        assert_eq!(dominant_component(&spot, w, 20).len(), 4);
+        assert!(dominant_component(&vec![0; w * 40], w, 20).is_empty());
+    }
+
+    /// Two arms that meet only further down, and a pixel touching by a corner, are one
+    /// region; a pixel two columns away is not.
+    #[test]
+    fn regions_joined_below_or_by_a_corner_are_one() {
+        #[rustfmt::skip]
+        let z = [
+            9, 0, 0, 9, 0, 0, 0,
+            9, 0, 0, 9, 0, 0, 0,
+            9, 9, 9, 9, 0, 0, 0,
+            0, 0, 0, 0, 5, 0, 9,
+        ];
+        let mut region = dominant_component(&z, 7, 0);
+        region.sort_unstable();
+        assert_eq!(region, [0, 3, 7, 10, 14, 15, 16, 17, 25]);
     }
 }

@@ -96,9 +96,10 @@ mod tests {
     use super::super::features::peak_component;
     use super::*;
 
-    /// The peak's half-depth component of `z` (`w` wide).
+    /// The deepest pixel's half-depth component of `z` (`w` wide).
     fn component(z: &[i32], w: usize) -> Vec<usize> {
-        peak_component(z, w, (z.iter().copied().max().unwrap_or(0), 0))
+        let at = (0..z.len()).max_by_key(|&i| z[i]).unwrap_or(0);
+        peak_component(z, w, at, 0)
     }
 
     /// A map of `f(r)` (µm, r in px from the window's centre) on a `w × w` window.

@@ -21,7 +21,9 @@ mod register;
 mod window;
 
 pub use coarse::{contact_tiles, local_noise_units};
-pub use features::{bounded_force, force_of, peak_component, summarize, Features};
+pub use features::{
+    bounded_force, dominant_component, force_of, peak_component, summarize, Features,
+};
 pub use window::upsample2;
 
 use coarse::{median, read_coarse, Coarse, Margin, NOISE_STEP};
@@ -452,11 +454,15 @@ impl<M: PhaseMap> Found<'_, M> {
         if pass.is_dipole() {
             return None;
         }
-        // The map's deepest value, read once for the component, the features, the apex and
-        // the temperature's contact region.
-        let map_peak_um = pass.depth_um.iter().copied().max().unwrap_or(0);
+        // The contact: the region holding the most indentation, its apex (the blurred map's
+        // deepest point there) and the half-depth component around the apex. The map's value
+        // at the apex is read once for the component, the features and the temperature's
+        // contact region.
+        let region = dominant_component(&pass.depth_um, bw, threshold_um);
+        let apex = apex::apex(&pass.depth_um, bw, &region, self.map.blur_box_lengths())?;
+        let map_peak_um = pass.depth_um[apex.at];
         let peak = (map_peak_um, threshold_um);
-        let contact = peak_component(&pass.depth_um, bw, peak);
+        let contact = peak_component(&pass.depth_um, bw, apex.at, threshold_um);
         let mut feats = summarize(
             &pass.depth_um,
             &contact,
@@ -469,9 +475,7 @@ impl<M: PhaseMap> Found<'_, M> {
         if feats.peak_mm == 0.0 {
             return None;
         }
-        let blur = self.map.blur_box_lengths();
-        let peak_um = apex::corrected_peak_um(&pass.depth_um, bw, map_peak_um, blur);
-        feats.peak_mm = peak_um as f32 / 1000.0;
+        feats.peak_mm = apex.peak_um as f32 / 1000.0;
         let px_mm = ctx.mm_per_px * self.factor as f32;
         let inputs = self.force_inputs(&feats, &pass, &contact, (x0, y0, bw), px_mm);
         let limits = Limits {
