@@ -281,6 +281,11 @@ impl Bench {
             .replace("/etc/vistaf/", &format!("{f}/etc/"))
     }
 
+    /// Throws away what earlier commands sent on the gadget serial.
+    fn drain_gadget(&mut self) {
+        while self.gadget_hears(Duration::from_millis(100)) {}
+    }
+
     /// Whether bytes arrive on the gadget serial within `wait`.
     fn gadget_hears(&mut self, wait: Duration) -> bool {
         let _ = self.gadget.set_timeout(wait);
@@ -563,6 +568,9 @@ fn run_command(at: &str, cmd: &str, bin: &Path, folder: &Path, bench: &mut Bench
         None => bench.substitute(cmd, folder),
     };
     if let Some((_, shows)) = UNTIL_STOPPED.iter().find(|(c, _)| *c == cmd) {
+        if matches!(shows, Shows::Gadget) {
+            bench.drain_gadget();
+        }
         let mut r = Running::start(bin, folder, real.trim_end_matches('&').trim());
         match r.wait_for(*shows, folder, bench) {
             Ok(()) if cmd.ends_with('&') => return Ran::Background(r),
