@@ -11,7 +11,8 @@
 //! The hardware a command names is the simulated skin's ([`Bench::substitute`]):
 //! `/dev/ttyACM0` and `/dev/ttyACM1` are pseudo-terminals with a simulated skin on their
 //! other end, `/dev/ttyGS0` (the board's gadget serial) a pseudo-terminal this test reads,
-//! `camera:/dev/video0` a simulated scene, `/tmp/` and `/etc/vistaf/` the document's folder.
+//! `camera:/dev/video0` a simulated scene, `/tmp/` and `/etc/vistaf/` the document's folder,
+//! and the TCP port `7000` a free one.
 //! Files a command takes as already there (a captured stream, the paper's results table,
 //! a recorded kit) are put there first ([`prepare`]).
 //!
@@ -236,6 +237,8 @@ struct Bench {
     skins: Vec<(String, Arc<AtomicBool>)>,
     gadget: TTYPort,
     gadget_path: String,
+    /// A free port of this machine, for the documents' `127.0.0.1:7000`.
+    tcp_port: u16,
 }
 
 impl Bench {
@@ -262,21 +265,27 @@ impl Bench {
         let gadget_path = slave.name().unwrap();
         // The slave stays open here, so the master reads nothing but what a command sends.
         std::mem::forget(slave);
+        let tcp_port = std::net::TcpListener::bind("127.0.0.1:0")
+            .and_then(|l| l.local_addr())
+            .map(|a| a.port())
+            .unwrap();
         Bench {
             skins,
             gadget,
             gadget_path,
+            tcp_port,
         }
     }
 
-    /// `text` with the hardware's paths replaced by the simulated skin's, and the system's
-    /// folders by `folder`'s.
+    /// `text` with the hardware's paths replaced by the simulated skin's, the system's
+    /// folders by `folder`'s, and the documents' TCP port by a free one.
     fn substitute(&self, text: &str, folder: &Path) -> String {
         let f = folder.display();
         text.replace("/dev/ttyACM0", &self.skins[0].0)
             .replace("/dev/ttyACM1", &self.skins[1].0)
             .replace("/dev/ttyGS0", &self.gadget_path)
             .replace("camera:/dev/video0", "sim:demo")
+            .replace("127.0.0.1:7000", &format!("127.0.0.1:{}", self.tcp_port))
             .replace("/tmp/", &format!("{f}/tmp/"))
             .replace("/etc/vistaf/", &format!("{f}/etc/"))
     }
@@ -469,8 +478,9 @@ impl Running {
         loop {
             let shown = match shows {
                 Shows::Says(s) => {
-                    self.stdout.lock().unwrap().contains(s)
-                        || self.stderr.lock().unwrap().contains(s)
+                    let s = bench.substitute(s, folder);
+                    self.stdout.lock().unwrap().contains(&s)
+                        || self.stderr.lock().unwrap().contains(&s)
                 }
                 Shows::Lines(f, n) => {
                     std::fs::read_to_string(folder.join(f)).is_ok_and(|t| t.lines().count() >= n)
