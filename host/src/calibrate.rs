@@ -305,9 +305,9 @@ impl<G: Guide> Guide for WithScale<G> {
                 return answer;
             }
             match self.scale.read_n() {
-                Ok(n) => {
-                    self.inner.say(&format!("  the scale reads {n:.3} N"));
-                    return Answer::Measured(n);
+                Ok(force_n) => {
+                    self.inner.say(&format!("  the scale reads {force_n:.3} N"));
+                    return Answer::Measured(force_n);
                 }
                 Err(e) => self.inner.say(&format!("  {e}")),
             }

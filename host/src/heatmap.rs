@@ -32,22 +32,18 @@ pub fn render(map: &WholeMap, range: (f64, f64), max_cols: usize) -> Vec<String>
         _ => VIRIDIS,
     };
     let cols = map.width.min(max_cols);
+    // The map's trusted cells that fall in a column, averaged (NaN if there are none).
     let cell = |row: usize, col: usize| -> f32 {
-        if row >= map.height {
-            return f32::NAN;
-        }
-        // The map's cells that fall in this column, averaged (NaN if none is trusted).
         let a = col * map.width / cols;
-        let b = ((col + 1) * map.width / cols).max(a + 1);
-        let v: Vec<f32> = values[row * map.width + a..row * map.width + b.min(map.width)]
+        let b = ((col + 1) * map.width / cols).clamp(a + 1, map.width);
+        let (sum, n) = values[row * map.width + a..row * map.width + b]
             .iter()
-            .copied()
             .filter(|v| !v.is_nan())
-            .collect();
-        if v.is_empty() {
+            .fold((0.0, 0u32), |(s, n), v| (s + v, n + 1));
+        if n == 0 {
             f32::NAN
         } else {
-            v.iter().sum::<f32>() / v.len() as f32
+            sum / n as f32
         }
     };
     let mut lines = Vec::with_capacity(map.height.div_ceil(2) + 1);

@@ -200,7 +200,7 @@ pub fn port_list() -> Vec<String> {
 }
 
 /// A port that is not there: the error names the ports that are.
-fn with_ports_named(e: io::Error) -> io::Error {
+pub(crate) fn with_ports_named(e: io::Error) -> io::Error {
     if e.kind() != io::ErrorKind::NotFound {
         return e;
     }
@@ -220,7 +220,7 @@ const DRAIN_MAX: u64 = 1 << 20;
 /// Reads what waits in `port`'s input without waiting for more, throws it away, and says
 /// how many bytes that was; then clears the input buffer for good measure. (The count comes
 /// from reading, because `FIONREAD` does not see all of a pseudo-terminal's buffer.)
-fn drain(port: &mut serialport::TTYPort) -> serialport::Result<u64> {
+pub(crate) fn drain(port: &mut serialport::TTYPort) -> serialport::Result<u64> {
     use serialport::{ClearBuffer, SerialPort};
     port.set_timeout(Duration::ZERO)?;
     let mut buf = [0u8; 4096];

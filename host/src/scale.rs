@@ -10,7 +10,7 @@
 use std::io::{BufRead, BufReader, Read};
 use std::time::{Duration, Instant};
 
-use crate::link::{LinkSpec, DEFAULT_BAUD};
+use crate::link::{drain, with_ports_named, LinkSpec};
 
 /// Standard gravity, m/s²: a mass reading in kg or g as a force.
 const G_N_PER_KG: f64 = 9.806_65;
@@ -57,7 +57,7 @@ pub fn parse_newton(line: &str) -> Option<f64> {
 /// A scale on a serial port.
 pub struct SerialScale {
     name: String,
-    port: Box<dyn serialport::SerialPort>,
+    port: serialport::TTYPort,
     timeout: Duration,
 }
 
@@ -73,17 +73,18 @@ impl SerialScale {
     /// Opens the scale `spec` names (`serial:PATH@BAUD`, or a bare path at
     /// [`SCALE_DEFAULT_BAUD`]); a reading not complete in `timeout` is an error.
     pub fn open(spec: &str, timeout: Duration) -> Result<SerialScale, String> {
-        let (path, baud) = match spec.parse::<LinkSpec>() {
-            Ok(LinkSpec::Serial { path, baud }) if spec.contains('@') => (path, baud),
-            Ok(LinkSpec::Serial { path, baud }) if baud == DEFAULT_BAUD => {
-                (path, SCALE_DEFAULT_BAUD)
-            }
-            _ => return Err(format!("scale {spec:?}: a serial port, serial:PATH@BAUD")),
+        let Ok(LinkSpec::Serial { path, baud }) = spec.parse::<LinkSpec>() else {
+            return Err(format!("scale {spec:?}: a serial port, serial:PATH@BAUD"));
+        };
+        let baud = if spec.contains('@') {
+            baud
+        } else {
+            SCALE_DEFAULT_BAUD
         };
         let port = serialport::new(&path, baud)
             .timeout(Duration::from_millis(100))
-            .open()
-            .map_err(|e| format!("scale {path}: {e}"))?;
+            .open_native()
+            .map_err(|e| format!("scale {path}: {}", with_ports_named(e.into())))?;
         Ok(SerialScale {
             name: path,
             port,
@@ -94,7 +95,8 @@ impl SerialScale {
 
 impl Scale for SerialScale {
     fn read_n(&mut self) -> Result<f64, String> {
-        let _ = self.port.clear(serialport::ClearBuffer::Input);
+        // What waited in the port is the load before the step was set.
+        drain(&mut self.port).map_err(|e| format!("scale {}: {e}", self.name))?;
         let end = Instant::now() + self.timeout;
         let mut lines = BufReader::new(TimedReader {
             port: &mut self.port,
@@ -106,7 +108,10 @@ impl Scale for SerialScale {
         while readings.len() < LINES_PER_READING {
             let mut line = String::new();
             match lines.read_line(&mut line) {
-                Ok(0) | Err(_) => {
+                Err(e) if e.kind() != std::io::ErrorKind::InvalidData => {
+                    return Err(format!("scale {}: {e}", self.name))
+                }
+                Ok(0) => {
                     return Err(format!(
                         "scale {}: {} readings in {:.1} s, {LINES_PER_READING} needed (is it \
                          streaming, at this baud?)",
@@ -115,7 +120,7 @@ impl Scale for SerialScale {
                         self.timeout.as_secs_f64()
                     ))
                 }
-                Ok(_) => {}
+                _ => {}
             }
             if !std::mem::take(&mut first) {
                 readings.extend(parse_newton(&line));
@@ -128,7 +133,7 @@ impl Scale for SerialScale {
 
 /// A port read until a deadline: its timeouts retried, the deadline an end of input.
 struct TimedReader<'a> {
-    port: &'a mut Box<dyn serialport::SerialPort>,
+    port: &'a mut serialport::TTYPort,
     end: Instant,
 }
 

@@ -363,8 +363,8 @@ fn shell(bin: &Path, folder: &Path, cmd: &str) -> Command {
     c
 }
 
-/// Runs `cmd` to its end; its output, after checking it succeeded in time.
-fn run_ok(bin: &Path, folder: &Path, cmd: &str) -> String {
+/// Runs `cmd` to its end, checking it succeeded in time.
+fn run_ok(bin: &Path, folder: &Path, cmd: &str) {
     let child = shell(bin, folder, cmd)
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
@@ -373,7 +373,6 @@ fn run_ok(bin: &Path, folder: &Path, cmd: &str) -> String {
         .unwrap();
     let (ok, stdout, stderr) = finish(child, TIMEOUT);
     assert!(ok, "`{cmd}` in {}:\n{stdout}\n{stderr}", folder.display());
-    stdout
 }
 
 /// Waits for `child` up to `limit`: whether it succeeded, its output and its errors.

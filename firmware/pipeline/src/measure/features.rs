@@ -153,46 +153,24 @@ pub fn peak_component(depth_um: &[i32], w: usize, peak_at: usize, thr_um: i32) -
     if peak <= thr_um.max(0) {
         return Vec::new();
     }
-    let half = peak / 2;
+    let (h, half) = (depth_um.len() / w.max(1), peak / 2);
     let mut seen = vec![false; depth_um.len()];
-    let mut out = Vec::new();
-    flood(
-        depth_um,
-        w,
-        peak_at,
-        |d| d >= half && d > thr_um,
-        &mut seen,
-        |i| out.push(i),
-    );
-    out
-}
-
-/// Visits the 8-connected component of `start` (`w` wide) whose values `keep`, marking it
-/// in `seen`; `start` must be kept.
-fn flood(
-    depth_um: &[i32],
-    w: usize,
-    start: usize,
-    keep: impl Fn(i32) -> bool,
-    seen: &mut [bool],
-    mut visit: impl FnMut(usize),
-) {
-    let h = depth_um.len() / w.max(1);
-    let mut stack = vec![start];
-    seen[start] = true;
+    let (mut stack, mut out) = (vec![peak_at], Vec::new());
+    seen[peak_at] = true;
     while let Some(i) = stack.pop() {
-        visit(i);
+        out.push(i);
         let (x, y) = (i % w, i / w);
         for ny in y.saturating_sub(1)..(y + 2).min(h) {
             for nx in x.saturating_sub(1)..(x + 2).min(w) {
                 let j = ny * w + nx;
-                if !seen[j] && keep(depth_um[j]) {
+                if !seen[j] && depth_um[j] >= half && depth_um[j] > thr_um {
                     seen[j] = true;
                     stack.push(j);
                 }
             }
         }
     }
+    out
 }
 
 /// Force from the calibration's model.
