@@ -7,7 +7,7 @@ use vistaf_pipeline::Calibration;
 /// cross-validated and in-sample errors, and the frame sets it was fitted on.
 pub fn calibration_json(c: &Calibration) -> Value {
     json!({
-        "id": format!("{:08x}", c.id()),
+        "id": vistaf_protocol::CalibrationId(c.id()).to_string(),
         "phase_to_depth": { "equation": c.depth.equation, "model": c.depth.model, "cv_rmse_mm": c.depth.cv_rmse, "in_sample_rmse_mm": c.depth.in_sample_rmse, "n": c.depth.n },
         "force": c.force.as_ref().map(|f| json!({ "equation": f.equation, "model": f.model, "cv_rmse_n": f.cv_rmse, "in_sample_rmse_n": f.in_sample_rmse, "n": f.n })),
         "temperature": c.temperature.as_ref().map(|t| json!({

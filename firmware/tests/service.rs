@@ -626,3 +626,38 @@ fn calibration_commands_out_of_order_are_refused_and_a_step_waits_for_settled_fr
     );
     std::fs::remove_dir_all(&kit_dir).unwrap();
 }
+
+/// The calibration an activation replaced, read back from its file at start, can be put
+/// back after a restart; with none, a rollback is refused by name.
+#[test]
+fn a_rollback_after_a_restart_puts_the_previous_file_back() {
+    let dir = std::env::temp_dir().join(format!("vistaf-rollback-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("calibration.json");
+    let old = Calibration::default_sim();
+    let mut new = old.clone();
+    new.unit.period_px *= 1.01;
+    new.save(&path).unwrap();
+    old.save(&vistaf_firmware::service::persist::previous_path(&path))
+        .unwrap();
+    let mut rig = Rig::new(Settings {
+        calibration_path: Some(path.clone()),
+        previous: vistaf_firmware::service::persist::previous(&path),
+        ..settings(ReferencePolicy::default())
+    });
+    rig.settings.calibration = new.clone();
+    let (mut svc, _) = rig.start();
+    match svc.on_command(HostMsg::CalibrationRollback) {
+        DeviceMsg::Hello(h) => assert_eq!(h.calibration_id, old.id()),
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(Calibration::load(&path).unwrap().id(), old.id());
+    drop(svc);
+    let mut rig = Rig::new(settings(ReferencePolicy::default()));
+    let (mut svc, _) = rig.start();
+    match svc.on_command(HostMsg::CalibrationRollback) {
+        DeviceMsg::Error(e) => assert!(e.detail.contains("no earlier calibration"), "{e:?}"),
+        other => panic!("{other:?}"),
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

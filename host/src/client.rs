@@ -8,7 +8,7 @@ use std::time::{Duration, Instant, SystemTime};
 use vistaf_protocol::frame::HOST_FRAME_MAX;
 use vistaf_protocol::{
     encode, schema, CalibrationFitted, ClockReading, Command, DeviceDecoder, DeviceMsg, DropCounts,
-    ErrorCode, FrameError, Hello, HostMsg, KitCaptured, KitStep, KitVerdict, Map, MapKind, SetLed,
+    FrameError, Hello, HostMsg, KitCaptured, KitStep, KitVerdict, Map, MapKind, SetLed,
 };
 
 use crate::clock::{next_request, ClockEstimator, ClockMap, Exchange, HostTimeline, MappedTime};
@@ -73,18 +73,6 @@ pub fn describe(hello: &Hello) -> String {
     format!(
         "skin {} firmware {}.{}.{}, {}×{} px",
         hello.serial, fw.major, fw.minor, fw.patch, hello.frame_width_px, hello.frame_height_px
-    )
-}
-
-/// Whether a device error is a report of the device's own state (it cannot take a
-/// reference, the camera is gone, a frame was bad) rather than an answer to a command: a
-/// device repeats a reference error every second while its calibration does not fit the
-/// skin in view, as during the calibration of a new unit, and a command's wait must not
-/// end on it.
-fn is_report(e: &vistaf_protocol::DeviceError) -> bool {
-    matches!(
-        e.code,
-        ErrorCode::Reference | ErrorCode::CameraLost | ErrorCode::BadFrame
     )
 }
 
@@ -392,7 +380,7 @@ impl Client {
                         break Ok(v);
                     }
                     if let DeviceMsg::Error(error) = &r.msg {
-                        if !is_report(error) {
+                        if !error.code.is_report() {
                             break Err(HostError::Device {
                                 link: self.name().to_string(),
                                 error: error.clone(),
@@ -589,7 +577,7 @@ impl Client {
 mod tests {
     use super::*;
     use std::sync::{Arc, Mutex};
-    use vistaf_protocol::HostDecoder;
+    use vistaf_protocol::{ErrorCode, HostDecoder};
 
     /// A link that never has bytes to read.
     struct Quiet;

@@ -44,7 +44,7 @@ pub mod monitor;
 pub mod multi;
 pub mod record;
 pub mod ros2;
-pub mod scale;
+pub use vistaf_session::scale;
 pub mod seq;
 pub mod snapshot;
 pub mod stream;

@@ -15,6 +15,9 @@ use std::time::Duration;
 
 use crate::error::HostError;
 
+pub use vistaf_session::port::port_list;
+use vistaf_session::port::{drain, with_ports_named};
+
 pub use vistaf_protocol::link::{LinkSpec, LinkSpecError, DEFAULT_BAUD};
 
 /// How long one read waits for bytes before the caller gets control back.
@@ -172,68 +175,6 @@ impl Link {
                 cause: e,
             })
     }
-}
-
-/// This machine's serial ports, one line each: the path, and for a USB port its vendor and
-/// product ids, maker, product and serial (what tells one skin from another).
-pub fn port_list() -> Vec<String> {
-    let Ok(ports) = serialport::available_ports() else {
-        return Vec::new();
-    };
-    ports
-        .into_iter()
-        .map(|p| match p.port_type {
-            serialport::SerialPortType::UsbPort(u) => format!(
-                "{}  USB {:04x}:{:04x} {} {} serial {}",
-                p.port_name,
-                u.vid,
-                u.pid,
-                u.manufacturer.unwrap_or_default(),
-                u.product.unwrap_or_default(),
-                u.serial_number.unwrap_or_else(|| "?".into())
-            ),
-            serialport::SerialPortType::PciPort => format!("{}  PCI", p.port_name),
-            serialport::SerialPortType::BluetoothPort => format!("{}  Bluetooth", p.port_name),
-            serialport::SerialPortType::Unknown => format!("{}  (not USB)", p.port_name),
-        })
-        .collect()
-}
-
-/// A port that is not there: the error names the ports that are.
-pub(crate) fn with_ports_named(e: io::Error) -> io::Error {
-    if e.kind() != io::ErrorKind::NotFound {
-        return e;
-    }
-    let ports = port_list();
-    let here = if ports.is_empty() {
-        "no serial ports on this machine".to_string()
-    } else {
-        format!("serial ports here: {}", ports.join("; "))
-    };
-    io::Error::new(e.kind(), format!("{e} ({here})"))
-}
-
-/// Most bytes [`drain`] throws away: a backlog larger than this is a device streaming
-/// faster than it can be drained, and what is left goes to the handshake to discard.
-const DRAIN_MAX: u64 = 1 << 20;
-
-/// Reads what waits in `port`'s input without waiting for more, throws it away, and says
-/// how many bytes that was; then clears the input buffer for good measure. (The count comes
-/// from reading, because `FIONREAD` does not see all of a pseudo-terminal's buffer.)
-pub(crate) fn drain(port: &mut serialport::TTYPort) -> serialport::Result<u64> {
-    use serialport::{ClearBuffer, SerialPort};
-    port.set_timeout(Duration::ZERO)?;
-    let mut buf = [0u8; 4096];
-    let mut total = 0u64;
-    while total < DRAIN_MAX {
-        match port.read(&mut buf) {
-            Ok(0) | Err(_) => break,
-            Ok(n) => total += n as u64,
-        }
-    }
-    port.clear(ClearBuffer::Input)?;
-    port.set_timeout(READ_POLL)?;
-    Ok(total)
 }
 
 /// Serial reads time out every [`READ_POLL`]; that is "no bytes yet", not an error.

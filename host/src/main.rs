@@ -202,17 +202,9 @@ enum Cmd {
     Calibrate {
         /// Serial link.
         port: String,
-        /// Run the steps of this plan without asking (see docs/calibration.md); without
-        /// it, the default kit, each step asked for at the terminal.
-        #[arg(long)]
-        plan: Option<PathBuf>,
-        /// When to put the fit in use [default: the plan's, else pass].
-        #[arg(long, value_enum)]
-        activate: Option<vistaf_host::calibrate::Activate>,
-        /// The load cell's indicator on a serial port (serial:PATH@BAUD, or a path at
-        /// 9600 baud): each force step's value is read from it [default: the plan's].
-        #[arg(long)]
-        scale: Option<String>,
+        /// The plan, when to activate, the scale.
+        #[command(flatten)]
+        session: vistaf_session::SessionArgs,
     },
     /// Put back the calibration the last activation replaced.
     Rollback {
@@ -384,7 +376,7 @@ fn run(cli: Cli) -> Result<()> {
                 "frame size:   {}×{} px",
                 hello.frame_width_px, hello.frame_height_px
             );
-            println!("calibration:  {}", vistaf_host::record::calibration_id_text(hello.calibration_id));
+            println!("calibration:  {}", vistaf_protocol::CalibrationId(hello.calibration_id));
             Ok(())
         }
         Cmd::Reference { port, timeout_ms } => command(&port, "new reference captured", |c| {
@@ -444,12 +436,7 @@ fn run(cli: Cli) -> Result<()> {
             };
             snapshot(&port, &out, ply.as_deref(), bars, timeout_ms)
         }
-        Cmd::Calibrate {
-            port,
-            plan,
-            activate,
-            scale,
-        } => calibrate(&port, plan.as_deref(), activate, scale),
+        Cmd::Calibrate { port, session } => calibrate(&port, &session),
         Cmd::Rollback { port } => {
             let mut c = open_client(&port)?;
             c.handshake(DEFAULT_TIMEOUT)?;
@@ -457,7 +444,7 @@ fn run(cli: Cli) -> Result<()> {
             println!(
                 "{}: calibration {} in use again",
                 hello.serial,
-                vistaf_host::record::calibration_id_text(hello.calibration_id)
+                vistaf_protocol::CalibrationId(hello.calibration_id)
             );
             Ok(())
         }
@@ -557,58 +544,25 @@ fn hex_mask(s: &str) -> Result<u32, String> {
 }
 
 /// A guided calibration of the skin on `port`.
-fn calibrate(
-    port: &str,
-    plan_file: Option<&std::path::Path>,
-    activate: Option<vistaf_host::calibrate::Activate>,
-    scale: Option<String>,
-) -> Result<()> {
-    use vistaf_host::calibrate::{self, Guide, Plan, Scripted, Terminal, WithScale};
-    let mut plan = match plan_file {
-        Some(p) => Plan::load(p).map_err(anyhow::Error::msg)?,
-        None => Plan::default(),
-    };
-    if let Some(a) = activate {
-        plan.activate = a;
-    }
-    if scale.is_some() {
-        plan.scale = scale;
-    }
-    // Opened before the device is, so a wrong scale path is said before any step.
-    let scale = match &plan.scale {
-        Some(spec) => Some(
-            vistaf_host::scale::SerialScale::open(spec, SCALE_TIMEOUT)
-                .map_err(anyhow::Error::msg)?,
-        ),
-        None => None,
-    };
+fn calibrate(port: &str, session: &vistaf_session::SessionArgs) -> Result<()> {
+    let (plan, mut guide) = session.open().map_err(anyhow::Error::msg)?;
     let mut client = open_client(port)?;
     let hello = client.handshake(DEFAULT_TIMEOUT)?;
     println!(
         "{}; calibration {} in use; {} steps",
         describe(&hello),
-        vistaf_host::record::calibration_id_text(hello.calibration_id),
+        vistaf_protocol::CalibrationId(hello.calibration_id),
         plan.steps().len()
     );
-    let stdin = std::io::stdin();
-    let guide: Box<dyn Guide> = if plan_file.is_some() {
-        Box::new(Scripted::new(std::io::stdout()))
-    } else {
-        Box::new(Terminal::new(stdin.lock(), std::io::stdout()))
-    };
-    let mut guide: Box<dyn Guide> = match scale {
-        Some(s) => Box::new(WithScale::new(guide, Box::new(s))),
-        None => guide,
-    };
-    let outcome = calibrate::run(&mut client, &plan, guide.as_mut())?;
+    let outcome = vistaf_session::run(&mut client, &plan, guide.as_mut())?;
+    if outcome.activated.is_some() {
+        println!("`vistaf-host rollback {port}` puts the one it replaced back");
+    }
     if outcome.fitted.is_some_and(|f| !f.pass) {
         bail!("the calibration misses a target (see the table above)");
     }
     Ok(())
 }
-
-/// How long a scale may take to give one reading (a few lines of a streaming indicator).
-const SCALE_TIMEOUT: Duration = Duration::from_secs(5);
 
 fn open_client(port: &str) -> Result<Client> {
     let spec: LinkSpec = port.parse()?;

@@ -8,7 +8,7 @@ use std::time::SystemTime;
 
 use serde::Serialize;
 use serde_json::{json, Value};
-use vistaf_protocol::{DeviceMsg, KitCaptured, KitQuantity, KitVerdict, Summary};
+use vistaf_protocol::{CalibrationId, DeviceMsg, KitCaptured, KitVerdict, Summary};
 
 use crate::client::Received;
 use crate::clock::{unix_s, MappedTime};
@@ -151,23 +151,8 @@ pub fn map_json(m: &vistaf_protocol::Map) -> Value {
     WholeMap::from_coarse(m).map_or(Value::Null, |w| w.to_json())
 }
 
-/// A calibration id as every output prints it: eight lowercase hexadecimal digits.
-pub fn calibration_id_text(id: u32) -> String {
-    format!("{id:08x}")
-}
-
-/// A kit quantity's name and SI unit, and the factor from its wire milli-units.
-pub fn kit_quantity_si(q: KitQuantity) -> (&'static str, &'static str, f64) {
-    match q {
-        KitQuantity::Reference => ("reference", "°C", 1e-3),
-        KitQuantity::Depth => ("depth", "mm", 1e-3),
-        KitQuantity::Force => ("force", "N", 1e-3),
-        KitQuantity::Temperature => ("temperature", "°C", 1e-3),
-    }
-}
-
 fn kit_captured_json(c: &KitCaptured) -> Value {
-    let (name, unit, k) = kit_quantity_si(c.step.quantity);
+    let (name, unit, k) = c.step.quantity.si();
     json!({
         "quantity": name,
         "value": f64::from(c.step.value_milli) * k,
@@ -179,7 +164,7 @@ fn kit_captured_json(c: &KitCaptured) -> Value {
 }
 
 fn kit_verdict_json(v: &KitVerdict) -> Value {
-    let (name, unit, k) = kit_quantity_si(v.quantity);
+    let (name, unit, k) = v.quantity.si();
     json!({
         "quantity": name,
         "samples": v.samples,
@@ -208,7 +193,7 @@ pub fn message_json(device: &str, received: &Received) -> Value {
             let (kind, body) = match other {
                 DeviceMsg::Hello(h) => {
                     let mut v = json!(h);
-                    v["calibration_id"] = json!(calibration_id_text(h.calibration_id));
+                    v["calibration_id"] = json!(CalibrationId(h.calibration_id).to_string());
                     ("hello", v)
                 }
                 DeviceMsg::Map(m) => ("map", map_json(m)),
@@ -224,7 +209,7 @@ pub fn message_json(device: &str, received: &Received) -> Value {
                 DeviceMsg::CalibrationFitted(f) => (
                     "calibration_fitted",
                     json!({
-                        "calibration_id": calibration_id_text(f.calibration_id),
+                        "calibration_id": CalibrationId(f.calibration_id).to_string(),
                         "pass": f.pass,
                     }),
                 ),

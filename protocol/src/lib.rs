@@ -63,3 +63,4 @@ pub use msg::{
     MapKind, Rgb, RunState, SetLed, Status, Summary,
 };
 pub use schema::{schema_hash, PROTOCOL_VERSION};
+pub use units::CalibrationId;

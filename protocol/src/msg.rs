@@ -270,6 +270,20 @@ pub enum ErrorCode {
     NotSettled,
 }
 
+impl ErrorCode {
+    /// Whether an error of this kind reports the device's own state (it cannot take a
+    /// reference, the camera is gone, a frame was bad) rather than answering a command: a
+    /// device repeats a reference error every second while its calibration does not fit
+    /// the skin in view, as during the calibration of a new unit, and a command's wait
+    /// must not end on it.
+    pub const fn is_report(self) -> bool {
+        matches!(
+            self,
+            ErrorCode::Reference | ErrorCode::CameraLost | ErrorCode::BadFrame
+        )
+    }
+}
+
 /// An error report from the device.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, MaxSize, Schema)]
 pub struct DeviceError {

@@ -121,6 +121,30 @@ impl CentroidDeciMm {
     }
 }
 
+/// A calibration id as every output prints it: eight lowercase hexadecimal digits
+/// (`Hello::calibration_id`, a fit's id, the calibration file's `id`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct CalibrationId(pub u32);
+
+impl core::fmt::Display for CalibrationId {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(f, "{:08x}", self.0)
+    }
+}
+
+impl crate::msg::KitQuantity {
+    /// The quantity's name, its SI unit, and the factor from its wire milli-units to it.
+    pub const fn si(self) -> (&'static str, &'static str, f64) {
+        use crate::msg::KitQuantity;
+        match self {
+            KitQuantity::Reference => ("reference", "°C", 1e-3),
+            KitQuantity::Depth => ("depth", "mm", 1e-3),
+            KitQuantity::Force => ("force", "N", 1e-3),
+            KitQuantity::Temperature => ("temperature", "°C", 1e-3),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

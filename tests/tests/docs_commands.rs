@@ -77,6 +77,14 @@ const NOT_RUN: &[(&str, &str)] = &[
         "sudo apt install ./vistaf-skin_*_arm64.deb",
         "on the board, as root",
     ),
+    ("sudo systemctl stop vistaf-skin", "on the board, as root"),
+    (
+        "sudo -u vistaf vistaf-skin calibrate --guided --config /etc/vistaf/skin.toml \
+         --calibration /var/lib/vistaf/calibration.json",
+        "on the board, as its service's user (the same session on sim:bench is in \
+         docs/calibration.md)",
+    ),
+    ("sudo systemctl start vistaf-skin", "on the board, as root"),
 ];
 
 /// What a command that runs until stopped must have shown before it is stopped.
@@ -132,11 +140,19 @@ const UNTIL_STOPPED: &[(&str, Shows)] = &[
 ];
 
 /// Commands that ask at a terminal: what is typed, and what they must have said.
-const ANSWERED: &[(&str, &str, &str)] = &[(
-    "vistaf-host calibrate /dev/ttyACM0",
-    "q\n",
-    "[1/93] leave the skin untouched",
-)];
+const ANSWERED: &[(&str, &str, &str)] = &[
+    (
+        "vistaf-host calibrate /dev/ttyACM0",
+        "q\n",
+        "[1/93] leave the skin untouched",
+    ),
+    (
+        "vistaf-skin calibrate --guided --source sim:bench --unit-seed 3 \
+         --calibration calibration.json",
+        "q\n",
+        "[1/93] leave the skin untouched",
+    ),
+];
 
 /// How long one command may take.
 const TIMEOUT: Duration = Duration::from_secs(300);
@@ -524,7 +540,7 @@ fn cargo_run(cmd: &str) -> Option<(String, String)> {
 }
 
 /// What `check_not_run` verifies of a command that cannot run: a script exists and
-/// parses; a binary's arguments parse.
+/// parses; a binary's arguments parse (run through cargo, or as another user).
 fn check_not_run(bin: &Path, root: &Path, cmd: &str) {
     for part in cmd.split("&&").map(str::trim) {
         let words: Vec<&str> = part.split_whitespace().collect();
@@ -537,23 +553,30 @@ fn check_not_run(bin: &Path, root: &Path, cmd: &str) {
                     .unwrap();
                 assert!(status.success(), "`{part}`: {script} does not parse");
             }
+            ["sudo", "-u", _, program, args @ ..] if bin.join(program).exists() => {
+                parses(&bin.join(program), &args.join(" "), part);
+            }
             ["cargo", "run", ..] => {
                 let (name, args) = cargo_run(part).unwrap();
-                let exe = bin.join(&name);
-                let out = Command::new(&exe)
-                    .args(args.split_whitespace())
-                    .arg("--help")
-                    .output()
-                    .unwrap_or_else(|e| panic!("`{part}`: {}: {e}", exe.display()));
-                assert!(
-                    out.status.success(),
-                    "`{part}`: its arguments do not parse: {}",
-                    String::from_utf8_lossy(&out.stderr)
-                );
+                parses(&bin.join(&name), &args, part);
             }
             _ => {}
         }
     }
+}
+
+/// Asserts `exe` accepts `args` (asked for its help with them), for the command `part`.
+fn parses(exe: &Path, args: &str, part: &str) {
+    let out = Command::new(exe)
+        .args(args.split_whitespace())
+        .arg("--help")
+        .output()
+        .unwrap_or_else(|e| panic!("`{part}`: {}: {e}", exe.display()));
+    assert!(
+        out.status.success(),
+        "`{part}`: its arguments do not parse: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
 /// How a command went (a failure panics, naming the command).

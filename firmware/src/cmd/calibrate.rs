@@ -1,5 +1,7 @@
 //! `vistaf-skin calibrate`: fit phase → depth, deformation → force and colour → temperature
 //! from labelled frame sets, choose each model by grouped cross-validation and parsimony, print the evidence.
+//! With `--guided`, the kit is captured first, step by step, on this board's camera
+//! ([`super::guided`]).
 
 use std::path::PathBuf;
 
@@ -15,17 +17,24 @@ use super::progress;
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Labelled frame sets (depth_mm, force_n, temperature_c labels); repeat for several.
-    #[arg(long = "set", required_unless_present = "table")]
+    #[arg(long = "set", required_unless_present_any = ["table", "guided"])]
     pub sets: Vec<PathBuf>,
     /// Output calibration file.
-    #[arg(long, required_unless_present = "table")]
+    #[arg(long, required_unless_present_any = ["table", "guided"])]
     pub out: Option<PathBuf>,
     /// Pipeline the calibration is made with (use the one that will run).
     #[arg(long, default_value = "fixed")]
     pub pipeline: Implementation,
     /// Reproduce the paper's Table II from its per-image results CSV instead.
-    #[arg(long, value_name = "CSV")]
+    #[arg(long, value_name = "CSV", conflicts_with = "guided")]
     pub table: Option<PathBuf>,
+    /// Capture the kit on this board's camera in a guided session, fit it, and activate it
+    /// in the calibration file (the running service must be stopped first).
+    #[arg(long, conflicts_with_all = ["sets", "out"])]
+    pub guided: bool,
+    /// The guided session's options.
+    #[command(flatten)]
+    pub session: super::guided::GuidedArgs,
 }
 
 /// A progress bar that also prints notes above itself.
@@ -90,6 +99,14 @@ fn print_candidates(
 
 /// Runs the command.
 pub fn run(a: &Args) -> Result<()> {
+    if a.guided {
+        return super::guided::run(&a.session, a.pipeline);
+    }
+    if a.session.given() {
+        return Err(anyhow!(
+            "the guided session's options (--source, --plan, --config, …) need --guided"
+        ));
+    }
     if let Some(csv) = &a.table {
         print!("{}", vistaf_calibrate::paper::table(csv)?);
         return Ok(());
@@ -161,9 +178,9 @@ pub fn run(a: &Args) -> Result<()> {
     println!("\nverdict (held-out error against the product's targets):\n{verdicts}");
     calib.save(out)?;
     println!(
-        "wrote {}: calibration {:08x}, {}",
+        "wrote {}: calibration {}, {}",
         out.display(),
-        calib.id(),
+        vistaf_protocol::CalibrationId(calib.id()),
         if pass {
             "every model meets its target"
         } else {

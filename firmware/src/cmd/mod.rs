@@ -3,6 +3,7 @@
 pub mod analyze;
 pub mod calibrate;
 pub mod common;
+pub mod guided;
 pub mod record;
 pub mod run;
 pub mod simulate;

@@ -7,6 +7,7 @@ use std::sync::Arc;
 
 use anyhow::{bail, Context, Result};
 use vistaf_firmware::config::Config;
+use vistaf_firmware::service::persist;
 use vistaf_firmware::service::{run as serve, Settings, DEFAULT_KIT_DIR};
 use vistaf_firmware::source_spec::{open_with_bench, OpenOptions, SourceSpec};
 use vistaf_hardware::led::{LedRing, MemoryLedRing};
@@ -14,10 +15,11 @@ use vistaf_pipeline::calibration::Calibration;
 use vistaf_pipeline::Implementation;
 use vistaf_protocol::link::LinkSpec;
 
-/// Service options. Each overrides the same key of `--config`; without either, the
-/// built-in default (the reference build) applies.
+/// What a service on this board films, with which calibration, and where kits go: shared
+/// by `run` and `calibrate --guided`. Each overrides the same key of `--config`; without
+/// either, the built-in default (the reference build) applies.
 #[derive(clap::Args, Debug)]
-pub struct Args {
+pub struct ServiceArgs {
     /// TOML configuration file (see firmware/deploy/skin.toml).
     #[arg(long)]
     pub config: Option<PathBuf>,
@@ -25,13 +27,6 @@ pub struct Args {
     /// sim:bench (a simulated unit a guided calibration drives) [default: camera:/dev/video0].
     #[arg(long)]
     pub source: Option<SourceSpec>,
-    /// /dev/ttyX, serial:PATH[@BAUD], file:PATH or - for stdout
-    /// [default: serial:/dev/ttyGS0@921600].
-    #[arg(long)]
-    pub link: Option<LinkSpec>,
-    /// Stop after this many processed frames.
-    #[arg(long)]
-    pub frames: Option<u64>,
     /// Calibration file [default: the simulated reference unit's].
     #[arg(long)]
     pub calibration: Option<PathBuf>,
@@ -42,9 +37,6 @@ pub struct Args {
     /// Use a calibration made for another grating period or image size.
     #[arg(long)]
     pub force_calibration: bool,
-    /// float (rustfft reference) or fixed (device path) [default: fixed].
-    #[arg(long)]
-    pub pipeline: Option<Implementation>,
     /// Pace sets and simulated scenes at this rate (frames per second).
     #[arg(long, value_parser = super::common::positive_rate)]
     pub fps: Option<f32>,
@@ -57,6 +49,24 @@ pub struct Args {
     /// Serial of this skin, sent in Hello [default: VSK-SIM].
     #[arg(long)]
     pub serial: Option<String>,
+}
+
+/// Service options.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// The camera, the calibration, the kits.
+    #[command(flatten)]
+    pub service: ServiceArgs,
+    /// /dev/ttyX, serial:PATH[@BAUD], file:PATH or - for stdout
+    /// [default: serial:/dev/ttyGS0@921600].
+    #[arg(long)]
+    pub link: Option<LinkSpec>,
+    /// Stop after this many processed frames.
+    #[arg(long)]
+    pub frames: Option<u64>,
+    /// float (rustfft reference) or fixed (device path) [default: fixed].
+    #[arg(long)]
+    pub pipeline: Option<Implementation>,
     /// Summary rate limit, Hz (0: every frame) [default: 0].
     #[arg(long)]
     pub max_rate_hz: Option<u16>,
@@ -95,8 +105,22 @@ pub fn open_link(spec: &LinkSpec) -> Result<LinkEnds> {
     }
 }
 
-/// Runs the command until the source ends, `--frames`, or SIGTERM/SIGINT.
-pub fn run(a: &Args) -> Result<()> {
+/// A service as its options and configuration say: the source opened (with its bench,
+/// when software drives it), the settings, and the configuration they came from.
+#[allow(missing_debug_implementations)] // a frame source has no Debug
+pub struct Opened {
+    /// The frames.
+    pub source: Box<dyn vistaf_hardware::source::FrameSource>,
+    /// The service's settings (summaries per frame, no frame limit: the caller's to set).
+    pub settings: Settings,
+    /// The configuration file's contents (or the defaults).
+    pub config: Config,
+}
+
+/// Opens what `a` names, with `pipeline` (else the configuration's, else the device path).
+/// With `fresh_ok`, a calibration file that is not there yet is one the first activation
+/// writes, and the reference build's calibration is used until then.
+pub fn open(a: &ServiceArgs, pipeline: Option<Implementation>, fresh_ok: bool) -> Result<Opened> {
     let cfg = match &a.config {
         Some(p) => Config::load(p)?,
         None => Config::default(),
@@ -106,33 +130,22 @@ pub fn run(a: &Args) -> Result<()> {
         (None, Some(s)) => s.parse().context("config key `source`")?,
         (None, None) => "camera:/dev/video0".parse()?,
     };
-    let link: LinkSpec = match (&a.link, &cfg.link) {
-        (Some(l), _) => l.clone(),
-        (None, Some(l)) => l.parse().context("config key `link`")?,
-        (None, None) => "serial:/dev/ttyGS0@921600".parse()?,
-    };
-    let pipeline = match (a.pipeline, &cfg.pipeline) {
+    let pipeline = match (pipeline, &cfg.pipeline) {
         (Some(p), _) => p,
         (None, Some(p)) => p.parse().map_err(|e: String| anyhow::anyhow!(e))?,
         (None, None) => Implementation::Fixed,
     };
     let calibration_path = a.calibration.as_ref().or(cfg.calibration.as_ref()).cloned();
     let calibration = match &calibration_path {
-        Some(p) => Calibration::load(p)?,
-        None => Calibration::default_sim(),
+        Some(p) if !fresh_ok || p.exists() => Calibration::load(p)?,
+        _ => Calibration::default_sim(),
     };
     let kit_dir = match (&a.kit, &cfg.kit, &calibration_path) {
         (Some(k), _, _) | (None, Some(k), _) => k.clone(),
         (None, None, Some(c)) => c.with_file_name("kit"),
         (None, None, None) => PathBuf::from(DEFAULT_KIT_DIR),
     };
-    let mut reference = cfg.reference;
-    if let Some(s) = a.auto_reference_s {
-        if !(s.is_finite() && s >= 0.0) {
-            bail!("--auto-reference-s {s}: seconds ≥ 0 (0: never)");
-        }
-        reference.auto_after_s = s;
-    }
+    let previous = calibration_path.as_deref().and_then(persist::previous);
     let opts = OpenOptions {
         sim_frames: a.sim_frames,
         unit_seed: a.unit_seed,
@@ -140,28 +153,56 @@ pub fn run(a: &Args) -> Result<()> {
         ..OpenOptions::default()
     };
     let (source, bench) = open_with_bench(&source, &opts)?;
-    let (writer, reader) = open_link(&link)?;
-    let stop = Arc::new(AtomicBool::new(false));
-    for sig in [signal_hook::consts::SIGTERM, signal_hook::consts::SIGINT] {
-        signal_hook::flag::register(sig, stop.clone()).context("installing signal handlers")?;
-    }
     let settings = Settings {
         serial: a
             .serial
             .clone()
             .or(cfg.serial.clone())
             .unwrap_or_else(|| "VSK-SIM".into()),
-        calibration,
         force_calibration: a.force_calibration || cfg.force_calibration.unwrap_or(false),
         pipeline,
-        frames: a.frames.or(cfg.frames),
-        max_rate_hz: a.max_rate_hz.or(cfg.max_rate_hz).unwrap_or(0),
         led: cfg.led.led_config(),
-        reference,
+        reference: cfg.reference,
         calibration_path,
+        previous,
         kit_dir,
         bench,
+        ..Settings::new(calibration)
     };
+    Ok(Opened {
+        source,
+        settings,
+        config: cfg,
+    })
+}
+
+/// Runs the command until the source ends, `--frames`, or SIGTERM/SIGINT.
+pub fn run(a: &Args) -> Result<()> {
+    if let Some(s) = a.auto_reference_s {
+        if !(s.is_finite() && s >= 0.0) {
+            bail!("--auto-reference-s {s}: seconds ≥ 0 (0: never)");
+        }
+    }
+    let Opened {
+        source,
+        mut settings,
+        config: cfg,
+    } = open(&a.service, a.pipeline, false)?;
+    let link: LinkSpec = match (&a.link, &cfg.link) {
+        (Some(l), _) => l.clone(),
+        (None, Some(l)) => l.parse().context("config key `link`")?,
+        (None, None) => "serial:/dev/ttyGS0@921600".parse()?,
+    };
+    if let Some(s) = a.auto_reference_s {
+        settings.reference.auto_after_s = s;
+    }
+    settings.frames = a.frames.or(cfg.frames);
+    settings.max_rate_hz = a.max_rate_hz.or(cfg.max_rate_hz).unwrap_or(0);
+    let (writer, reader) = open_link(&link)?;
+    let stop = Arc::new(AtomicBool::new(false));
+    for sig in [signal_hook::consts::SIGTERM, signal_hook::consts::SIGINT] {
+        signal_hook::flag::register(sig, stop.clone()).context("installing signal handlers")?;
+    }
     let mut led = led_ring(&cfg.led)?;
     let c = serve(source, writer, reader, led.as_mut(), &settings, stop)?;
     eprintln!(
@@ -183,7 +224,7 @@ pub fn run(a: &Args) -> Result<()> {
 /// The LED ring the configuration names: the WS2812 ring on SPI0 in a `rpi` build, an
 /// in-memory stand-in otherwise or when SPI0 cannot be opened (with the reason on stderr,
 /// which the journal keeps).
-fn led_ring(l: &vistaf_firmware::config::LedSection) -> Result<Box<dyn LedRing>> {
+pub fn led_ring(l: &vistaf_firmware::config::LedSection) -> Result<Box<dyn LedRing>> {
     match l.ring.as_str() {
         // A missing ring must not keep the skin from reporting: say why, run dark.
         #[cfg(feature = "rpi")]

@@ -17,9 +17,9 @@ use vistaf_pipeline::input::Pixels;
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Calibration, Scratch};
 use vistaf_protocol::msg::truncated;
 use vistaf_protocol::{
-    schema_hash, CalibrationFitted, ClockReading, Command, DeviceError, DeviceMsg, ErrorCode,
-    FirmwareVersion, Flag, Hello, HostMsg, KitQuantity, KitStep, KitVerdict, MapKind, RunState,
-    Status, PROTOCOL_VERSION,
+    schema_hash, CalibrationFitted, CalibrationId, ClockReading, Command, DeviceError, DeviceMsg,
+    ErrorCode, FirmwareVersion, Flag, Hello, HostMsg, KitQuantity, KitStep, KitVerdict, MapKind,
+    RunState, Status, PROTOCOL_VERSION,
 };
 
 use super::clock::Clock;
@@ -232,7 +232,7 @@ impl<'a, C: Clock> Service<'a, C> {
             reference_retry_at: None,
             latency: Latencies::default(),
             calibration: settings.calibration.clone(),
-            previous: None,
+            previous: settings.previous.clone(),
             kit: Kit::new(settings.kit_dir.clone()),
             candidate: None,
         }
@@ -406,7 +406,11 @@ impl<'a, C: Clock> Service<'a, C> {
             return match &self.candidate {
                 Some(c) => error(
                     ErrorCode::InvalidArgument,
-                    &format!("the fitted calibration is {:08x}, not {id:08x}", c.id()),
+                    &format!(
+                        "the fitted calibration is {}, not {}",
+                        CalibrationId(c.id()),
+                        CalibrationId(id)
+                    ),
                 ),
                 None => error(ErrorCode::Calibration, "no fitted calibration to activate"),
             };

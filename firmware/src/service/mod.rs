@@ -33,6 +33,7 @@
 
 pub mod clock;
 pub mod kit;
+pub mod local;
 pub mod machine;
 pub mod maps;
 pub mod persist;
@@ -80,6 +81,9 @@ pub struct Settings {
     /// The file the calibration came from: an activated calibration is written there (the
     /// one it replaces kept beside it); `None` keeps activations in memory.
     pub calibration_path: Option<PathBuf>,
+    /// The calibration the last activation replaced (kept beside the file as
+    /// `<file>.previous`), for a rollback after a restart.
+    pub previous: Option<Calibration>,
     /// Where calibration kits captured on the device are kept.
     pub kit_dir: PathBuf,
     /// The calibration bench, when software drives it (a simulated skin's).
@@ -100,6 +104,7 @@ impl Settings {
             led: LedConfig::default(),
             reference: ReferencePolicy::default(),
             calibration_path: None,
+            previous: None,
             kit_dir: PathBuf::from(DEFAULT_KIT_DIR),
             bench: None,
         }

@@ -18,6 +18,12 @@ fn sibling(path: &Path, suffix: &str) -> PathBuf {
     PathBuf::from(p)
 }
 
+/// The calibration the last activation replaced, as kept beside `path`; `None` when there
+/// is none, or it does not read (then there is only nothing to roll back to).
+pub fn previous(path: &Path) -> Option<Calibration> {
+    Calibration::load(&previous_path(path)).ok()
+}
+
 /// Makes `new` the calibration at `path`, the file there now kept as the previous one.
 pub fn activate(path: &Path, new: &Calibration) -> Result<(), String> {
     let tmp = sibling(path, ".new");

@@ -237,7 +237,10 @@ impl SkinTopics {
         let v = |k: &str, v: String| (k.to_string(), v);
         let values = vec![
             v("flags", host.last_flags.clone()),
-            v("calibration_id", format!("{:08x}", host.calibration_id)),
+            v(
+                "calibration_id",
+                vistaf_protocol::CalibrationId(host.calibration_id).to_string(),
+            ),
             v(
                 "reference_age_s",
                 format!("{:.1}", f64::from(st.reference_age_ms) / 1e3),

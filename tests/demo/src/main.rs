@@ -99,7 +99,7 @@ fn calibrate(a: &Args) -> Result<()> {
     eprintln!(
         "{}; calibration {} in use (the default, made for another unit)",
         vistaf_host::client::describe(&hello),
-        vistaf_host::record::calibration_id_text(hello.calibration_id)
+        vistaf_protocol::CalibrationId(hello.calibration_id)
     );
     let outcome = run(
         &mut client,

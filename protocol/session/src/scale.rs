@@ -10,7 +10,9 @@
 use std::io::{BufRead, BufReader, Read};
 use std::time::{Duration, Instant};
 
-use crate::link::{drain, with_ports_named, LinkSpec};
+use vistaf_protocol::link::LinkSpec;
+
+use crate::port::{drain, with_ports_named};
 
 /// Standard gravity, m/s²: a mass reading in kg or g as a force.
 const G_N_PER_KG: f64 = 9.806_65;
