@@ -24,7 +24,8 @@ enum Cmd {
     Record(cmd::record::Args),
     /// Analyse frames against a reference: depth, area, volume, centre, force, flags.
     Analyze(cmd::analyze::Args),
-    /// Fit a calibration from labelled frame sets.
+    /// Fit a calibration from labelled frame sets, or capture the kit on this board in a
+    /// guided session first (`--guided`).
     Calibrate(cmd::calibrate::Args),
     /// Run the service: source → pipeline → summaries on a serial link.
     Run(cmd::run::Args),

@@ -152,6 +152,11 @@ const ANSWERED: &[(&str, &str, &str)] = &[
         "q\n",
         "[1/93] leave the skin untouched",
     ),
+    (
+        "vistaf-skin calibrate --guided --source sim:bench --calibration guided.json",
+        "\nq\n",
+        "captured reference 25.000 °C",
+    ),
 ];
 
 /// How long one command may take.

@@ -255,6 +255,18 @@ impl Thermometer {
         out_of_range |= contact.is_some_and(|r| !r.trusted);
         let ext = extremes::extremes(&map.map_c, g.bw, g.bh);
         let nan = |v: f32| if v.is_finite() { v } else { f32::NAN };
+        let (mut max_c, mut hottest_px) =
+            (nan(ext.max_c), ext.hottest.map(|b| g.block_center_px(b)));
+        // A contact is a region read as one, over far more samples than a neighbourhood:
+        // warmer than every neighbourhood, it is the hottest place (a warm object smaller
+        // than a neighbourhood is seen there and nowhere else).
+        if let (Some(r), Some(centre)) = (contact, regions.as_ref().and_then(Regions::centre)) {
+            if r.trusted && (max_c.is_nan() || r.t_c > max_c) {
+                max_c = r.t_c;
+                let f = g.factor as f32;
+                hottest_px = Some((centre.0 * f, centre.1 * f));
+            }
+        }
         Some(Temperature {
             bw: g.bw,
             bh: g.bh,
@@ -265,8 +277,8 @@ impl Thermometer {
             } else {
                 (map.sum_c / n as f64) as f32
             },
-            max_c: nan(ext.max_c),
-            hottest_px: ext.hottest.map(|b| g.block_center_px(b)),
+            max_c,
+            hottest_px,
             map_c: map.map_c,
             contact_c: contact.map(|r| r.t_c),
             contact_sigma_c: contact.map(|r| r.var_c2.max(0.0).sqrt()),

@@ -124,6 +124,19 @@ impl<'a> Regions<'a> {
     }
 
     /// Working row `y`'s codes and the column of the first; empty outside the box.
+    /// The centre of the region (every pixel coded), working pixels; `None` when empty.
+    pub fn centre(&self) -> Option<(f32, f32)> {
+        let (mut n, mut sx, mut sy) = (0u32, 0f32, 0f32);
+        for (y, x0, codes) in self.rows() {
+            for (i, _) in codes.iter().enumerate().filter(|(_, &c)| c != 0) {
+                n += 1;
+                sx += (x0 + i) as f32;
+                sy += y as f32;
+            }
+        }
+        (n > 0).then(|| (sx / n as f32 + 0.5, sy / n as f32 + 0.5))
+    }
+
     fn row(&self, y: usize) -> (usize, &'a [u8]) {
         let w = self.w;
         let codes = y
