@@ -17,7 +17,7 @@ impl From<HostError> for KitError {
     fn from(e: HostError) -> KitError {
         match e {
             HostError::Device { error, .. } if error.code == ErrorCode::NotSettled => {
-                KitError::NotSettled(error.detail.to_string())
+                KitError::from(&error)
             }
             other => KitError::Failed(Box::new(other)),
         }

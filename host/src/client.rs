@@ -10,6 +10,7 @@ use vistaf_protocol::{
     encode, schema, CalibrationFitted, ClockReading, Command, DeviceDecoder, DeviceMsg, DropCounts,
     FrameError, Hello, HostMsg, KitCaptured, KitStep, KitVerdict, Map, MapKind, SetLed,
 };
+use vistaf_session::answer;
 
 use crate::clock::{next_request, ClockEstimator, ClockMap, Exchange, HostTimeline, MappedTime};
 use crate::error::HostError;
@@ -493,10 +494,7 @@ impl Client {
         timeout: Duration,
     ) -> Result<KitCaptured, HostError> {
         self.send(&HostMsg::KitCapture(step))?;
-        self.wait_keeping("KitCaptured", timeout, false, |m| match m {
-            DeviceMsg::KitCaptured(c) if c.step == step => Some(*c),
-            _ => None,
-        })
+        self.wait_keeping("KitCaptured", timeout, false, answer::captured(step))
     }
 
     /// Asks the device to fit a calibration to its kit, and waits for the verdicts and
@@ -507,14 +505,12 @@ impl Client {
     ) -> Result<(Vec<KitVerdict>, CalibrationFitted), HostError> {
         self.send(&HostMsg::KitFit)?;
         let mut verdicts = Vec::new();
-        let fitted = self.wait_keeping("CalibrationFitted", timeout, false, |m| match m {
-            DeviceMsg::KitVerdict(v) => {
-                verdicts.push(*v);
-                None
-            }
-            DeviceMsg::CalibrationFitted(f) => Some(*f),
-            _ => None,
-        })?;
+        let fitted = self.wait_keeping(
+            "CalibrationFitted",
+            timeout,
+            false,
+            answer::fitted(&mut verdicts),
+        )?;
         Ok((verdicts, fitted))
     }
 
@@ -526,10 +522,7 @@ impl Client {
         timeout: Duration,
     ) -> Result<Hello, HostError> {
         self.send(&HostMsg::CalibrationActivate { calibration_id })?;
-        self.wait_keeping("Hello", timeout, false, |m| match m {
-            DeviceMsg::Hello(h) if h.calibration_id == calibration_id => Some(h.clone()),
-            _ => None,
-        })
+        self.wait_keeping("Hello", timeout, false, answer::activated(calibration_id))
     }
 
     /// Puts the calibration the last activation replaced back in use; the device's

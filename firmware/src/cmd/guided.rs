@@ -31,7 +31,8 @@ pub struct GuidedArgs {
 }
 
 impl GuidedArgs {
-    /// Whether any of these options was given (they mean nothing without `--guided`).
+    /// Whether any of these options that has no default was given (they mean nothing
+    /// without `--guided`).
     pub fn given(&self) -> bool {
         let s = &self.service;
         self.session.given()

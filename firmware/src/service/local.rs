@@ -13,7 +13,7 @@ use vistaf_hardware::source::FrameSource;
 use vistaf_protocol::{
     CalibrationFitted, DeviceMsg, ErrorCode, Hello, HostMsg, KitCaptured, KitStep, KitVerdict,
 };
-use vistaf_session::{KitDevice, KitError};
+use vistaf_session::{answer, KitDevice, KitError};
 
 use super::{Service, SystemClock};
 
@@ -56,14 +56,6 @@ impl<'a> Local<'a> {
         }
     }
 
-    /// The device's identity.
-    pub fn hello(&self) -> Option<Hello> {
-        match self.service.hello() {
-            DeviceMsg::Hello(h) => Some(h),
-            _ => None,
-        }
-    }
-
     /// Sends `cmd` and feeds frames (or waits, when `frames` is false) until `want` takes a
     /// message, a device error comes, or `timeout` passes.
     fn ask<T>(
@@ -84,7 +76,7 @@ impl<'a> Local<'a> {
                         self.report(e.code, &e.detail);
                         continue;
                     }
-                    DeviceMsg::Error(e) => return Err(device_error(e.code, &e.detail)),
+                    DeviceMsg::Error(e) => return Err(e.into()),
                     _ => {}
                 }
                 if let Some(t) = want(&msg) {
@@ -126,15 +118,6 @@ impl Drop for Local<'_> {
     }
 }
 
-/// A device error as the session sees it: "not settled" is asked again.
-fn device_error(code: ErrorCode, detail: &str) -> KitError {
-    if code == ErrorCode::NotSettled {
-        KitError::NotSettled(detail.to_string())
-    } else {
-        KitError::Failed(format!("{code:?}: {detail}").into())
-    }
-}
-
 impl KitDevice for Local<'_> {
     fn pause(&mut self) -> Result<(), KitError> {
         self.ask(HostMsg::Stop, Duration::ZERO, false, |m| {
@@ -149,22 +132,22 @@ impl KitDevice for Local<'_> {
     }
 
     fn capture(&mut self, step: KitStep, timeout: Duration) -> Result<KitCaptured, KitError> {
-        self.ask(HostMsg::KitCapture(step), timeout, true, |m| match m {
-            DeviceMsg::KitCaptured(c) if c.step == step => Some(*c),
-            _ => None,
-        })
+        self.ask(
+            HostMsg::KitCapture(step),
+            timeout,
+            true,
+            answer::captured(step),
+        )
     }
 
     fn fit(&mut self, timeout: Duration) -> Result<(Vec<KitVerdict>, CalibrationFitted), KitError> {
         let mut verdicts = Vec::new();
-        let fitted = self.ask(HostMsg::KitFit, timeout, false, |m| match m {
-            DeviceMsg::KitVerdict(v) => {
-                verdicts.push(*v);
-                None
-            }
-            DeviceMsg::CalibrationFitted(f) => Some(*f),
-            _ => None,
-        })?;
+        let fitted = self.ask(
+            HostMsg::KitFit,
+            timeout,
+            false,
+            answer::fitted(&mut verdicts),
+        )?;
         Ok((verdicts, fitted))
     }
 
@@ -173,10 +156,7 @@ impl KitDevice for Local<'_> {
             HostMsg::CalibrationActivate { calibration_id },
             timeout,
             false,
-            |m| match m {
-                DeviceMsg::Hello(h) if h.calibration_id == calibration_id => Some(h.clone()),
-                _ => None,
-            },
+            answer::activated(calibration_id),
         )
     }
 }

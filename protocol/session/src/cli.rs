@@ -12,7 +12,7 @@ use crate::scale::SerialScale;
 pub const SCALE_TIMEOUT: Duration = Duration::from_secs(5);
 
 /// The session's options.
-#[derive(clap::Args, Debug, Clone, Default)]
+#[derive(clap::Args, Debug)]
 pub struct SessionArgs {
     /// Run the steps of this plan without asking (see docs/calibration.md); without it,
     /// the default kit, each step asked for at the terminal.

@@ -11,6 +11,7 @@
 //! The session speaks to a [`KitDevice`], so it knows nothing of links or cameras; the
 //! host's client and the board's in-process service each implement it.
 
+pub mod answer;
 pub mod cli;
 pub mod guide;
 pub mod plan;

@@ -260,12 +260,12 @@ impl Thermometer {
         // A contact is a region read as one, over far more samples than a neighbourhood:
         // warmer than every neighbourhood, it is the hottest place (a warm object smaller
         // than a neighbourhood is seen there and nowhere else).
-        if let (Some(r), Some(centre)) = (contact, regions.as_ref().and_then(Regions::centre)) {
-            if r.trusted && (max_c.is_nan() || r.t_c > max_c) {
-                max_c = r.t_c;
-                let f = g.factor as f32;
-                hottest_px = Some((centre.0 * f, centre.1 * f));
-            }
+        let warmest = contact.filter(|r| r.trusted && (max_c.is_nan() || r.t_c > max_c));
+        // The region's centre is found only for such a contact.
+        let at = warmest.and_then(|r| Some((r.t_c, regions.as_ref()?.centre()?)));
+        if let Some((t_c, (x, y))) = at {
+            let f = g.factor as f32;
+            (max_c, hottest_px) = (t_c, Some((x * f, y * f)));
         }
         Some(Temperature {
             bw: g.bw,
