@@ -11,7 +11,12 @@
 //!    grouped by force level.
 //!
 //! Frames whose analysis carries a quality flag are left out of the fits (and reported):
-//! a flagged number is not trusted, so it must not teach the model either.
+//! a flagged number is not trusted, so it must not teach the model either. A frame of the
+//! skin at one temperature (labelled without contact) in which the phase shows a contact
+//! keeps all its blocks but those around that spot: the label says the skin is at rest, so
+//! the spot is the phase misreading (a pigment dark at that temperature lowers the
+//! grating's contrast under a glare spot), and leaving the whole frame out would take its
+//! temperature out of the model's range without a word in the verdict.
 
 use sha2::{Digest, Sha256};
 use vistaf_hardware::decode::Decoded;
@@ -23,6 +28,7 @@ use vistaf_pipeline::calibration::{
 use vistaf_pipeline::ftp::carrier;
 use vistaf_pipeline::image_ops::gray_down_f32;
 use vistaf_pipeline::input::decode_scale;
+use vistaf_pipeline::thermal::stripes::{Geometry, Sums};
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement};
 use vistaf_protocol::Flag;
 
@@ -174,6 +180,21 @@ const COLOUR_FLAGS: [Flag; 3] = [
     Flag::StaleReference,
 ];
 
+/// Empties the blocks of a no-contact frame's `sums` around the contact its phase showed
+/// (`window`, working pixels, grown by a block): the stripes were placed by that phase, so
+/// their colours there are a mix; everywhere else the skin is read as it is. Returns how
+/// many blocks were emptied.
+fn leave_out_phantom(sums: &mut [Sums], g: &Geometry, window: [usize; 4]) -> usize {
+    let mut n = 0;
+    for b in g.blocks_around(window, 1) {
+        if let Some(s) = sums.get_mut(b) {
+            *s = Sums::default();
+            n += 1;
+        }
+    }
+    n
+}
+
 /// Colour → temperature from the frames labelled `temperature_c` without contact
 /// (`depth_mm` and `force_n` absent or 0); `None` (with a note) when there are too few.
 fn temperature_model<O: Observer>(
@@ -224,11 +245,12 @@ fn temperature_model<O: Observer>(
                 .filter(|f| d.flags.contains(**f))
                 .map(|f| f.name())
                 .collect();
-            if !spoilt.is_empty() || d.contact {
+            let phantom = d.window_px.filter(|_| d.contact);
+            if !spoilt.is_empty() || (d.contact && phantom.is_none()) {
                 run.obs.note(format!(
                     "{set}: {} left out of the temperature fit ({})",
                     f.file,
-                    if d.contact {
+                    if spoilt.is_empty() {
                         "shows contact".to_string()
                     } else {
                         spoilt.join(", ")
@@ -237,6 +259,17 @@ fn temperature_model<O: Observer>(
                 continue;
             }
             let g = an.thermometer().geometry();
+            let mut sums = sums;
+            if let Some(window) = phantom {
+                let n = leave_out_phantom(&mut sums, g, window);
+                run.obs.note(format!(
+                    "{set}: {} shows contact where its label says none (the phase misread \
+                     there: the pigment's colour at this temperature lowers the grating's \
+                     contrast, under a glare spot say); the {n} blocks around it left out of \
+                     the temperature fit, the rest kept",
+                    f.file,
+                ));
+            }
             let pooled = pool(&sums, g.bw, g.bh, BLACK_POOL);
             // As the thermometer reads them: the coloured stripes against the
             // neighbourhood's black stripes.

@@ -102,6 +102,44 @@ fn out_of_tolerance_blunt_contacts_are_flagged() {
     );
 }
 
+/// A flat punch wider than half the view sinks most of it evenly; registered on its
+/// plateau, it read as no contact at all. It is reported, where it is, at a depth within
+/// tolerance or flagged.
+#[test]
+fn a_punch_filling_most_of_the_view_is_reported() {
+    let u = unit();
+    let (mmpp, height_mm) = (u.mm_per_px(), u.height_px as f32 * u.mm_per_px());
+    let c = center_mm(&u);
+    let at = (c.0 + 0.1 * height_mm, c.1);
+    let d = 0.9;
+    for r_mm in [0.45 * height_mm, 0.55 * height_mm] {
+        let mut s = SkinState::idle(ROOM_C);
+        s.contacts.push(Contact {
+            indenter: Indenter::Punch(Footprint::Disc { r_mm }),
+            center_mm: at,
+            depth_mm: d,
+        });
+        for imp in [Implementation::Fixed, Implementation::Float] {
+            let x = analyze(&s, imp);
+            assert!(
+                x.contact,
+                "{imp:?}: disc r {r_mm:.1} mm not reported: {x:?}"
+            );
+            let (cx, cy) = x.centroid_px.unwrap();
+            let off_mm = (cx - at.0 / mmpp).hypot(cy - at.1 / mmpp) * mmpp;
+            assert!(
+                off_mm < 1.5,
+                "{imp:?}: disc r {r_mm:.1} mm, centre {off_mm:.2} mm off"
+            );
+            let err = (x.peak_depth_mm - d).abs();
+            assert!(
+                x.flags.contains(Flag::PhaseSlope) || err <= 0.03 * d + 0.02,
+                "{imp:?}: disc r {r_mm:.1} mm, error {err} mm without a flag: {x:?}"
+            );
+        }
+    }
+}
+
 /// Spheres sharper than the calibrated 10 mm indenter are smoothed by the band more than
 /// the calibration knows: wherever the depth error leaves the tolerance, the phase-slope
 /// flag is set, and the calibrated indenter itself is never flagged.

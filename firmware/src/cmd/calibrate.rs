@@ -47,7 +47,12 @@ impl Observer for Bar {
         self.0.set_position(done as u64);
     }
     fn note(&mut self, text: String) {
-        self.0.println(format!("  {text}"));
+        // A hidden bar (output not a terminal) prints nothing of its own.
+        if self.0.is_hidden() {
+            println!("  {text}");
+        } else {
+            self.0.println(format!("  {text}"));
+        }
     }
 }
 

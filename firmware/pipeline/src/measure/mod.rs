@@ -111,6 +111,17 @@ pub struct Context<'a> {
     pub unwrap: Unwrap,
 }
 
+impl Context<'_> {
+    /// The sign of an indentation's phase difference: ±1.
+    fn indentation_sign(&self) -> i32 {
+        if self.calib.phase_sign < 0.0 {
+            -1
+        } else {
+            1
+        }
+    }
+}
+
 /// When the contact region's phase is unwrapped (a trade-off axis: cost against depth
 /// beyond half a turn of phase).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -179,7 +190,7 @@ pub fn measure<M: PhaseMap>(
     );
     let amp_medians = (amp_frame_median, amp_ref_median);
     let mut flags = image_flags(map, &coarse, amp_medians, ctx);
-    let bg = register::background(&coarse, &grid, carrier);
+    let bg = register::background(&coarse, &grid, carrier, ctx.indentation_sign());
     flags.insert_all(background_flags(&bg));
     let reliable = reliable_pixels(&coarse.rel, &grid, &margin);
     let mut wrapped = WrappedPhase {
@@ -420,7 +431,7 @@ impl<M: PhaseMap> Found<'_, M> {
         wrapped: &mut WrappedPhase,
     ) -> Option<ContactResult> {
         let grid = Grid::of(self.map.size());
-        let sign: i32 = if ctx.calib.phase_sign < 0.0 { -1 } else { 1 };
+        let sign = ctx.indentation_sign();
         let win = Window::around(self.tiles_on, &grid);
         let region = region_samples(self.tiles_on, &grid);
         let (signed, unreached, residues) = indentation_phase(

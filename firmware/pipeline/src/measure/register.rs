@@ -97,11 +97,14 @@ impl<'c, P: PhaseNum> Directions<'c, P> {
 }
 
 /// Registers the frame on its background, measures the noise floor and finds the contact
-/// tiles above it; with a contact, registration and noise are measured again outside it.
+/// tiles above it; with a contact, registration and noise are measured again outside it
+/// (and on the rim instead when the rim stands raised above it, [`raised_rim`]). `sign` is
+/// the indentation's phase sign.
 pub(super) fn background<P: PhaseNum>(
     coarse: &Coarse<'_, P>,
     grid: &Grid,
     carrier: Carrier,
+    sign: i32,
 ) -> Background<P> {
     let dirs = Directions::new(coarse);
     let first = P::angle(dirs.all);
@@ -135,8 +138,17 @@ pub(super) fn background<P: PhaseNum>(
         };
     };
     // With the contact known, registration and noise come from the background only.
-    let (offset, background, outside_n) = outside_contact(&dirs, &region, grid);
-    let phi = dirs.relative(offset);
+    let (mut offset, mut background, mut outside_n) = outside_contact(&dirs, &region, grid);
+    let mut phi = dirs.relative(offset);
+    // Registered on a contact that fills the middle of the view, the view's rim stands
+    // raised above it: the rim was the background.
+    let rim = raised_rim(&phi, &coarse.rel, grid.coarse, sign, threshold);
+    if let Some(rim) = rim.and_then(|r| dirs.of_background(&r)) {
+        if let Some((region, _)) = tiles_above(&dirs.relative(rim), threshold) {
+            (offset, background, outside_n) = outside_contact(&dirs, &region, grid);
+            phi = dirs.relative(offset);
+        }
+    }
     // The background must be big enough to measure; otherwise keep the first estimate.
     let (noise, noise_clean) = if outside_n * 4 > phi.len() {
         let (cw, ch) = grid.coarse;
@@ -155,6 +167,61 @@ pub(super) fn background<P: PhaseNum>(
         threshold,
         contact: tiles_above(&phi, threshold),
     }
+}
+
+/// The reliable samples raised above the registration by more than `thr` (against the
+/// indentation's `sign`), when they hold a quarter or more of the rim of the reliable area
+/// (its outer [`TILE_PX`] on every side) and hardly any sample is sunk below it (fewer
+/// than a quarter as many): the skin cannot stand out of its rest, so a raised rim over a
+/// flat middle means the registration sat on a contact filling much of the view (a flat
+/// punch wider than half of it), and the rim is the background. A real shift raises or
+/// sinks everything alike; a press's wrapped centre lies inside, ringed by sunk samples; a
+/// warm spot's or a glare spot's opposite-signed lobe comes with its sunk lobe and holds
+/// a short stretch of the rim at most.
+fn raised_rim(
+    phi: &[i32],
+    rel: &[bool],
+    (cw, ch): (usize, usize),
+    sign: i32,
+    thr: i32,
+) -> Option<Vec<bool>> {
+    let is_raised = |p: i32, r: bool| r && sign * p < -thr;
+    // One branch-free count first: a press sinks samples and raises next to none, so
+    // nearly every frame leaves here.
+    let (mut n_raised, mut sunk) = (0u32, 0u32);
+    for (&p, &r) in phi.iter().zip(rel) {
+        let s = sign * p;
+        n_raised += u32::from(r) & u32::from(s < -thr);
+        sunk += u32::from(r) & u32::from(s > thr);
+    }
+    if n_raised <= 4 * sunk {
+        return None;
+    }
+    let raised: Vec<bool> = phi
+        .iter()
+        .zip(rel)
+        .map(|(&p, &r)| is_raised(p, r))
+        .collect();
+    // The reliable area's box, in samples.
+    let rows = || rel.chunks_exact(cw).take(ch).enumerate();
+    let (mut x0, mut y0, mut x1, mut y1) = (cw, ch, 0, 0);
+    for (y, row) in rows() {
+        if let (Some(a), Some(b)) = (row.iter().position(|&r| r), row.iter().rposition(|&r| r)) {
+            (x0, y0, x1, y1) = (x0.min(a), y0.min(y), x1.max(b + 1), y1.max(y + 1));
+        }
+    }
+    let per = TILE_PX / GRID;
+    let (mut rim, mut rim_raised) = (0usize, 0usize);
+    for (y, row) in rows() {
+        let whole_row = y < y0 + per || y + per >= y1;
+        for (x, _) in row.iter().enumerate().filter(|(_, &r)| r) {
+            if whole_row || x < x0 + per || x + per >= x1 {
+                rim += 1;
+                rim_raised += usize::from(raised[y * cw + x]);
+            }
+        }
+    }
+    (rim > 0 && 4 * rim_raised >= rim).then_some(raised)
 }
 
 /// The offset registered outside a contact `region` (tiles), the reliable samples outside
