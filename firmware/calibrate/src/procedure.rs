@@ -218,7 +218,7 @@ fn temperature_model<O: Observer>(
         force_calibration: true,
         ..Default::default()
     };
-    let mut samples = Vec::new();
+    let (mut samples, mut labelled) = (Vec::new(), Vec::new());
     let mut done = 0;
     for s in run.sets {
         if !s.manifest.frames.iter().any(no_contact) {
@@ -237,6 +237,7 @@ fn temperature_model<O: Observer>(
                 continue;
             };
             done += 1;
+            labelled.push(t);
             run.obs.progress("colour → temperature", done, total);
             s.decoded_frame(i, run.scale, &mut frame)?;
             let (d, sums) = an.colour_sums(&frame).map_err(pipe)?;
@@ -294,6 +295,15 @@ fn temperature_model<O: Observer>(
         );
         return Ok(None);
     }
+    let fitted: Vec<f64> = samples.iter().map(|s| s.t_c).collect();
+    if let Some(([lo, hi], beyond)) = beyond_fitted(&labelled, &fitted) {
+        let list: Vec<String> = beyond.iter().map(|t| format!("{t}")).collect();
+        run.obs.note(format!(
+            "no frame at {} °C is in the temperature fit: the model covers {lo}–{hi} °C, and \
+             a reading beyond that is extrapolated (add frames at those setpoints)",
+            list.join(", ")
+        ));
+    }
     match fit_temperature(&samples) {
         Ok(m) => Ok(Some(m)),
         Err(e) => {
@@ -301,6 +311,22 @@ fn temperature_model<O: Observer>(
             Ok(None)
         }
     }
+}
+
+/// The span of the `fitted` temperatures (°C), and the `labelled` setpoints beyond it,
+/// distinct and in order, when there are any: the kit's temperatures the model never saw
+/// and would only extrapolate to.
+fn beyond_fitted(labelled: &[f64], fitted: &[f64]) -> Option<([f64; 2], Vec<f64>)> {
+    let lo = fitted.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = fitted.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let mut beyond: Vec<f64> = labelled
+        .iter()
+        .copied()
+        .filter(|t| *t < lo || *t > hi)
+        .collect();
+    beyond.sort_by(f64::total_cmp);
+    beyond.dedup_by(|a, b| setpoint(*a) == setpoint(*b));
+    (lo <= hi && !beyond.is_empty()).then_some(([lo, hi], beyond))
 }
 
 /// The setpoint a label belongs to: labels equal to 1/1000 of their unit (1 µm, 1 mN) are
@@ -525,4 +551,20 @@ fn force_model<O: Observer>(
         );
     }
     Ok(force)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn setpoints_beyond_the_fitted_span_are_named_once_each() {
+        let labelled = [15.0, 15.0, 20.0, 28.0, 30.0, 30.0, 47.5, 12.5];
+        let fitted = [15.0, 20.0, 28.0, 17.5];
+        let (span, beyond) = beyond_fitted(&labelled, &fitted).unwrap();
+        assert_eq!(span, [15.0, 28.0]);
+        assert_eq!(beyond, [12.5, 30.0, 47.5]);
+        assert_eq!(beyond_fitted(&[15.0, 20.0], &fitted), None);
+        assert_eq!(beyond_fitted(&labelled, &[]), None);
+    }
 }
