@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use vistaf_calibrate::{calibrate, Quiet};
+use vistaf_calibrate::{calibrate, Observer};
 use vistaf_hardware::decode::Decoded;
 use vistaf_hardware::frame::Frame;
 use vistaf_hardware::frameset::{FrameEntry, FrameSet, FrameSetWriter};
@@ -265,7 +265,19 @@ fn fit_sets(dirs: &[PathBuf], pipeline: Implementation) -> Result<Calibration, S
         .iter()
         .map(|d| FrameSet::open(d).map_err(|e| e.to_string()))
         .collect::<Result<_, _>>()?;
-    calibrate(&sets, pipeline, &mut Quiet).map_err(|e| e.to_string())
+    calibrate(&sets, pipeline, &mut Log).map_err(|e| e.to_string())
+}
+
+/// The fit's remarks (a frame left out, a spot masked, kit temperatures the model never
+/// saw) on standard error: the service's log, or the terminal of a guided session run on
+/// the board. Its progress is not: the fit takes seconds.
+struct Log;
+
+impl Observer for Log {
+    fn progress(&mut self, _: &str, _: usize, _: usize) {}
+    fn note(&mut self, text: String) {
+        eprintln!("vistaf-skin: calibration: {text}");
+    }
 }
 
 /// A new folder under `root`, named for the time (and a count, when two kits begin in
