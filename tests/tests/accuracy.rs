@@ -36,10 +36,10 @@ fn a_pigment_dark_enough_to_lower_contrast_is_still_calibrated() {
     skins_read_within_a_degree(&frames);
 }
 
-/// On this unit the skin's phase shows a contact near a glare spot at every kit temperature
-/// above 28 °C (flagged). Those frames must stay in the colour → temperature fit, all but the
-/// blocks around the spot: left out whole, the model ended at 28 °C and read a 32 °C skin
-/// as 21 °C and a 41 °C object as 15 °C, with no flag.
+/// On this unit the skin's phase shows a contact near a glare spot on every warm kit frame
+/// (flagged). Those frames must stay in the colour → temperature fit, all but the blocks
+/// around the spot: left out whole, the model ended below the warm setpoints and read a warm
+/// skin or a heated object many degrees cold, with no flag.
 #[test]
 fn a_phantom_on_a_warm_kit_frame_keeps_its_temperature_in_the_fit() {
     let frames = unit_frames(16, "warm-phantom");
