@@ -47,12 +47,8 @@ impl Observer for Bar {
         self.0.set_position(done as u64);
     }
     fn note(&mut self, text: String) {
-        // A hidden bar (output not a terminal) prints nothing of its own.
-        if self.0.is_hidden() {
-            println!("  {text}");
-        } else {
-            self.0.println(format!("  {text}"));
-        }
+        // Printed with the bar out of the way; a hidden bar's own `println` prints nothing.
+        self.0.suspend(|| println!("  {text}"));
     }
 }
 
