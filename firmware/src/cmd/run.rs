@@ -57,8 +57,8 @@ pub struct Args {
     /// The camera, the calibration, the kits.
     #[command(flatten)]
     pub service: ServiceArgs,
-    /// /dev/ttyX, serial:PATH[@BAUD], file:PATH or - for stdout
-    /// [default: serial:/dev/ttyGS0@921600].
+    /// /dev/ttyX, serial:PATH or serial:PATH@BAUD, file:PATH, or - for stdout
+    /// (default: serial:/dev/ttyGS0@921600).
     #[arg(long)]
     pub link: Option<LinkSpec>,
     /// Stop after this many processed frames.

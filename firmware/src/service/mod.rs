@@ -8,7 +8,7 @@
 //!
 //! * [`Service`] ([`machine`]) decides: every event (a frame, a host command, a camera
 //!   outage, the passing of time) goes in, the messages to send come out. It owns the
-//!   [`ReferenceKeeper`] ([`reference`]: when the reference is taken, whether it drifted,
+//!   [`ReferenceKeeper`] ([`reference`](mod@reference): when the reference is taken, whether it drifted,
 //!   when it is renewed) and reads the time from an injected [`Clock`], so its tests drive
 //!   it frame by frame with a clock they move by hand.
 //! * [`run`] ([`runner`]) is the edge: it starts the capture and link-reader threads, feeds

@@ -6,7 +6,7 @@
 //!          └──────────── Renderer ─────────────┘──▶ RgbImage + Truth (depth, T, force)
 //! ```
 //!
-//! * [`unit`]: what differs between manufactured units (period in pixels, tilt, phase
+//! * [`unit`](mod@unit): what differs between manufactured units (period in pixels, tilt, phase
 //!   response, stiffness, optics, noise, pigment batch).
 //! * [`imperfections`]: what a built skin shows beyond the ideal model (oblique light,
 //!   glare, white balance, mottle, grating wobble and distortion, JPEG).
@@ -15,10 +15,10 @@
 //!   Boussinesq for cylinders, [`elastic`]: any flat footprint solved numerically).
 //! * [`state`]: what the skin shows in one frame (contacts, temperature, optics).
 //! * [`thermal`]: temperature fields (heated contacts with lateral conduction, gradients).
-//! * [`render`]: the image formation model ([`plane`]: blurs on the pixel grid).
+//! * [`render`](mod@render): the image formation model ([`plane`]: blurs on the pixel grid).
 //! * [`scene`]: named scripted scenes.
 //! * [`sets`]: writing scenes and calibration kits as `vistaf-frames/1` sets with truth.
-//! * [`bench`]: a scripted indenter and heater a guided calibration drives
+//! * [`bench`](mod@bench): a scripted indenter and heater a guided calibration drives
 //!   ([`SimSource::on_bench`]).
 //!
 //! Deterministic: the same unit seed, scene and noise seed give the same bytes.

@@ -186,7 +186,7 @@ impl Thermometer {
     /// `phase(y, reference, row)` writes into `row` (units) from the reference's along that
     /// row (`reference`), over the working pixels the FTP found `reliable`; `regions` marks
     /// the contact region and its core. Blocks that saw only a sliver of a stripe pair
-    /// ([`drop_partial`]) and blocks static light misreads ([`static_light`]) come back
+    /// (`drop_partial`) and blocks static light misreads ([`static_light`]) come back
     /// empty; the others' black stripes are flat-fielded ([`ratio_field`]).
     pub fn sums(
         &self,
