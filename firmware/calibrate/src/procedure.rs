@@ -240,7 +240,7 @@ fn temperature_model<O: Observer>(
             labelled.push(t);
             run.obs.progress("colour → temperature", done, total);
             s.decoded_frame(i, run.scale, &mut frame)?;
-            let (d, sums) = an.colour_sums(&frame).map_err(pipe)?;
+            let (d, mut sums) = an.colour_sums(&frame).map_err(pipe)?;
             let spoilt: Vec<&str> = COLOUR_FLAGS
                 .iter()
                 .filter(|f| d.flags.contains(**f))
@@ -260,7 +260,6 @@ fn temperature_model<O: Observer>(
                 continue;
             }
             let g = an.thermometer().geometry();
-            let mut sums = sums;
             if let Some(window) = phantom {
                 let n = leave_out_phantom(&mut sums, g, window);
                 run.obs.note(format!(

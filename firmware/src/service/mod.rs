@@ -8,9 +8,9 @@
 //!
 //! * [`Service`] ([`machine`]) decides: every event (a frame, a host command, a camera
 //!   outage, the passing of time) goes in, the messages to send come out. It owns the
-//!   [`ReferenceKeeper`] ([`reference`](mod@reference): when the reference is taken, whether it drifted,
-//!   when it is renewed) and reads the time from an injected [`Clock`], so its tests drive
-//!   it frame by frame with a clock they move by hand.
+//!   [`ReferenceKeeper`] ([`reference`](mod@reference): when the reference is taken,
+//!   whether it drifted, when it is renewed) and reads the time from an injected
+//!   [`Clock`], so its tests drive it frame by frame with a clock they move by hand.
 //! * [`run`] ([`runner`]) is the edge: it starts the capture and link-reader threads, feeds
 //!   their events to the service, and writes what comes out. The capture thread reads the
 //!   source as fast as it delivers into a one-slot [`runner::Newest`] mailbox: a newer

@@ -46,8 +46,9 @@ struct Args {
     /// Worker threads.
     #[arg(long, default_value_t = 2)]
     jobs: usize,
-    /// The camera every unit sends from: ENCODING or ENCODING@WxH, e.g. `mjpeg:90@1280x720` (the
-    /// unit's optics, another sensor size and format). Default: lossless, the unit's size.
+    /// The camera every unit sends from: ENCODING or ENCODING@WxH, e.g.
+    /// `mjpeg:90@1280x720` (the unit's optics, another sensor size and format). Default:
+    /// lossless, the unit's size.
     #[arg(long, default_value = "rgb")]
     camera: Camera,
 }

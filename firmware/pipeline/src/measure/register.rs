@@ -185,14 +185,14 @@ fn raised_rim(
     sign: i32,
     thr: i32,
 ) -> Option<Vec<bool>> {
-    let is_raised = |p: i32, r: bool| r && sign * p < -thr;
+    let is_raised = |p: i32, r: bool| r & (sign * p < -thr);
+    let is_sunk = |p: i32, r: bool| r & (sign * p > thr);
     // One branch-free count first: a press sinks samples and raises next to none, so
     // nearly every frame leaves here.
     let (mut n_raised, mut sunk) = (0u32, 0u32);
     for (&p, &r) in phi.iter().zip(rel) {
-        let s = sign * p;
-        n_raised += u32::from(r) & u32::from(s < -thr);
-        sunk += u32::from(r) & u32::from(s > thr);
+        n_raised += u32::from(is_raised(p, r));
+        sunk += u32::from(is_sunk(p, r));
     }
     if n_raised <= 4 * sunk {
         return None;
