@@ -24,7 +24,7 @@ import json
 import sys
 import zlib
 
-PROTOCOL_VERSION = 6
+PROTOCOL_VERSION = 7
 SCHEMA_HASH = 0xC9D8_EA77_8716_206A
 # Largest frame on the wire (a full map tile), bytes: anything longer is garbage.
 FRAME_MAX = 1700
@@ -39,6 +39,7 @@ FLAG_NAMES = [
     "stale_reference",
     "depth_out_of_range",
     "force_out_of_range",
+    "temperature_uncertain",
 ]
 RUN_STATES = ["Stopped", "Streaming", "Referencing", "CameraLost"]
 

@@ -41,11 +41,16 @@ pub enum Flag {
     /// The force is beyond what the calibration covers (reported saturated at the edge of
     /// the calibrated range's margin).
     ForceOutOfRange = 8,
+    /// The contact temperature's standard deviation exceeds the one-degree tolerance a
+    /// reading is held to: its stripes say little about the temperature there (above the
+    /// coloured pigments' transition only the black stripes' faint change is left, and a
+    /// contact's stripe ratio is less sure than flat skin's). Reported as read.
+    TemperatureUncertain = 9,
 }
 
 impl Flag {
     /// Every flag, in bit order.
-    pub const ALL: [Flag; 9] = [
+    pub const ALL: [Flag; 10] = [
         Flag::LowContrast,
         Flag::PhaseSlope,
         Flag::UnwrapFailure,
@@ -55,6 +60,7 @@ impl Flag {
         Flag::StaleReference,
         Flag::DepthOutOfRange,
         Flag::ForceOutOfRange,
+        Flag::TemperatureUncertain,
     ];
 
     /// The flag's bit in [`QualityFlags`].
@@ -74,6 +80,7 @@ impl Flag {
             Flag::StaleReference => "stale_reference",
             Flag::DepthOutOfRange => "depth_out_of_range",
             Flag::ForceOutOfRange => "force_out_of_range",
+            Flag::TemperatureUncertain => "temperature_uncertain",
         }
     }
 

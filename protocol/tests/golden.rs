@@ -242,7 +242,7 @@ fn every_golden_file_has_a_sample() {
 /// bump `PROTOCOL_VERSION` and update the constant below together with the golden files.
 #[test]
 fn schema_hash_is_pinned() {
-    assert_eq!(PROTOCOL_VERSION, 6);
+    assert_eq!(PROTOCOL_VERSION, 7);
     assert_eq!(
         schema_hash(),
         PINNED_SCHEMA_HASH,
@@ -255,20 +255,20 @@ const PINNED_SCHEMA_HASH: u64 = 0xc9d8_ea77_8716_206a;
 
 #[test]
 fn a_hello_of_another_version_is_named_not_misread() {
-    // A future Hello: version 7, a different hash, and a field this build does not know.
+    // A future Hello: version 8, a different hash, and a field this build does not know.
     let mut payload = Vec::new();
-    payload.extend(postcard::to_stdvec(&(0u32, 7u16, 0x1111_2222_3333_4444u64)).unwrap());
+    payload.extend(postcard::to_stdvec(&(0u32, 8u16, 0x1111_2222_3333_4444u64)).unwrap());
     payload.extend([0xff, 0xff, 0xff, 0xff, 0xff, 0xff]);
     let got = decoded(&payload);
     assert_eq!(
         got,
         vec![Err(FrameError::ProtocolMismatch {
-            protocol_version: 7,
+            protocol_version: 8,
             schema_hash: 0x1111_2222_3333_4444
         })]
     );
     let text = got[0].clone().unwrap_err().to_string();
-    assert!(text.contains("v7") && text.contains("v6"), "{text}");
+    assert!(text.contains("v8") && text.contains("v7"), "{text}");
 }
 
 /// A Hello of this very version and schema that does not decode (a serial that is not

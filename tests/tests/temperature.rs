@@ -228,6 +228,78 @@ fn heated_contact_reads_its_temperature_and_not_its_force() {
     }
 }
 
+/// Above the coloured transition a contact reads through its black stripes alone, whose
+/// change with temperature is faint, and a small contact's black/coloured ratio is less
+/// sure than flat skin's: around the LED ring the light changes within a stripe period.
+/// The contact's standard deviation says so. Heated contacts around the ring (on the
+/// lamps' reflections and between them) read within 2.5 of their σ, with errors of RMS
+/// within one σ, on both paths; a σ above 1 °C is flagged `temperature_uncertain`. Inside
+/// the transition the coloured stripes read the contact: σ stays small.
+#[test]
+fn a_contact_temperature_says_how_sure_it_is() {
+    let b = bench();
+    let u = SensorUnit::reference();
+    let (cx, cy) = (u.width_px as f32 / 2.0, u.height_px as f32 / 2.0);
+    // The ring of lamps' reflections (`vistaf_sim::render`), and a contact 15 px inside it.
+    let r_px = 0.9 * cx.min(cy) - 15.0;
+    let (mut z2, mut worst, mut n) = (0.0f32, 0.0f32, 0);
+    let mut check = |s: &SkinState, seed: u64| -> [f32; 2] {
+        let (fx, fl, truth) = b.run(s, seed);
+        let want = truth.contact_temp_c.unwrap();
+        [&fx, &fl].map(|d| {
+            let t = d.temperature.as_ref().unwrap();
+            let (got, sd) = (t.contact_c.unwrap(), t.contact_sigma_c.unwrap());
+            let flagged = d.flags.contains(Flag::TemperatureUncertain);
+            assert_eq!(flagged, sd > 1.0, "σ {sd:.2} and the flag disagree");
+            let z = (got - want) / sd;
+            assert!(
+                z.abs() <= 2.5,
+                "reads {got:.2} (σ {sd:.2}), truth {want:.2}"
+            );
+            z2 += z * z;
+            worst = worst.max(z.abs());
+            n += 1;
+            sd
+        })
+    };
+    for k in 0..12 {
+        let a = std::f32::consts::TAU * (k as f32 + 0.5) / 12.0;
+        let px = (cx + r_px * a.cos(), cy + r_px * a.sin());
+        let c = (px.0 * u.mm_per_px(), px.1 * u.mm_per_px());
+        for (depth, hot) in [(0.45f32, 40.0f32), (0.8, 44.0)] {
+            let s = heated_press(c, depth, hot);
+            check(&s, 1400 + k);
+        }
+    }
+    let inside = check(&heated_press(center_mm(&u), 1.0, 28.0), 1450);
+    let rms = (z2 / n as f32).sqrt();
+    println!("contact errors over σ: RMS {rms:.2}, worst {worst:.2}, over {n} readings");
+    assert!(rms <= 1.0, "errors over σ: RMS {rms:.2} over {n} readings");
+    assert!(
+        inside.iter().all(|&sd| sd < 0.5),
+        "inside the transition σ {inside:?}"
+    );
+}
+
+/// A sphere pressed `depth_mm` at `c` (mm), the skin under it at `hot_c`.
+fn heated_press(c: (f32, f32), depth_mm: f32, hot_c: f32) -> SkinState {
+    let mut s = SkinState::idle(ROOM_C);
+    s.contacts.push(Contact {
+        indenter: Indenter::Sphere { r_mm: SPHERE_R_MM },
+        center_mm: c,
+        depth_mm,
+    });
+    s.temperature.sources.push(HeatSource::Spot {
+        center_mm: c,
+        footprint: Footprint::Disc {
+            r_mm: (SPHERE_R_MM * depth_mm).sqrt(),
+        },
+        temp_c: hot_c,
+        spread_mm: 2.0,
+    });
+    s
+}
+
 /// Beyond the calibrated range the reading is flagged, not clamped.
 #[test]
 fn temperatures_beyond_the_calibration_are_flagged() {

@@ -26,6 +26,10 @@ pub trait Evaluator {
     /// chromaticity measured against the black stripes of `white` (see
     /// [`Sums::invariants`]); `None` when their colours say nothing (a channel black).
     fn population(&self, p: Population, s: &Sums, white: &Sums) -> Option<Self::Estimate>;
+    /// The black stripes' estimate from sums whose black/coloured ratio `q` is taken as
+    /// `scale_q16 / 2¹⁶` times what they show: how far a reading moves with that ratio
+    /// ([`Temperatures::read_contact`]).
+    fn black_with_ratio_scaled(&self, s: &Sums, scale_q16: i64) -> Option<Self::Estimate>;
     /// An integer that orders estimates as their temperatures.
     fn key(e: &Self::Estimate) -> i64;
     /// The blend's first pass at a black estimate.
@@ -45,6 +49,15 @@ impl Evaluator for FloatModel {
     fn population(&self, p: Population, s: &Sums, white: &Sums) -> Option<(f64, bool)> {
         let v = s.invariants(white)?;
         Some((self.0.population(p, &v), self.0.domain.contains(&v)))
+    }
+
+    fn black_with_ratio_scaled(&self, s: &Sums, scale_q16: i64) -> Option<(f64, bool)> {
+        let mut v = s.invariants(s)?;
+        v.q *= scale_q16 as f64 / 65_536.0;
+        Some((
+            self.0.population(Population::Black, &v),
+            self.0.domain.contains(&v),
+        ))
     }
 
     /// The float's bits mapped as `f64::total_cmp` orders them.
@@ -77,6 +90,12 @@ impl Evaluator for FixedModel {
         Some(FixedModel::population(self, p, invariants_q16(s, white)?))
     }
 
+    fn black_with_ratio_scaled(&self, s: &Sums, scale_q16: i64) -> Option<(i64, bool)> {
+        let mut v = invariants_q16(s, s)?;
+        v[2] = (v[2] * scale_q16) >> 16;
+        Some(FixedModel::population(self, Population::Black, v))
+    }
+
     fn key(e: &(i64, bool)) -> i64 {
         e.0
     }
@@ -94,6 +113,22 @@ impl Evaluator for FixedModel {
         }
     }
 }
+
+/// How much a contact region's black/coloured ratio `q` scatters, relative, beyond what
+/// the calibration's flat frames show. A contact's core is small, a stripe pair or a few:
+/// light that changes within a stripe period (an LED's reflection) falls unequally on its
+/// few black and coloured stripes, and the indentation moves them under it. On flat skin
+/// many stripe pairs average this out, and the block-to-block pattern is learnt from the
+/// reference (`super::ratio_field`). Where the coloured stripes are inside their
+/// transition a reading hardly moves with `q`; above it the black stripes carry the
+/// reading alone and move by degrees per per cent of `q` (`docs/temperature.md`).
+pub const CONTACT_RATIO_SPREAD: f64 = 0.01;
+
+/// 1 in Q16.
+const ONE: i64 = 1 << 16;
+
+/// [`CONTACT_RATIO_SPREAD`] in Q16.
+const SPREAD_Q16: i64 = (CONTACT_RATIO_SPREAD * ONE as f64) as i64;
 
 /// A frame's blocks read.
 #[derive(Debug, Clone, PartialEq)]
@@ -113,6 +148,12 @@ pub trait Temperatures: std::fmt::Debug + Send + Sync {
     /// A reading from a region's own sums (coloured stripes) and its neighbourhood's
     /// (black stripes).
     fn read(&self, own: &Sums, pooled: &Sums) -> Option<Reading>;
+    /// A contact region's reading from its own sums, its variance widened by what the
+    /// calibration's flat frames cannot show: the scatter of a contact's black/coloured
+    /// ratio ([`CONTACT_RATIO_SPREAD`]), carried through the blend as the reading moves
+    /// with the ratio. Whether it is trusted is decided on the calibrated variance alone,
+    /// as for any block.
+    fn read_contact(&self, s: &Sums) -> Option<Reading>;
     /// Every block of a `bw × bh` frame (see the module doc).
     fn map(&self, blocks: &[Sums], bw: usize, bh: usize) -> BlockMap;
 }
@@ -126,11 +167,36 @@ fn estimate<E: Evaluator>(e: &E, p: Population, s: &Sums, white: &Sums) -> Optio
     e.population(p, s, white)
 }
 
+/// Both populations' estimates of a region (the coloured stripes from its own sums, the
+/// black from `pooled`), and the blend's guess.
+fn both<E: Evaluator>(
+    e: &E,
+    own: &Sums,
+    pooled: &Sums,
+) -> Option<(E::Estimate, E::Estimate, E::Guess)> {
+    let c = estimate(e, Population::Coloured, own, pooled)?;
+    let b = estimate(e, Population::Black, pooled, pooled)?;
+    Some((c, b, e.guess(b)))
+}
+
 impl<E: Evaluator + std::fmt::Debug + Send + Sync> Temperatures for E {
     fn read(&self, own: &Sums, pooled: &Sums) -> Option<Reading> {
-        let c = estimate(self, Population::Coloured, own, pooled)?;
-        let b = estimate(self, Population::Black, pooled, pooled)?;
-        Some(self.fuse(c, b, self.guess(b)))
+        let (c, b, guess) = both(self, own, pooled)?;
+        Some(self.fuse(c, b, guess))
+    }
+
+    fn read_contact(&self, s: &Sums) -> Option<Reading> {
+        let (c, b, guess) = both(self, s, s)?;
+        let r = self.fuse(c, b, guess);
+        let moved = |scale: i64| {
+            self.black_with_ratio_scaled(s, scale)
+                .map_or(r.t_c, |b| self.fuse(c, b, guess).t_c)
+        };
+        let half_span_c = (moved(ONE + SPREAD_Q16) - moved(ONE - SPREAD_Q16)) / 2.0;
+        Some(Reading {
+            var_c2: r.var_c2 + half_span_c * half_span_c,
+            ..r
+        })
     }
 
     fn map(&self, blocks: &[Sums], bw: usize, bh: usize) -> BlockMap {

@@ -59,8 +59,12 @@ pub struct Temperature {
     pub hottest_px: Option<(f32, f32)>,
     /// Temperature over the contact region, °C, when there is contact.
     pub contact_c: Option<f32>,
-    /// Its standard deviation by the calibration's variance tables, °C.
+    /// Its standard deviation, °C: the calibration's variance tables, widened by how
+    /// far the reading moves with the contact's stripe ratio
+    /// ([`Temperatures::read_contact`]).
     pub contact_sigma_c: Option<f32>,
+    /// The contact's standard deviation exceeds [`CONTACT_SIGMA_LIMIT_C`].
+    pub contact_uncertain: bool,
     /// A block read outside the calibrated range (or outside the calibrated colours).
     pub out_of_range: bool,
     /// Blocks measured.
@@ -76,6 +80,10 @@ pub const BLACK_POOL: usize = 1;
 /// for the frame to be flagged: a single block out of range is noise, a hot or cold object
 /// covers several. The contact region's own reading is flagged on its own.
 pub const OUT_OF_RANGE_BLOCKS: usize = 2;
+
+/// Largest standard deviation of a contact temperature reported without
+/// `Flag::TemperatureUncertain`, °C: the one-degree tolerance a reading is held to.
+pub const CONTACT_SIGMA_LIMIT_C: f32 = 1.0;
 
 /// Fewest samples of each population in the contact core before the whole contact region
 /// is used instead.
@@ -251,7 +259,7 @@ impl Thermometer {
         };
         let n = map.measured;
         let mut out_of_range = map.outside >= OUT_OF_RANGE_BLOCKS.max(n / 100);
-        let contact = regions.and_then(|_| evaluator.read(&region, &region));
+        let contact = regions.and_then(|_| evaluator.read_contact(&region));
         out_of_range |= contact.is_some_and(|r| !r.trusted);
         let ext = extremes::extremes(&map.map_c, g.bw, g.bh);
         let nan = |v: f32| if v.is_finite() { v } else { f32::NAN };
@@ -282,6 +290,7 @@ impl Thermometer {
             map_c: map.map_c,
             contact_c: contact.map(|r| r.t_c),
             contact_sigma_c: contact.map(|r| r.var_c2.max(0.0).sqrt()),
+            contact_uncertain: contact.is_some_and(|r| r.var_c2 > CONTACT_SIGMA_LIMIT_C.powi(2)),
             out_of_range,
             measured: n,
         })
