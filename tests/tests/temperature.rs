@@ -199,15 +199,7 @@ fn heated_contact_reads_its_temperature_and_not_its_force() {
         .into_iter()
         .enumerate()
     {
-        let mut s = press(depth, ROOM_C);
-        s.temperature.sources.push(HeatSource::Spot {
-            center_mm: c,
-            footprint: Footprint::Disc {
-                r_mm: (SPHERE_R_MM * depth).sqrt(),
-            },
-            temp_c: hot,
-            spread_mm: 2.0,
-        });
+        let s = heated_press(c, depth, hot);
         let seed = 1300 + k as u64;
         let (fx, fl, truth) = b.run(&s, seed);
         let want = truth.contact_temp_c.unwrap();
@@ -231,10 +223,10 @@ fn heated_contact_reads_its_temperature_and_not_its_force() {
 /// Above the coloured transition a contact reads through its black stripes alone, whose
 /// change with temperature is faint, and a small contact's black/coloured ratio is less
 /// sure than flat skin's: around the LED ring the light changes within a stripe period.
-/// The contact's standard deviation says so. Heated contacts around the ring (on the
-/// lamps' reflections and between them) read within 2.5 of their σ, with errors of RMS
-/// within one σ, on both paths; a σ above 1 °C is flagged `temperature_uncertain`. Inside
-/// the transition the coloured stripes read the contact: σ stays small.
+/// The contact's standard deviation says so. Heated contacts just inside each lamp's
+/// reflection read within 2.5 of their σ, with errors of RMS within one σ, on both paths;
+/// a σ above 1 °C is flagged `temperature_uncertain`. Inside the transition the coloured
+/// stripes read the contact: σ stays small.
 #[test]
 fn a_contact_temperature_says_how_sure_it_is() {
     let b = bench();
