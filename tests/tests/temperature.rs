@@ -10,6 +10,7 @@ use vistaf_pipeline::thermal::BLACK_POOL;
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement};
 use vistaf_protocol::Flag;
 use vistaf_sim::contact::{Contact, Footprint, Indenter};
+use vistaf_sim::render::lamp_reflections_px;
 use vistaf_sim::scene::{center_mm, ROOM_C, SPHERE_R_MM};
 use vistaf_sim::thermal::HeatSource;
 use vistaf_sim::{Renderer, SensorUnit, SkinState, Truth};
@@ -231,9 +232,6 @@ fn heated_contact_reads_its_temperature_and_not_its_force() {
 fn a_contact_temperature_says_how_sure_it_is() {
     let b = bench();
     let u = SensorUnit::reference();
-    let (cx, cy) = (u.width_px as f32 / 2.0, u.height_px as f32 / 2.0);
-    // The ring of lamps' reflections (`vistaf_sim::render`), and a contact 15 px inside it.
-    let r_px = 0.9 * cx.min(cy) - 15.0;
     let (mut z2, mut worst, mut n) = (0.0f32, 0.0f32, 0);
     let mut check = |s: &SkinState, seed: u64| -> [f32; 2] {
         let (fx, fl, truth) = b.run(s, seed);
@@ -254,13 +252,10 @@ fn a_contact_temperature_says_how_sure_it_is() {
             sd
         })
     };
-    for k in 0..12 {
-        let a = std::f32::consts::TAU * (k as f32 + 0.5) / 12.0;
-        let px = (cx + r_px * a.cos(), cy + r_px * a.sin());
+    for (k, px) in (0u64..).zip(lamp_reflections_px(&u, 15.0)) {
         let c = (px.0 * u.mm_per_px(), px.1 * u.mm_per_px());
         for (depth, hot) in [(0.45f32, 40.0f32), (0.8, 44.0)] {
-            let s = heated_press(c, depth, hot);
-            check(&s, 1400 + k);
+            check(&heated_press(c, depth, hot), 1400 + k);
         }
     }
     let inside = check(&heated_press(center_mm(&u), 1.0, 28.0), 1450);
@@ -329,7 +324,8 @@ fn temperatures_beyond_the_calibration_are_flagged() {
 
 /// The device path's integer evaluation (Q16 invariants, tabulated cube root, integer
 /// models and blend) agrees with the float models (exact CIELAB) within 0.05 °C on the
-/// same blocks; and the two whole pipelines (different FTPs placing the stripes) agree.
+/// same blocks; and the two whole pipelines (different FTPs placing the stripes) agree, on
+/// the contact's σ too.
 #[test]
 fn device_arithmetic_agrees_with_the_float_models() {
     let b = bench();
@@ -354,6 +350,7 @@ fn device_arithmetic_agrees_with_the_float_models() {
         for (a, c) in [
             (fx.mean_c, fl.mean_c),
             (fx.contact_c.unwrap(), fl.contact_c.unwrap()),
+            (fx.contact_sigma_c.unwrap(), fl.contact_sigma_c.unwrap()),
         ] {
             worst_path = worst_path.max((a - c).abs());
         }

@@ -140,7 +140,10 @@ fn with_temperature(
     if d.temperature.as_ref().is_some_and(|t| t.out_of_range) {
         d.flags.insert(vistaf_protocol::Flag::TemperatureOutOfRange);
     }
-    if d.temperature.as_ref().is_some_and(|t| t.contact_uncertain) {
+    if d.temperature
+        .as_ref()
+        .is_some_and(|t| t.contact_uncertain())
+    {
         d.flags.insert(vistaf_protocol::Flag::TemperatureUncertain);
     }
     d

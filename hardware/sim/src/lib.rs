@@ -6,8 +6,8 @@
 //!          └──────────── Renderer ─────────────┘──▶ RgbImage + Truth (depth, T, force)
 //! ```
 //!
-//! * [`unit`](mod@unit): what differs between manufactured units (period in pixels, tilt, phase
-//!   response, stiffness, optics, noise, pigment batch).
+//! * [`unit`](mod@unit): what differs between manufactured units (period in pixels, tilt,
+//!   phase response, stiffness, optics, noise, pigment batch).
 //! * [`imperfections`]: what a built skin shows beyond the ideal model (oblique light,
 //!   glare, white balance, mottle, grating wobble and distortion, JPEG).
 //! * [`footprint`]: flat shapes on the skin (discs, letters, a hex nut).

@@ -105,14 +105,8 @@ impl Renderer {
             cx + imp.vignetting_offset.0 * w as f32,
             cy + imp.vignetting_offset.1 * h as f32,
         );
-        let ring_r = 0.9 * cx.min(cy);
         let spot_s = 0.08 * cx.min(cy);
-        let spots: Vec<(f32, f32)> = (0..12)
-            .map(|i| {
-                let a = std::f32::consts::TAU * (i as f32 + 0.5) / 12.0;
-                (cx + ring_r * a.cos(), cy + ring_r * a.sin())
-            })
-            .collect();
+        let spots = lamp_reflections_px(&unit, 0.0);
         let mut illum = vec![0.0f32; w * h];
         for y in 0..h {
             for x in 0..w {
@@ -278,6 +272,18 @@ impl Renderer {
         let truth = truth_of(unit, state, depth, temp);
         (img, truth)
     }
+}
+
+/// Where the LED ring's twelve lamps reflect in the image, pixels (each a spot of the unit's
+/// `hotspot_gain`): evenly round a ring at 0.9 of the half-height (or half-width) from the
+/// centre, or `inward_px` inside it.
+pub fn lamp_reflections_px(unit: &SensorUnit, inward_px: f32) -> [(f32, f32); 12] {
+    let (cx, cy) = (unit.width_px as f32 / 2.0, unit.height_px as f32 / 2.0);
+    let r = 0.9 * cx.min(cy) - inward_px;
+    std::array::from_fn(|i| {
+        let a = std::f32::consts::TAU * (i as f32 + 0.5) / 12.0;
+        (cx + r * a.cos(), cy + r * a.sin())
+    })
 }
 
 /// The image as a camera compressing at JPEG `quality` sends it (unchanged should the codec

@@ -9,7 +9,7 @@
 //! The blend reads the populations' variances first at a guess, the median black estimate
 //! of the block's neighbourhood, then at the result.
 
-use super::fixed::{invariants_q16, FixedModel};
+use super::fixed::{invariants_q16, FixedModel, ONE};
 use super::model::{Population, TemperatureModel};
 use super::stripes::{pool_at, Sums};
 use super::{Reading, BLACK_POOL};
@@ -123,9 +123,6 @@ impl Evaluator for FixedModel {
 /// transition a reading hardly moves with `q`; above it the black stripes carry the
 /// reading alone and move by degrees per per cent of `q` (`docs/temperature.md`).
 pub const CONTACT_RATIO_SPREAD: f64 = 0.01;
-
-/// 1 in Q16.
-const ONE: i64 = 1 << 16;
 
 /// [`CONTACT_RATIO_SPREAD`] in Q16.
 const SPREAD_Q16: i64 = (CONTACT_RATIO_SPREAD * ONE as f64) as i64;

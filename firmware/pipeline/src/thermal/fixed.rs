@@ -22,7 +22,8 @@ use super::lab::D65;
 use super::model::{ColourModel, Population, TemperatureModel, VarianceTable};
 use super::stripes::Sums;
 
-const ONE: i64 = 1 << 16;
+/// 1 in Q16.
+pub(super) const ONE: i64 = 1 << 16;
 
 /// The widest temperature a population's estimate takes, Q16 °C (±1000 °C).
 const T_LIMIT_Q16: i128 = 1000 << 16;

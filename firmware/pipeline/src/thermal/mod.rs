@@ -63,12 +63,18 @@ pub struct Temperature {
     /// far the reading moves with the contact's stripe ratio
     /// ([`Temperatures::read_contact`]).
     pub contact_sigma_c: Option<f32>,
-    /// The contact's standard deviation exceeds [`CONTACT_SIGMA_LIMIT_C`].
-    pub contact_uncertain: bool,
     /// A block read outside the calibrated range (or outside the calibrated colours).
     pub out_of_range: bool,
     /// Blocks measured.
     pub measured: usize,
+}
+
+impl Temperature {
+    /// Whether the contact's standard deviation exceeds [`CONTACT_SIGMA_LIMIT_C`].
+    pub fn contact_uncertain(&self) -> bool {
+        self.contact_sigma_c
+            .is_some_and(|s| s > CONTACT_SIGMA_LIMIT_C)
+    }
 }
 
 /// The black stripes are read over a block and its neighbours within this many blocks (a
@@ -290,7 +296,6 @@ impl Thermometer {
             map_c: map.map_c,
             contact_c: contact.map(|r| r.t_c),
             contact_sigma_c: contact.map(|r| r.var_c2.max(0.0).sqrt()),
-            contact_uncertain: contact.is_some_and(|r| r.var_c2 > CONTACT_SIGMA_LIMIT_C.powi(2)),
             out_of_range,
             measured: n,
         })
