@@ -5,6 +5,7 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::thread::JoinHandle;
 
+use serialport::TTYPort;
 use vistaf_firmware::service::{pty, Counters, Settings};
 use vistaf_hardware::source::FrameSource;
 use vistaf_host::client::Client;
@@ -20,6 +21,9 @@ pub struct Served {
     pub stop: Arc<AtomicBool>,
     /// The service.
     pub device: JoinHandle<anyhow::Result<Counters>>,
+    /// The device's end of the terminal: while it is kept, what the service wrote before
+    /// it ended can still be read (see [`pty::OnPty::device_end`]).
+    pub device_end: TTYPort,
 }
 
 /// Runs the service on `source` with `settings` on a new pseudo-terminal, and opens the
@@ -34,5 +38,6 @@ pub fn serve(source: Box<dyn FrameSource>, settings: Settings) -> Served {
         client: Client::new(link),
         stop: on.stop,
         device: on.thread,
+        device_end: on.device_end,
     }
 }

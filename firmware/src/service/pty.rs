@@ -22,6 +22,11 @@ pub struct OnPty {
     pub stop: Arc<AtomicBool>,
     /// The service: its counters, or why it failed.
     pub thread: JoinHandle<Result<Counters>>,
+    /// The device's end of the terminal, held open as long as this is kept. When the last
+    /// handle on that end closes, Linux hangs up the host's end and throws away what the
+    /// host has not read yet; a USB gadget's port stays when the service stops, and so
+    /// does this one, until it is dropped.
+    pub device_end: TTYPort,
 }
 
 /// Starts the service on `source` with `settings` on a new pseudo-terminal.
@@ -29,6 +34,7 @@ pub fn spawn(source: Box<dyn FrameSource>, settings: Settings) -> Result<OnPty> 
     let (master, slave) = TTYPort::pair().context("creating a pseudo-terminal pair")?;
     let port = slave.name().context("the pseudo-terminal has no name")?;
     let reader = master.try_clone_native().context("pseudo-terminal")?;
+    let device_end = master.try_clone_native().context("pseudo-terminal")?;
     drop(slave);
     let stop = Arc::new(AtomicBool::new(false));
     let device_stop = stop.clone();
@@ -43,5 +49,10 @@ pub fn spawn(source: Box<dyn FrameSource>, settings: Settings) -> Result<OnPty> 
             device_stop,
         )
     });
-    Ok(OnPty { port, stop, thread })
+    Ok(OnPty {
+        port,
+        stop,
+        thread,
+        device_end,
+    })
 }
