@@ -9,9 +9,10 @@
 //!   JPEG's 8 × 8 blocks allow a scaled inverse DCT (a 4 × 4, 2 × 2 or 1 × 1 transform of
 //!   each block's lowest frequencies, as libjpeg-turbo's scaled decoding does), so a
 //!   1/4-scale decode never forms the full image; its planes come out interleaved as Y,
-//!   Cb, Cr (JFIF, full range), without a colour conversion. UVC cameras may leave out the Huffman tables
-//!   (the standard ones are implied). A JPEG that is not a camera's baseline frame
-//!   (progressive, several scans) goes to `jpeg-decoder`, at the same scales.
+//!   Cb, Cr (JFIF, full range), without a colour conversion. UVC cameras may leave out
+//!   the Huffman tables (the standard ones are implied). A JPEG that is not a camera's
+//!   baseline frame (progressive, several scans) goes to `jpeg-decoder`, at the same
+//!   scales.
 //! * **RGB and grey** (files, test sources): averaged per block when scaled.
 //!
 //! A scaled decode is an area filter of its own: what it removes is finer than the

@@ -8,9 +8,10 @@
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
+use vistaf_firmware::service::Counters;
 use vistaf_firmware::service::Settings;
 use vistaf_hardware::source::FrameSource;
-use vistaf_host::client::Next;
+use vistaf_host::client::{Client, Next, Received};
 use vistaf_pipeline::calibration::Calibration;
 use vistaf_protocol::{DeviceMsg, MapKind};
 use vistaf_sim::contact::{Contact, Indenter};
@@ -46,6 +47,34 @@ impl FrameSource for Timed {
 /// Runs the service on `source` with `settings` on a new pseudo-terminal.
 fn serve(source: Timed, settings: Settings) -> Served {
     vistaf_tests::pty::serve(Box::new(source), settings)
+}
+
+/// Hands every message to `on` until the service has ended and what it wrote is read (or
+/// 30 s have passed), then stops it: the host's client, and the service's counters. The
+/// device's end of the terminal is held until then, so nothing written is lost.
+fn read_to_end(served: Served, mut on: impl FnMut(Received)) -> (Client, Counters) {
+    let Served {
+        mut client,
+        stop,
+        device,
+        device_end,
+    } = served;
+    let deadline = Instant::now() + Duration::from_secs(30);
+    while Instant::now() < deadline {
+        match client
+            .next(Some(Instant::now() + Duration::from_millis(300)))
+            .unwrap()
+        {
+            Next::Message(r) => on(r),
+            Next::End => break,
+            Next::Timeout if device.is_finished() => break,
+            Next::Timeout => {}
+        }
+    }
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    let counters = device.join().unwrap().unwrap();
+    drop(device_end);
+    (client, counters)
 }
 
 #[test]
@@ -86,13 +115,8 @@ fn summaries_cross_a_pty_in_order_and_match_the_scene() {
         force_calibration: true,
         ..Settings::new(Calibration::default_sim())
     };
-    // `_device_end` is held to the end: what the service wrote before it ended stays readable.
-    let Served {
-        client: mut host,
-        stop,
-        device,
-        device_end: _device_end,
-    } = serve(source, settings);
+    let mut served = serve(source, settings);
+    let host = &mut served.client;
     let hello = host.handshake(Duration::from_secs(5)).unwrap();
     assert_eq!((hello.frame_width_px, hello.frame_height_px), (320, 240));
     assert_eq!(&hello.serial[..], "VSK-TEST");
@@ -104,25 +128,12 @@ fn summaries_cross_a_pty_in_order_and_match_the_scene() {
 
     let mut summaries = Vec::new();
     let mut received = Vec::new();
-    let deadline = Instant::now() + Duration::from_secs(30);
-    while Instant::now() < deadline {
-        match host
-            .next(Some(Instant::now() + Duration::from_millis(300)))
-            .unwrap()
-        {
-            Next::Message(r) => {
-                if let DeviceMsg::Summary(s) = r.msg {
-                    received.push(Instant::now());
-                    summaries.push(s);
-                }
-            }
-            Next::End => break,
-            Next::Timeout if device.is_finished() => break,
-            Next::Timeout => {}
+    let (host, counters) = read_to_end(served, |r| {
+        if let DeviceMsg::Summary(s) = r.msg {
+            received.push(Instant::now());
+            summaries.push(s);
         }
-    }
-    stop.store(true, std::sync::atomic::Ordering::Relaxed);
-    let counters = device.join().unwrap().unwrap();
+    });
     // Summaries the device sent before it answered the handshake are a backlog the host
     // throws away and counts; every one after arrived, in order, up to the last.
     let seqs: Vec<u32> = summaries.iter().map(|s| s.seq).collect();
@@ -229,37 +240,19 @@ fn the_status_reports_capture_to_link_latency_at_60_and_120_frames_per_second() 
             force_calibration: true,
             ..Settings::new(Calibration::default_sim())
         };
-        let Served {
-            client: mut host,
-            stop,
-            device,
-            device_end: _device_end,
-        } = serve(source, settings);
-        host.handshake(Duration::from_secs(5)).unwrap();
+        let mut served = serve(source, settings);
+        served.client.handshake(Duration::from_secs(5)).unwrap();
         let (mut status, mut host_ms) = (None, Vec::new());
-        let deadline = Instant::now() + Duration::from_secs(30);
-        while Instant::now() < deadline {
-            match host
-                .next(Some(Instant::now() + Duration::from_millis(300)))
-                .unwrap()
-            {
-                Next::Message(r) => match r.msg {
-                    DeviceMsg::Status(st) if st.latency_p50_us > 0 => status = Some(st),
-                    DeviceMsg::Summary(s) => {
-                        let log = captured.lock().unwrap();
-                        if let Some((_, t)) = log.iter().find(|(us, _)| *us == s.capture_us) {
-                            host_ms.push(t.elapsed().as_secs_f64() * 1e3);
-                        }
-                    }
-                    _ => {}
-                },
-                Next::End => break,
-                Next::Timeout if device.is_finished() => break,
-                Next::Timeout => {}
+        read_to_end(served, |r| match r.msg {
+            DeviceMsg::Status(st) if st.latency_p50_us > 0 => status = Some(st),
+            DeviceMsg::Summary(s) => {
+                let log = captured.lock().unwrap();
+                if let Some((_, t)) = log.iter().find(|(us, _)| *us == s.capture_us) {
+                    host_ms.push(t.elapsed().as_secs_f64() * 1e3);
+                }
             }
-        }
-        stop.store(true, std::sync::atomic::Ordering::Relaxed);
-        device.join().unwrap().unwrap();
+            _ => {}
+        });
         let st = status.expect("a Status with latencies");
         let (p50, p99) = (
             f64::from(st.latency_p50_us) / 1e3,

@@ -6,7 +6,7 @@
 
 use vistaf_pipeline::calibration::Calibration;
 use vistaf_pipeline::thermal::stripes::pool;
-use vistaf_pipeline::thermal::BLACK_POOL;
+use vistaf_pipeline::thermal::{BLACK_POOL, CONTACT_SIGMA_LIMIT_C};
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement};
 use vistaf_protocol::Flag;
 use vistaf_sim::contact::{Contact, Footprint, Indenter};
@@ -226,8 +226,8 @@ fn heated_contact_reads_its_temperature_and_not_its_force() {
 /// sure than flat skin's: around the LED ring the light changes within a stripe period.
 /// The contact's standard deviation says so. Heated contacts just inside each lamp's
 /// reflection read within 2.5 of their σ, with errors of RMS within one σ, on both paths;
-/// a σ above 1 °C is flagged `temperature_uncertain`. Inside the transition the coloured
-/// stripes read the contact: σ stays small.
+/// a σ above [`CONTACT_SIGMA_LIMIT_C`] is flagged `temperature_uncertain`. Inside the
+/// transition the coloured stripes read the contact: σ stays small.
 #[test]
 fn a_contact_temperature_says_how_sure_it_is() {
     let b = bench();
@@ -240,7 +240,11 @@ fn a_contact_temperature_says_how_sure_it_is() {
             let t = d.temperature.as_ref().unwrap();
             let (got, sd) = (t.contact_c.unwrap(), t.contact_sigma_c.unwrap());
             let flagged = d.flags.contains(Flag::TemperatureUncertain);
-            assert_eq!(flagged, sd > 1.0, "σ {sd:.2} and the flag disagree");
+            assert_eq!(
+                flagged,
+                sd > CONTACT_SIGMA_LIMIT_C,
+                "σ {sd:.2} and the flag disagree"
+            );
             let z = (got - want) / sd;
             assert!(
                 z.abs() <= 2.5,

@@ -137,14 +137,13 @@ fn with_temperature(
     }
     let regions = window.map(|[x0, y0, x1, _]| Regions::new(&codes, x0, y0, x1 - x0));
     d.temperature = thermo.measure(frame, phase, &d.reliable, regions);
-    if d.temperature.as_ref().is_some_and(|t| t.out_of_range) {
-        d.flags.insert(vistaf_protocol::Flag::TemperatureOutOfRange);
-    }
-    if d.temperature
-        .as_ref()
-        .is_some_and(|t| t.contact_uncertain())
-    {
-        d.flags.insert(vistaf_protocol::Flag::TemperatureUncertain);
+    if let Some(t) = &d.temperature {
+        if t.out_of_range {
+            d.flags.insert(vistaf_protocol::Flag::TemperatureOutOfRange);
+        }
+        if t.contact_uncertain() {
+            d.flags.insert(vistaf_protocol::Flag::TemperatureUncertain);
+        }
     }
     d
 }

@@ -53,7 +53,7 @@ impl Evaluator for FloatModel {
 
     fn black_with_ratio_scaled(&self, s: &Sums, scale_q16: i64) -> Option<(f64, bool)> {
         let mut v = s.invariants(s)?;
-        v.q *= scale_q16 as f64 / 65_536.0;
+        v.q *= scale_q16 as f64 / ONE as f64;
         Some((
             self.0.population(Population::Black, &v),
             self.0.domain.contains(&v),
