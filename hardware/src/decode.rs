@@ -4,7 +4,7 @@
 //!
 //! * **YUYV** (BT.601, limited range): Y, U and V are read as they are; at a scale of 2 or
 //!   more, each output pixel is the mean of its `scale × scale` block (chroma is shared by
-//!   two pixels across, so it is averaged over the same block).
+//!   two pixels across, so it is averaged over the same block); the crate's `yuyv` module.
 //! * **MJPEG**: decoded straight to the scale asked for (the crate's `jpeg` module).
 //!   JPEG's 8 × 8 blocks allow a scaled inverse DCT (a 4 × 4, 2 × 2 or 1 × 1 transform of
 //!   each block's lowest frequencies, as libjpeg-turbo's scaled decoding does), so a
@@ -25,6 +25,7 @@ use image::RgbImage;
 use crate::frame::{size_ok, size_refused, Frame, FrameError, PixelFormat};
 pub use crate::jpeg::{scale_fits, SCALES};
 use crate::jpeg::{Jpeg, JpegError};
+use crate::yuyv::yuyv;
 
 /// A decoded frame: `width × height` pixels of three bytes in `colour`, row-major.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -297,47 +298,6 @@ fn box_mean<const C: usize>(
                 .iter()
                 .flat_map(|b| three(b.map(|v| ((v + n / 2) / n) as u8))),
         );
-    }
-}
-
-/// YUYV (Y0 U Y1 V per two pixels) of `w` columns to Y, U, V per pixel at `1/s`.
-fn yuyv(data: &[u8], w: usize, s: usize, out: &mut Vec<u8>) {
-    let h = data.len() / (2 * w).max(1);
-    let (ow, oh) = (w / s, h / s);
-    out.reserve(ow * oh * 3);
-    if s == 1 {
-        out.resize(ow * oh * 3, 0);
-        for (o, q) in out
-            .as_chunks_mut::<6>()
-            .0
-            .iter_mut()
-            .zip(data.as_chunks::<4>().0)
-        {
-            *o = [q[0], q[1], q[3], q[2], q[1], q[3]];
-        }
-        return;
-    }
-    // s is even: a block holds s/2 pairs per row, each with its own chroma.
-    let (n_y, n_c) = ((s * s) as u32, (s * s / 2) as u32);
-    let mut sum = vec![[0u32; 3]; ow];
-    for oy in 0..oh {
-        sum.fill([0; 3]);
-        for y in oy * s..(oy + 1) * s {
-            let line = &data[y * w * 2..(y * w + ow * s) * 2];
-            for (k, q) in line.as_chunks::<4>().0.iter().enumerate() {
-                let b = &mut sum[2 * k / s];
-                b[0] += u32::from(q[0]) + u32::from(q[2]);
-                b[1] += u32::from(q[1]);
-                b[2] += u32::from(q[3]);
-            }
-        }
-        out.extend(sum.iter().flat_map(|b| {
-            [
-                ((b[0] + n_y / 2) / n_y) as u8,
-                ((b[1] + n_c / 2) / n_c) as u8,
-                ((b[2] + n_c / 2) / n_c) as u8,
-            ]
-        }));
     }
 }
 

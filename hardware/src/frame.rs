@@ -39,31 +39,37 @@ impl Colour {
     /// sRGB bytes of one pixel `p` in this encoding (integer BT.601, 8.8 fixed point).
     #[inline(always)]
     pub fn to_rgb(self, p: [u8; 3]) -> [u8; 3] {
-        let clamp = |x: i32| ((x + 128) >> 8).clamp(0, 255) as u8;
+        self.to_rgb_q8(p)
+            .map(|x| ((x + 128) >> 8).clamp(0, 255) as u8)
+    }
+
+    /// Whether one of `p`'s sRGB bytes ([`Colour::to_rgb`]) is 255: a channel at or
+    /// past the top, told before clamping.
+    #[inline(always)]
+    pub fn saturates(self, p: [u8; 3]) -> bool {
+        let [r, g, b] = self.to_rgb_q8(p);
+        r.max(g).max(b) + 128 >= 255 << 8
+    }
+
+    /// `p`'s sRGB channels in 8.8 fixed point, before rounding and clamping to 0…255.
+    #[inline(always)]
+    fn to_rgb_q8(self, p: [u8; 3]) -> [i32; 3] {
         let (y, cb, cr) = (
             i32::from(p[0]),
             i32::from(p[1]) - 128,
             i32::from(p[2]) - 128,
         );
         match self {
-            Colour::Rgb => p,
+            Colour::Rgb => p.map(|v| i32::from(v) << 8),
             // R = Y + 1.402 Cr, G = Y − 0.344 Cb − 0.714 Cr, B = Y + 1.772 Cb.
             Colour::YCbCrFull => {
                 let c = y * 256;
-                [
-                    clamp(c + 359 * cr),
-                    clamp(c - 88 * cb - 183 * cr),
-                    clamp(c + 454 * cb),
-                ]
+                [c + 359 * cr, c - 88 * cb - 183 * cr, c + 454 * cb]
             }
             // The same on Y, Cb, Cr stretched from 219 and 224 levels to 255.
             Colour::YCbCrLimited => {
                 let c = (y - 16).max(0) * 298;
-                [
-                    clamp(c + 409 * cr),
-                    clamp(c - 100 * cb - 208 * cr),
-                    clamp(c + 516 * cb),
-                ]
+                [c + 409 * cr, c - 100 * cb - 208 * cr, c + 516 * cb]
             }
         }
     }
@@ -190,6 +196,26 @@ impl Frame {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn saturates_exactly_where_a_converted_channel_is_255() {
+        let levels = (0..=255u8).step_by(3).chain([1, 2, 254, 255]);
+        let grid: Vec<u8> = levels.collect();
+        for c in [Colour::Rgb, Colour::YCbCrFull, Colour::YCbCrLimited] {
+            let mut both = [0usize; 2];
+            for &a in &grid {
+                for &b in &grid {
+                    for &d in &grid {
+                        let p = [a, b, d];
+                        let want = c.to_rgb(p).contains(&255);
+                        assert_eq!(c.saturates(p), want, "{c:?} {p:?}");
+                        both[usize::from(want)] += 1;
+                    }
+                }
+            }
+            assert!(both[0] > 0 && both[1] > 0, "{c:?}: {both:?}");
+        }
+    }
 
     #[test]
     fn ycbcr_primaries_convert_to_rgb() {

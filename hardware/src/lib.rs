@@ -26,6 +26,7 @@ pub mod frameset;
 mod jpeg;
 pub mod led;
 pub mod source;
+mod yuyv;
 
 pub use frame::{Frame, PixelFormat};
 pub use source::{FrameSource, SourceError, SourceFormat};

@@ -61,13 +61,28 @@ pub fn gray_down_q8_into<'a>(
 }
 
 /// The mean luminance of a block of `n` pixels whose weighted channel sums are `acc`
-/// (see [`Luma`]), 8.8 fixed point, rounded and clamped to 0…65 280.
+/// (see [`Luma`]), 8.8 fixed point, rounded and clamped to 0…65 280. `narrow`: whether
+/// [`fits_32_bits`] for blocks of `n`, so that [`Luma::mean_q8`]'s arithmetic runs in 32
+/// bits (the same integers, and a loop over blocks that vectorises); decided once per
+/// image, so the branch is the loop's, not each block's.
 #[inline(always)]
-fn block_mean(acc: u32, n: u32, l: &Luma) -> u16 {
+fn block_mean(acc: u32, n: u32, l: &Luma, narrow: bool) -> u16 {
     if l.gain_q8 == 256 && l.offset_q8 == 0 {
         return ((acc + n / 2) / n) as u16;
     }
+    if narrow {
+        let v = ((acc * l.gain_q8) >> 8).saturating_sub(l.offset_q8 * n);
+        return ((v + n / 2) / n).min(65_280) as u16;
+    }
     l.mean_q8(u64::from(acc), u64::from(n)) as u16
+}
+
+/// Whether a block of `n` pixels' weighted sum times `l`'s gain, and `n` times its
+/// offset, fit 32 bits (they do for every encoding's [`luma`] up to 8 × 8 blocks).
+fn fits_32_bits(l: &Luma, n: u32) -> bool {
+    let top = u64::from(l.weights.iter().sum::<u32>()) * 255 * u64::from(n);
+    top * u64::from(l.gain_q8) <= u64::from(u32::MAX)
+        && u64::from(l.offset_q8) * u64::from(n) <= u64::from(u32::MAX)
 }
 
 fn gray_down_with<const F: usize>(img: &Pixels<'_>, out: &mut Vec<u16>) {
@@ -94,6 +109,7 @@ fn gray_down_rows_first<const F: usize>(img: &Pixels<'_>, out: &mut Vec<u16>) {
     let span = ow * F * 3;
     let mut sum = vec![0u16; span];
     let n = (F * F) as u32;
+    let narrow = fits_32_bits(&luma, n);
     for oy in 0..oh {
         let first = oy * F * w * 3;
         for (s, v) in sum.iter_mut().zip(&raw[first..first + span]) {
@@ -112,7 +128,7 @@ fn gray_down_rows_first<const F: usize>(img: &Pixels<'_>, out: &mut Vec<u16>) {
                 g += u32::from(px[1]);
                 b += u32::from(px[2]);
             }
-            block_mean(lw[0] * r + lw[1] * g + lw[2] * b, n, &luma)
+            block_mean(lw[0] * r + lw[1] * g + lw[2] * b, n, &luma, narrow)
         }));
     }
 }
@@ -133,6 +149,7 @@ fn gray_down_pixels_first<const F: usize>(img: &Pixels<'_>, out: &mut Vec<u16>) 
     let mut luma = vec![0u16; span];
     let mut sum = vec![0u32; span];
     let n = (F * F) as u32;
+    let narrow = fits_32_bits(&l, n);
     // Each weight times 255 fits 16 bits (a weight is at most 256).
     let wq = l.weights.map(|x| x as u16);
     for oy in 0..oh {
@@ -153,7 +170,7 @@ fn gray_down_pixels_first<const F: usize>(img: &Pixels<'_>, out: &mut Vec<u16>) 
         }
         out.extend(
             sum.chunks_exact(F)
-                .map(|block| block_mean(block.iter().sum::<u32>(), n, &l)),
+                .map(|block| block_mean(block.iter().sum::<u32>(), n, &l, narrow)),
         );
     }
 }
@@ -182,26 +199,15 @@ pub fn gray_down_f32<'a>(img: impl Into<Pixels<'a>>, f: usize) -> (Vec<f32>, usi
     (out, ow, oh)
 }
 
-/// Fraction of pixels with a channel at 255 (over-exposure), over every
-/// [`SATURATION_ROW_STEP`]-th row; a Y, Cb, Cr image's sampled rows are converted to RGB.
+/// Fraction of pixels with an sRGB channel at 255 (over-exposure), over every
+/// [`SATURATION_ROW_STEP`]-th row ([`Pixels::saturated_in_row`]: a Y, Cb, Cr image's
+/// pixels are tested without converting them).
 pub fn saturated_fraction<'a>(img: impl Into<Pixels<'a>>) -> f32 {
     let img = img.into();
     let (w, h) = (img.width() as usize, img.height() as usize);
-    let mut n = 0usize;
-    let mut seen = 0usize;
-    let mut buf = Vec::new();
-    for y in (0..h).step_by(SATURATION_ROW_STEP) {
-        let line = img.rgb_row(y, 0, w, &mut buf);
-        // Most rows hold no saturated byte, which the row's maximum (a loop the compiler
-        // vectorises) tells at a fraction of the pixel test's cost.
-        if line.iter().fold(0u8, |m, &b| m.max(b)) == 255 {
-            n += line
-                .chunks_exact(3)
-                .filter(|p| p[0].max(p[1]).max(p[2]) == 255)
-                .count();
-        }
-        seen += w;
-    }
+    let rows = (0..h).step_by(SATURATION_ROW_STEP);
+    let seen = rows.len() * w;
+    let n: usize = rows.map(|y| img.saturated_in_row(y)).sum();
     n as f32 / seen.max(1) as f32
 }
 
@@ -253,57 +259,85 @@ mod tests {
         assert_eq!(saturated_fraction(&img), want);
     }
 
-    /// Both orders of the integer luminance against its plain reading, pixel by pixel, for
-    /// every factor and sizes that leave partial blocks.
+    /// Both orders of the integer luminance against its plain reading ([`Luma::mean_q8`] of
+    /// each block's weighted sum), pixel by pixel, for every factor, every colour encoding
+    /// and sizes that leave partial blocks.
     #[test]
     fn both_luminance_orders_give_the_block_means() {
         let mut rng = crate::test_rng::XorShift(0x51_7cc1_b727_220a);
-        let img = RgbImage::from_fn(37, 29, |_, _| {
-            let v = rng.next();
-            image::Rgb([v as u8, (v >> 8) as u8, (v >> 16) as u8])
-        });
-        let weights = luma(Colour::Rgb).weights;
-        let plain = |f: usize| -> Vec<u16> {
-            let (ow, oh) = (37 / f, 29 / f);
-            let n = (f * f) as u32;
-            (0..ow * oh)
-                .map(|k| {
-                    let (ox, oy) = (k % ow, k / ow);
-                    let mut acc = 0u32;
-                    for y in oy * f..(oy + 1) * f {
-                        for x in ox * f..(ox + 1) * f {
-                            let p = img.get_pixel(x as u32, y as u32);
-                            acc += (0..3).map(|c| weights[c] * u32::from(p[c])).sum::<u32>();
+        let (w, h) = (37usize, 29usize);
+        let raw: Vec<u8> = (0..w * h)
+            .flat_map(|_| rng.next().to_le_bytes()[..3].to_vec())
+            .collect();
+        for colour in [Colour::Rgb, Colour::YCbCrFull, Colour::YCbCrLimited] {
+            let img = Pixels::new(w as u32, h as u32, &raw, colour).unwrap();
+            let l = luma(colour);
+            let plain = |f: usize| -> Vec<u16> {
+                let (ow, oh) = (w / f, h / f);
+                (0..ow * oh)
+                    .map(|k| {
+                        let (ox, oy) = (k % ow, k / ow);
+                        let mut acc = 0u64;
+                        for y in oy * f..(oy + 1) * f {
+                            for x in ox * f..(ox + 1) * f {
+                                let p = &raw[(y * w + x) * 3..][..3];
+                                acc += u64::from(l.weighted(&[p[0], p[1], p[2]]));
+                            }
                         }
-                    }
-                    ((acc + n / 2) / n) as u16
-                })
-                .collect()
+                        l.mean_q8(acc, (f * f) as u64) as u16
+                    })
+                    .collect()
+            };
+            fn both<const F: usize>(img: &Pixels<'_>) -> [Vec<u16>; 2] {
+                // A buffer with stale contents: each order replaces them.
+                let (mut rows, mut pixels) = (vec![7u16; 3], vec![9u16; 5]);
+                rows.clear();
+                pixels.clear();
+                gray_down_rows_first::<F>(img, &mut rows);
+                gray_down_pixels_first::<F>(img, &mut pixels);
+                [rows, pixels]
+            }
+            let orders = [
+                both::<1>(&img),
+                both::<2>(&img),
+                both::<3>(&img),
+                both::<4>(&img),
+                both::<5>(&img),
+                both::<6>(&img),
+                both::<7>(&img),
+                both::<8>(&img),
+            ];
+            for (i, [rows, pixels]) in orders.iter().enumerate() {
+                let want = plain(i + 1);
+                assert_eq!(rows, &want, "{colour:?}, rows first, factor {}", i + 1);
+                assert_eq!(pixels, &want, "{colour:?}, pixels first, factor {}", i + 1);
+            }
+        }
+    }
+
+    /// The 32-bit block mean is the 64-bit one for every encoding's luminance up to 8 × 8
+    /// blocks, at the extremes of a block's sum; a gain too large for it is left to the
+    /// 64-bit one.
+    #[test]
+    fn thirty_two_bits_hold_every_encodings_block_means() {
+        for colour in [Colour::Rgb, Colour::YCbCrFull, Colour::YCbCrLimited] {
+            let l = luma(colour);
+            for n in [1u32, 4, 9, 64] {
+                assert!(fits_32_bits(&l, n), "{colour:?}, {n} pixels");
+                let top = 256 * 255 * n;
+                for acc in [0, 1, 16 * 256 * n, 17 * 256 * n - 1, top / 2, top - 1, top] {
+                    let wide = l.mean_q8(u64::from(acc), u64::from(n)) as u16;
+                    assert_eq!(block_mean(acc, n, &l, true), wide, "{colour:?} {n} {acc}");
+                }
+            }
+        }
+        let strong = Luma {
+            weights: [256, 0, 0],
+            gain_q8: 1 << 12,
+            offset_q8: 0,
         };
-        fn both<const F: usize>(img: &RgbImage) -> [Vec<u16>; 2] {
-            // A buffer with stale contents: each order replaces them.
-            let (mut rows, mut pixels) = (vec![7u16; 3], vec![9u16; 5]);
-            rows.clear();
-            pixels.clear();
-            gray_down_rows_first::<F>(&img.into(), &mut rows);
-            gray_down_pixels_first::<F>(&img.into(), &mut pixels);
-            [rows, pixels]
-        }
-        let orders = [
-            both::<1>(&img),
-            both::<2>(&img),
-            both::<3>(&img),
-            both::<4>(&img),
-            both::<5>(&img),
-            both::<6>(&img),
-            both::<7>(&img),
-            both::<8>(&img),
-        ];
-        for (i, [rows, pixels]) in orders.iter().enumerate() {
-            let want = plain(i + 1);
-            assert_eq!(rows, &want, "rows first, factor {}", i + 1);
-            assert_eq!(pixels, &want, "pixels first, factor {}", i + 1);
-        }
+        assert!(!fits_32_bits(&strong, 64));
+        assert!(fits_32_bits(&strong, 1));
     }
 
     #[test]

@@ -191,20 +191,50 @@ impl<'a> Pixels<'a> {
 
     /// Appends pixels `x0..x1` of row `y` to `out` as sRGB bytes (clipped to the image).
     pub fn append_rgb(&self, y: usize, x0: usize, x1: usize, out: &mut Vec<u8>) {
-        // One loop per encoding, so the conversion inlines and the match is not per pixel.
-        fn convert(px: &[[u8; 3]], out: &mut [u8], f: impl Fn([u8; 3]) -> [u8; 3]) {
-            for (o, p) in out.as_chunks_mut::<3>().0.iter_mut().zip(px) {
-                *o = f(*p);
+        // One loop per encoding, so the conversion inlines and the match is not per pixel;
+        // indexed over slices cut to length, the form the compiler vectorises (with
+        // structure loads and stores of three bytes), where a loop over chunks is not.
+        fn convert(row: &[u8], out: &mut [u8], f: impl Fn([u8; 3]) -> [u8; 3]) {
+            let n = row.len().min(out.len()) / 3;
+            let (row, out) = (&row[..3 * n], &mut out[..3 * n]);
+            for i in 0..n {
+                let [a, b, c] = f([row[3 * i], row[3 * i + 1], row[3 * i + 2]]);
+                (out[3 * i], out[3 * i + 1], out[3 * i + 2]) = (a, b, c);
             }
         }
         let row = self.row(y, x0, x1);
         let start = out.len();
         out.resize(start + row.len(), 0);
-        let (px, tail) = (row.as_chunks::<3>().0, &mut out[start..]);
+        let tail = &mut out[start..];
         match self.colour {
             Colour::Rgb => tail.copy_from_slice(row),
-            Colour::YCbCrFull => convert(px, tail, |p| Colour::YCbCrFull.to_rgb(p)),
-            Colour::YCbCrLimited => convert(px, tail, |p| Colour::YCbCrLimited.to_rgb(p)),
+            Colour::YCbCrFull => convert(row, tail, |p| Colour::YCbCrFull.to_rgb(p)),
+            Colour::YCbCrLimited => convert(row, tail, |p| Colour::YCbCrLimited.to_rgb(p)),
+        }
+    }
+
+    /// How many pixels of row `y` have an sRGB channel at 255 (the row as
+    /// [`Pixels::rgb_row`] would give it), without converting the row: for Y, Cb, Cr the
+    /// conversion's channels are tested before they are clamped, in a loop the compiler
+    /// vectorises.
+    pub fn saturated_in_row(&self, y: usize) -> usize {
+        let row = self.row(y, 0, self.width as usize);
+        match self.colour {
+            // Most rows hold no 255, which the row's maximum (a vectorised loop) tells at a
+            // fraction of the pixel test's cost.
+            Colour::Rgb if row.iter().fold(0u8, |m, &b| m.max(b)) < 255 => 0,
+            Colour::Rgb => row
+                .as_chunks::<3>()
+                .0
+                .iter()
+                .filter(|p| p[0].max(p[1]).max(p[2]) == 255)
+                .count(),
+            // Likewise: no pixel of the row saturates unless the brightest corner of the box
+            // its Y, Cb and Cr span does (each channel grows with Y, and is linear in Cb
+            // and Cr, so a box's largest value is at a corner of largest Y).
+            c if !corner_saturates(c, row) => 0,
+            Colour::YCbCrFull => count_saturated(row, |p| Colour::YCbCrFull.saturates(p)),
+            Colour::YCbCrLimited => count_saturated(row, |p| Colour::YCbCrLimited.saturates(p)),
         }
     }
 
@@ -258,6 +288,39 @@ impl<'a> Pixels<'a> {
     }
 }
 
+/// Whether a pixel at the largest Y of `row` (three bytes each) and at a corner of its
+/// Cb and Cr ranges saturates in `colour`.
+fn corner_saturates(colour: Colour, row: &[u8]) -> bool {
+    let n = row.len() / 3;
+    let row = &row[..3 * n];
+    let (mut hi, mut lo) = ([0u8; 3], [255u8; 3]);
+    for i in 0..n {
+        for k in 0..3 {
+            hi[k] = hi[k].max(row[3 * i + k]);
+            lo[k] = lo[k].min(row[3 * i + k]);
+        }
+    }
+    [
+        (lo[1], lo[2]),
+        (lo[1], hi[2]),
+        (hi[1], lo[2]),
+        (hi[1], hi[2]),
+    ]
+    .iter()
+    .any(|&(cb, cr)| colour.saturates([hi[0], cb, cr]))
+}
+
+/// How many pixels of `row` (three bytes each) `saturates`; one loop per encoding, indexed
+/// over a slice cut to length so that the compiler vectorises it.
+#[inline(always)]
+fn count_saturated(row: &[u8], saturates: impl Fn([u8; 3]) -> bool) -> usize {
+    let n = row.len() / 3;
+    let row = &row[..3 * n];
+    (0..n)
+        .map(|i| u32::from(saturates([row[3 * i], row[3 * i + 1], row[3 * i + 2]])))
+        .sum::<u32>() as usize
+}
+
 /// Fewest input pixels per grating period left by a scaled decode: twice the working
 /// resolution's ([`crate::image_ops::MIN_WORKING_PERIOD_PX`]), so the pipeline still
 /// downsamples at least twice and the temperature side still has two samples per working
@@ -305,6 +368,42 @@ mod tests {
                 let got = l.mean_q8(u64::from(l.weighted(&p)) * n, n) as i32;
                 assert!((got - want).abs() <= 300, "{enc:?}: {got} vs {want}");
             }
+        }
+    }
+
+    #[test]
+    fn saturated_pixels_are_counted_as_their_converted_row_shows_them() {
+        let (w, h) = (37usize, 5usize);
+        let data: Vec<u8> = (0..w * h * 3).map(|i| (i * 97 % 256) as u8).collect();
+        let mut buf = Vec::new();
+        for c in [Colour::Rgb, Colour::YCbCrFull, Colour::YCbCrLimited] {
+            let px = Pixels::new(w as u32, h as u32, &data, c).unwrap();
+            let mut total = 0;
+            for y in 0..h {
+                let row = px.rgb_row(y, 0, w, &mut buf).to_vec();
+                let want = row
+                    .as_chunks::<3>()
+                    .0
+                    .iter()
+                    .filter(|p| p.contains(&255))
+                    .count();
+                assert_eq!(px.saturated_in_row(y), want, "{c:?} row {y}");
+                total += want;
+            }
+            assert!(total > 0, "{c:?}: no saturated pixel drawn");
+        }
+        // A dim row, then the same row with one pixel bright enough in red: only that one.
+        let mut row: Vec<u8> = (0..64)
+            .flat_map(|i| [90 + i % 7, 120 + i % 5, 130])
+            .collect();
+        for c in [Colour::YCbCrFull, Colour::YCbCrLimited] {
+            let px = Pixels::new(64, 1, &row, c).unwrap();
+            assert_eq!(px.saturated_in_row(0), 0, "{c:?}");
+        }
+        row[30..33].copy_from_slice(&[200, 128, 250]);
+        for c in [Colour::YCbCrFull, Colour::YCbCrLimited] {
+            let px = Pixels::new(64, 1, &row, c).unwrap();
+            assert_eq!(px.saturated_in_row(0), 1, "{c:?}");
         }
     }
 
