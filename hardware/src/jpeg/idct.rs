@@ -102,8 +102,8 @@ mod neon {
             // Stored interleaved and read back whole: lane x of row v.
             vst4q_s32(tmp.as_mut_ptr(), int32x4x4_t(t[0], t[1], t[2], t[3]));
             let rows = [0, 4, 8, 12].map(|v| vld1q_s32(tmp.as_ptr().add(v)));
-            let half = vdupq_n_s32(128);
-            let p = pass(rows).map(|v| vaddq_s32(vrshrq_n_s32::<14>(v), half));
+            let level = vdupq_n_s32(128);
+            let p = pass(rows).map(|v| vaddq_s32(vrshrq_n_s32::<14>(v), level));
             // Level-shifted, saturated to 0…255 as `super::pixel` clamps.
             let top = vcombine_s16(vqmovn_s32(p[0]), vqmovn_s32(p[1]));
             let bottom = vcombine_s16(vqmovn_s32(p[2]), vqmovn_s32(p[3]));
