@@ -61,28 +61,18 @@ pub fn gray_down_q8_into<'a>(
 }
 
 /// The mean luminance of a block of `n` pixels whose weighted channel sums are `acc`
-/// (see [`Luma`]), 8.8 fixed point, rounded and clamped to 0…65 280. `narrow`: whether
-/// [`fits_32_bits`] for blocks of `n`, so that [`Luma::mean_q8`]'s arithmetic runs in 32
-/// bits (the same integers, and a loop over blocks that vectorises); decided once per
-/// image, so the branch is the loop's, not each block's.
+/// (see [`Luma`]), 8.8 fixed point, rounded and clamped to 0…65 280. `narrow`:
+/// [`Luma::fits_32_bits`] for blocks of `n`, decided once per image so that the branch is
+/// the loop's, not each block's.
 #[inline(always)]
 fn block_mean(acc: u32, n: u32, l: &Luma, narrow: bool) -> u16 {
     if l.gain_q8 == 256 && l.offset_q8 == 0 {
         return ((acc + n / 2) / n) as u16;
     }
     if narrow {
-        let v = ((acc * l.gain_q8) >> 8).saturating_sub(l.offset_q8 * n);
-        return ((v + n / 2) / n).min(65_280) as u16;
+        return l.mean_q8_narrow(acc, n) as u16;
     }
     l.mean_q8(u64::from(acc), u64::from(n)) as u16
-}
-
-/// Whether a block of `n` pixels' weighted sum times `l`'s gain, and `n` times its
-/// offset, fit 32 bits (they do for every encoding's [`luma`] up to 8 × 8 blocks).
-fn fits_32_bits(l: &Luma, n: u32) -> bool {
-    let top = u64::from(l.weights.iter().sum::<u32>()) * 255 * u64::from(n);
-    top * u64::from(l.gain_q8) <= u64::from(u32::MAX)
-        && u64::from(l.offset_q8) * u64::from(n) <= u64::from(u32::MAX)
 }
 
 fn gray_down_with<const F: usize>(img: &Pixels<'_>, out: &mut Vec<u16>) {
@@ -109,7 +99,7 @@ fn gray_down_rows_first<const F: usize>(img: &Pixels<'_>, out: &mut Vec<u16>) {
     let span = ow * F * 3;
     let mut sum = vec![0u16; span];
     let n = (F * F) as u32;
-    let narrow = fits_32_bits(&luma, n);
+    let narrow = luma.fits_32_bits(n);
     for oy in 0..oh {
         let first = oy * F * w * 3;
         for (s, v) in sum.iter_mut().zip(&raw[first..first + span]) {
@@ -149,7 +139,7 @@ fn gray_down_pixels_first<const F: usize>(img: &Pixels<'_>, out: &mut Vec<u16>) 
     let mut luma = vec![0u16; span];
     let mut sum = vec![0u32; span];
     let n = (F * F) as u32;
-    let narrow = fits_32_bits(&l, n);
+    let narrow = l.fits_32_bits(n);
     // Each weight times 255 fits 16 bits (a weight is at most 256).
     let wq = l.weights.map(|x| x as u16);
     for oy in 0..oh {
@@ -323,7 +313,7 @@ mod tests {
         for colour in [Colour::Rgb, Colour::YCbCrFull, Colour::YCbCrLimited] {
             let l = luma(colour);
             for n in [1u32, 4, 9, 64] {
-                assert!(fits_32_bits(&l, n), "{colour:?}, {n} pixels");
+                assert!(l.fits_32_bits(n), "{colour:?}, {n} pixels");
                 let top = 256 * 255 * n;
                 for acc in [0, 1, 16 * 256 * n, 17 * 256 * n - 1, top / 2, top - 1, top] {
                     let wide = l.mean_q8(u64::from(acc), u64::from(n)) as u16;
@@ -336,8 +326,8 @@ mod tests {
             gain_q8: 1 << 12,
             offset_q8: 0,
         };
-        assert!(!fits_32_bits(&strong, 64));
-        assert!(fits_32_bits(&strong, 1));
+        assert!(!strong.fits_32_bits(64));
+        assert!(strong.fits_32_bits(1));
     }
 
     #[test]

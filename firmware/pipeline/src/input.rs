@@ -49,6 +49,24 @@ impl Luma {
         let v = scaled.saturating_sub(u64::from(self.offset_q8) * n);
         ((v + n / 2) / n).min(65_280)
     }
+
+    /// [`Luma::mean_q8`] in 32-bit arithmetic, the same integers where
+    /// [`Luma::fits_32_bits`] for blocks of `n` (a loop of these vectorises where 64-bit
+    /// products do not).
+    #[inline(always)]
+    pub fn mean_q8_narrow(&self, weighted: u32, n: u32) -> u32 {
+        let n = n.max(1);
+        let v = ((weighted * self.gain_q8) >> 8).saturating_sub(self.offset_q8 * n);
+        ((v + n / 2) / n).min(65_280)
+    }
+
+    /// Whether the weighted sum of `n` pixels times the gain, and `n` times the offset,
+    /// fit 32 bits (for every encoding's [`luma`] they do up to 8 × 8 blocks).
+    pub fn fits_32_bits(&self, n: u32) -> bool {
+        let top = u64::from(self.weights.iter().sum::<u32>()) * 255 * u64::from(n);
+        top * u64::from(self.gain_q8) <= u64::from(u32::MAX)
+            && u64::from(self.offset_q8) * u64::from(n) <= u64::from(u32::MAX)
+    }
 }
 
 /// How luminance (BT.601 luma of full-range sRGB, 0…255 in 8.8) is read from pixels in
@@ -192,8 +210,7 @@ impl<'a> Pixels<'a> {
     /// Appends pixels `x0..x1` of row `y` to `out` as sRGB bytes (clipped to the image).
     pub fn append_rgb(&self, y: usize, x0: usize, x1: usize, out: &mut Vec<u8>) {
         // One loop per encoding, so the conversion inlines and the match is not per pixel;
-        // indexed over slices cut to length, the form the compiler vectorises (with
-        // structure loads and stores of three bytes), where a loop over chunks is not.
+        // indexed over a slice cut to whole pixels, so that it vectorises (`whole_pixels`).
         fn convert(row: &[u8], out: &mut [u8], f: impl Fn([u8; 3]) -> [u8; 3]) {
             let n = row.len().min(out.len()) / 3;
             let (row, out) = (&row[..3 * n], &mut out[..3 * n]);
@@ -215,20 +232,14 @@ impl<'a> Pixels<'a> {
 
     /// How many pixels of row `y` have an sRGB channel at 255 (the row as
     /// [`Pixels::rgb_row`] would give it), without converting the row: for Y, Cb, Cr the
-    /// conversion's channels are tested before they are clamped, in a loop the compiler
-    /// vectorises.
+    /// conversion's channels are tested before they are clamped ([`Colour::saturates`]).
     pub fn saturated_in_row(&self, y: usize) -> usize {
         let row = self.row(y, 0, self.width as usize);
         match self.colour {
             // Most rows hold no 255, which the row's maximum (a vectorised loop) tells at a
             // fraction of the pixel test's cost.
             Colour::Rgb if row.iter().fold(0u8, |m, &b| m.max(b)) < 255 => 0,
-            Colour::Rgb => row
-                .as_chunks::<3>()
-                .0
-                .iter()
-                .filter(|p| p[0].max(p[1]).max(p[2]) == 255)
-                .count(),
+            Colour::Rgb => count_saturated(row, |p| Colour::Rgb.saturates(p)),
             // Likewise: no pixel of the row saturates unless the brightest corner of the box
             // its Y, Cb and Cr span does (each channel grows with Y, and is linear in Cb
             // and Cr, so a box's largest value is at a corner of largest Y).
@@ -291,13 +302,12 @@ impl<'a> Pixels<'a> {
 /// Whether a pixel at the largest Y of `row` (three bytes each) and at a corner of its
 /// Cb and Cr ranges saturates in `colour`.
 fn corner_saturates(colour: Colour, row: &[u8]) -> bool {
-    let n = row.len() / 3;
-    let row = &row[..3 * n];
+    let (row, n) = whole_pixels(row);
     let (mut hi, mut lo) = ([0u8; 3], [255u8; 3]);
     for i in 0..n {
+        let p = pixel(row, i);
         for k in 0..3 {
-            hi[k] = hi[k].max(row[3 * i + k]);
-            lo[k] = lo[k].min(row[3 * i + k]);
+            (hi[k], lo[k]) = (hi[k].max(p[k]), lo[k].min(p[k]));
         }
     }
     [
@@ -310,15 +320,28 @@ fn corner_saturates(colour: Colour, row: &[u8]) -> bool {
     .any(|&(cb, cr)| colour.saturates([hi[0], cb, cr]))
 }
 
-/// How many pixels of `row` (three bytes each) `saturates`; one loop per encoding, indexed
-/// over a slice cut to length so that the compiler vectorises it.
+/// How many pixels of `row` (three bytes each) `saturates`; one loop per encoding.
 #[inline(always)]
 fn count_saturated(row: &[u8], saturates: impl Fn([u8; 3]) -> bool) -> usize {
-    let n = row.len() / 3;
-    let row = &row[..3 * n];
+    let (row, n) = whole_pixels(row);
     (0..n)
-        .map(|i| u32::from(saturates([row[3 * i], row[3 * i + 1], row[3 * i + 2]])))
+        .map(|i| u32::from(saturates(pixel(row, i))))
         .sum::<u32>() as usize
+}
+
+/// `row` cut to its whole pixels of three bytes, and how many there are. Loops over
+/// `0..n` reading [`pixel`]s of a slice cut so are the form the compiler vectorises (with
+/// three-byte structure loads and stores); loops over chunks of the same bytes are not.
+#[inline(always)]
+fn whole_pixels(row: &[u8]) -> (&[u8], usize) {
+    let n = row.len() / 3;
+    (&row[..3 * n], n)
+}
+
+/// Pixel `i` of a row of three-byte pixels.
+#[inline(always)]
+fn pixel(row: &[u8], i: usize) -> [u8; 3] {
+    [row[3 * i], row[3 * i + 1], row[3 * i + 2]]
 }
 
 /// Fewest input pixels per grating period left by a scaled decode: twice the working
