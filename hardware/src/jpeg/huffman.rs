@@ -1,20 +1,22 @@
 //! Huffman decoding of a scan's entropy-coded data: the bit reader (byte stuffing and
-//! markers) and the code tables, with a 9-bit lookup that settles most codes, and most
+//! markers) and the code tables, with an 11-bit lookup that settles most codes, and most
 //! whole AC coefficients (code, run and value), in one step.
 
 use super::JpegError;
 
-/// Bits looked up at once.
-const FAST_BITS: u32 = 9;
+/// Bits looked up at once: 11 settle more of a high-quality frame's coefficients (code and
+/// value bits together) than 9, for more than the larger tables, built per frame, cost
+/// (`docs/service.md`).
+const FAST_BITS: u32 = 11;
 pub const FAST_SIZE: usize = 1 << FAST_BITS;
 
 /// One Huffman table (DHT), as canonical codes of 1–16 bits.
 #[derive(Debug, Clone)]
 pub struct Huffman {
-    /// By the next 9 bits: `length << 8 | symbol`, or 0 when the code is longer.
+    /// By the next 11 bits: `length << 8 | symbol`, or 0 when the code is longer.
     fast: [u16; FAST_SIZE],
-    /// AC tables, by the next 9 bits: a whole coefficient, `value << 8 | run << 4 |
-    /// bits`, when its code and value bits fit in 9; else 0.
+    /// AC tables, by the next 11 bits: a whole coefficient, `value << 8 | run << 4 |
+    /// bits`, when its code and value bits fit in 11; else 0.
     fast_ac: Option<Box<[i32; FAST_SIZE]>>,
     /// For each length: the first 16-bit window past the codes of that length.
     limit: [u32; 17],
@@ -66,12 +68,12 @@ impl Huffman {
         Ok(t)
     }
 
-    /// Whole AC coefficients by the next 9 bits (an AC table's only).
+    /// Whole AC coefficients by the next 11 bits (an AC table's only).
     pub fn ac_lookup(&self) -> Option<&[i32; FAST_SIZE]> {
         self.fast_ac.as_deref()
     }
 
-    /// The AC lookup: for each 9 bits whose code and value bits both fit in them.
+    /// The AC lookup: for each 11 bits whose code and value bits both fit in them.
     fn whole_coefficients(&self) -> [i32; FAST_SIZE] {
         let mut table = [0; FAST_SIZE];
         for (bits, (slot, &e)) in table.iter_mut().zip(&self.fast).enumerate() {
