@@ -8,7 +8,7 @@ use std::hint::black_box;
 use vistaf_pipeline::calibration::Calibration;
 use vistaf_pipeline::ftp::fixed::{FixedFtp, Scratch as FixedScratch};
 use vistaf_pipeline::image_ops::{gray_down_f32, gray_down_q8};
-use vistaf_pipeline::measure::{measure, Context};
+use vistaf_pipeline::measure::{apex::BlurLoss, measure, Context};
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Scratch};
 use vistaf_sim::{scene, Renderer, SensorUnit, SkinState};
 
@@ -38,13 +38,15 @@ fn pipeline(c: &mut Criterion) {
         })
     });
     let field = fixed.phase(&frame, &mut scratch);
+    let (_, _, factor) = fixed.geometry();
+    let blur_loss = BlurLoss::new(fixed.blur_box_lengths(), 0.125 * factor as f32);
     let ctx = Context {
         calib: &calib,
+        blur_loss: &blur_loss,
         mm_per_px: 0.125,
         ref_saturated_fraction: 0.0,
         unwrap: Default::default(),
     };
-    let (_, _, factor) = fixed.geometry();
     let carrier = fixed.carrier();
     g.bench_function("Fixed_stage_measure", |b| {
         b.iter(|| measure(black_box(&field), factor, carrier, &ctx))

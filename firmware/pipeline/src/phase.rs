@@ -193,10 +193,6 @@ pub trait PhaseMap {
     fn saturated_fraction(&self) -> f32;
     /// Depth (µm) of an indentation phase `x` (already signed, ≥ 0 under indentation).
     fn depth_um(&self, x: Self::P) -> i32;
-    /// The blur the phase map carries, as the lengths `(lx, ly)` of the two-box triangle
-    /// it equals (or matches in variance): the peak depth takes it back out
-    /// ([`crate::measure::apex`]).
-    fn blur_box_lengths(&self) -> (usize, usize);
 }
 
 /// The wrapped phase difference (units) as the measurement read it: every [`GRID`]-th

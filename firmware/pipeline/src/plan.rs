@@ -23,7 +23,7 @@ use crate::ftp::carrier::{self, Carrier};
 use crate::ftp::fixed::FixedFtp;
 use crate::ftp::float::FloatFtp;
 use crate::image_ops;
-use crate::measure::{self, Context, Unwrap};
+use crate::measure::{self, apex::BlurLoss, Context, Unwrap};
 use crate::phase::WrappedPhase;
 use crate::thermal::stripes::{region, Geometry, Regions, Sums};
 use crate::thermal::Thermometer;
@@ -158,6 +158,8 @@ pub trait FtpPath: std::fmt::Debug + Send + Sync {
     fn geometry(&self) -> (usize, usize, usize);
     /// The carrier at the working resolution.
     fn carrier(&self) -> Carrier;
+    /// The blur of the phase map as two-box lengths, working pixels.
+    fn blur_box_lengths(&self) -> (usize, usize);
     /// The frame's force-side measurement (no temperatures yet) and the wrapped phase
     /// difference as the measurement read it, working in `scratch`.
     fn measure(
@@ -184,6 +186,9 @@ impl FtpPath for FloatFtp {
     fn carrier(&self) -> Carrier {
         FloatFtp::carrier(self)
     }
+    fn blur_box_lengths(&self) -> (usize, usize) {
+        FloatFtp::blur_box_lengths(self)
+    }
     fn measure(
         &self,
         frame: Pixels<'_>,
@@ -202,6 +207,9 @@ impl FtpPath for FixedFtp {
     fn carrier(&self) -> Carrier {
         FixedFtp::carrier(self)
     }
+    fn blur_box_lengths(&self) -> (usize, usize) {
+        FixedFtp::blur_box_lengths(self)
+    }
     fn measure(
         &self,
         frame: Pixels<'_>,
@@ -218,6 +226,7 @@ pub struct Analyzer {
     path: Box<dyn FtpPath>,
     unwrap: Unwrap,
     thermo: Thermometer,
+    blur_loss: BlurLoss,
     calib: Calibration,
     size: (u32, u32),
     mm_per_px: f32,
@@ -276,7 +285,9 @@ impl Analyzer {
             integer,
             mm_per_px,
         );
+        let blur_loss = BlurLoss::new(path.blur_box_lengths(), mm_per_px * factor as f32);
         let mut an = Analyzer {
+            blur_loss,
             path,
             unwrap: opts.unwrap,
             thermo,
@@ -357,6 +368,7 @@ impl Analyzer {
     fn context(&self) -> Context<'_> {
         Context {
             calib: &self.calib,
+            blur_loss: &self.blur_loss,
             mm_per_px: self.mm_per_px,
             ref_saturated_fraction: self.ref_saturation,
             unwrap: self.unwrap,

@@ -432,6 +432,13 @@ impl FixedFtp {
         self.carrier
     }
 
+    /// The blur the phase map carries, as the lengths `(lx, ly)` of the two-box triangle
+    /// it equals (the demodulator's two box passes): the peak depth takes it back out
+    /// ([`crate::measure::apex`]).
+    pub fn blur_box_lengths(&self) -> (usize, usize) {
+        (self.lx, self.ly)
+    }
+
     /// The analytic signal of a Q8 luminance image every `step` working pixels each way, in
     /// luminance Q8 units times the filters' gain over `2^shift`.
     fn analytic(&self, gray: &[u16], step: usize) -> Sampled {
@@ -554,9 +561,6 @@ impl PhaseMap for FixedField<'_> {
     }
     fn depth_um(&self, x: i32) -> i32 {
         self.ftp.lut.depth_um(x)
-    }
-    fn blur_box_lengths(&self) -> (usize, usize) {
-        (self.ftp.lx, self.ftp.ly)
     }
 }
 

@@ -53,7 +53,7 @@ pub struct FloatFtp {
     factor: usize,
     carrier: Carrier,
     window: Vec<f32>,
-    /// The band-pass's blur as two-box lengths (x, y) ([`PhaseMap::blur_box_lengths`]).
+    /// The band-pass's blur as two-box lengths (x, y) ([`FloatFtp::blur_box_lengths`]).
     blur: (usize, usize),
     z_ref: Vec<Complex32>,
     ref_median: u32,
@@ -153,6 +153,13 @@ impl FloatFtp {
         self.carrier
     }
 
+    /// The blur the phase map carries, as the lengths `(lx, ly)` of the two-box triangle
+    /// it equals (or matches in variance): the peak depth takes it back out
+    /// ([`crate::measure::apex`]).
+    pub fn blur_box_lengths(&self) -> (usize, usize) {
+        self.blur
+    }
+
     /// The analytic signal of a working-resolution luminance image.
     fn analytic(&self, gray: &[f32]) -> Vec<Complex32> {
         let mean = gray.iter().sum::<f32>() / gray.len().max(1) as f32;
@@ -209,7 +216,6 @@ pub struct FloatMap<'a> {
     field: PhaseField,
     saturated: f32,
     ref_median: u32,
-    blur: (usize, usize),
     depth: &'a DepthModel,
 }
 
@@ -225,7 +231,6 @@ impl FloatFtp {
             field: self.phase(frame),
             saturated: saturated_fraction(frame),
             ref_median: self.ref_median,
-            blur: self.blur,
             depth,
         }
     }
@@ -270,8 +275,5 @@ impl PhaseMap for FloatMap<'_> {
     }
     fn depth_um(&self, x: f32) -> i32 {
         (self.depth.depth_mm(f64::from(x)) * 1000.0).round() as i32
-    }
-    fn blur_box_lengths(&self) -> (usize, usize) {
-        self.blur
     }
 }

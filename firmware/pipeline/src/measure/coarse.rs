@@ -329,9 +329,6 @@ mod tests {
         fn depth_um(&self, x: i32) -> i32 {
             x
         }
-        fn blur_box_lengths(&self) -> (usize, usize) {
-            (1, 1)
-        }
     }
 
     /// Reliability per coarse sample against its plain reading: inside the margin (the

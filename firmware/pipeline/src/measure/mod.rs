@@ -83,12 +83,13 @@ pub const BAND_LOSS_MIN: usize = 2;
 pub const SHARPNESS_RATIO: f64 = 0.7;
 /// Phase-slope flag: a contact area above this multiple of the calibrated indenter's area at
 /// the same depth. The demodulator's blur (a grating period wide) lowers a rounded apex
-/// and spares a plateau; the calibration, made on a sphere, carries the sphere's loss into
-/// the depth model, so a blunter contact (a flat punch, a letter) reads deep. Below about
-/// three blur σ of contact radius a sphere's and a punch's blurred profiles match to under
-/// a percent at depths a tenth apart, so the map cannot tell them: a contact this much
-/// wider than the calibrated indenter is flagged instead. (A sphere's contact area at a
-/// given depth grows with its radius, so spheres up to twice the calibrated one pass.)
+/// and spares a plateau; the apex correction ([`apex`]) takes a sphere's loss back out, so
+/// a blunter contact of a few blur σ (a flat punch, a letter's stroke) reads deep by what
+/// a sphere of its sharpness would have lost more. There a sphere's and a punch's blurred
+/// profiles match to under a percent at depths a tenth apart, so the map cannot tell them:
+/// a contact this much wider than the calibrated indenter is flagged instead. (A sphere's
+/// contact area at a given depth grows with its radius, so spheres up to twice the
+/// calibrated one pass.)
 pub const BLUNTNESS_RATIO: f64 = 2.0;
 /// Misregistration flag: a global offset beyond this, rad (0.4 of a period: up to there the
 /// offset is removed exactly; towards half a period it becomes ambiguous).
@@ -103,6 +104,8 @@ pub const MAX_RESIDUES: usize = 2;
 pub struct Context<'a> {
     /// The calibration.
     pub calib: &'a Calibration,
+    /// The blur correction of the plan's demodulator ([`apex`]).
+    pub blur_loss: &'a apex::BlurLoss,
     /// Input scale, mm per pixel.
     pub mm_per_px: f32,
     /// Fraction of the reference's pixels with a saturated channel.
@@ -470,7 +473,9 @@ impl<M: PhaseMap> Found<'_, M> {
         // at the apex is read once for the component, the features and the temperature's
         // contact region.
         let region = dominant_component(&pass.depth_um, bw, threshold_um);
-        let apex = apex::apex(&pass.depth_um, bw, &region, self.map.blur_box_lengths())?;
+        // The apex is read on the window's phase as read, surround and noise included: the
+        // blur acts on the phase, and the correction compares blurs of the whole surface.
+        let apex = apex::apex(&up, bw, &region, ctx.blur_loss)?;
         let map_peak_um = pass.depth_um[apex.at];
         let peak = (map_peak_um, threshold_um);
         let contact = peak_component(&pass.depth_um, bw, apex.at, threshold_um);
@@ -486,7 +491,8 @@ impl<M: PhaseMap> Found<'_, M> {
         if feats.peak_mm == 0.0 {
             return None;
         }
-        feats.peak_mm = apex.peak_um as f32 / 1000.0;
+        feats.peak_mm =
+            self.map.depth_um(<M::P as PhaseNum>::from_units(apex.peak)) as f32 / 1000.0;
         let px_mm = ctx.mm_per_px * self.factor as f32;
         let inputs = self.force_inputs(&feats, &pass, &contact, (x0, y0, bw), px_mm);
         let limits = Limits {
