@@ -18,8 +18,8 @@
 //! contact radius, so `q` and `d/s₁` are both functions of `a` alone for a given kernel.
 //! [`BlurLoss`] tabulates them once per plan, from the kernel's own weights, and reads `G`
 //! off by interpolation. Unlike a first-order step (`s₁ + 2·(s₁ − s₂)`, exact only for a
-//! paraboloid), the table holds for contacts down to a kernel σ or two, where the kernel
-//! reaches Hertz's surround: there the first-order step kept a fifth of the loss, which the
+//! paraboloid), the table holds for contacts down to two kernel σ, where the kernel reaches
+//! Hertz's surround: there the first-order step kept a fifth of the loss, which the
 //! calibration, made on one sphere, carried into its depth model as a depth-dependent gain
 //! that every flat punch then read too deep.
 //!
@@ -31,12 +31,12 @@
 //! **Where it stops.** Below [`RESOLVED_SIGMAS`] kernel σ of contact radius the gain grows
 //! so steeply with `q` that a background offset of a few thousandths of a radian, or the
 //! noise of a shallow press, moves the reading by tens of percent: the table stops there,
-//! and a sharper contact reads low by what it lacks (the calibration's shallowest presses
-//! of its sphere are such contacts; its depth model takes them up). A flat punch of a few σ, which loses less
-//! than a sphere of the same `q`, reads deep: a sphere's and a punch's blurred profiles,
-//! surrounds included, match to under a percent at depths a tenth apart, so the map cannot
-//! tell them. Contacts much blunter or sharper than the calibrated indenter are flagged
-//! ([`super::BLUNTNESS_RATIO`], [`super::SHARPNESS_RATIO`]).
+//! and a sharper contact reads low by what it lacks (the calibration sphere's shallowest
+//! kit presses are such contacts; its depth model takes them up). A flat punch of a few σ,
+//! which loses less than a sphere of the same `q`, reads deep: a sphere's and a punch's
+//! blurred profiles, surrounds included, match to under a percent at depths a tenth apart,
+//! so the map cannot tell them. Contacts much blunter or sharper than the calibrated
+//! indenter are flagged ([`super::BLUNTNESS_RATIO`], [`super::SHARPNESS_RATIO`]).
 
 /// Decay length of the skin's surface displacement beyond a contact's edge, mm: a finite
 /// layer's surround, of the order of the clear buffer's thickness.
