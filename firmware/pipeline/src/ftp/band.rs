@@ -26,6 +26,13 @@ pub fn box_lengths(c: &Carrier) -> (usize, usize) {
     (lx, ly)
 }
 
+/// Variance of two passes of a length-`l` box (the triangle of length `2l − 1`), px²:
+/// twice a pass's `(l² − 1)/12`.
+pub fn box2_variance_px2(l: usize) -> f64 {
+    let l = l.max(1) as f64;
+    (l * l - 1.0) / 6.0
+}
+
 /// The box length whose two passes (the triangle of length `2l − 1`) have variance `v`
 /// px²: each pass is uniform over `l` pixels, of variance `(l² − 1)/12`.
 pub fn box2_length_of_variance(v: f32) -> usize {

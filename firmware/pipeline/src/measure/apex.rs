@@ -17,11 +17,10 @@
 //! elastic half-space (Hertz) has the surface `d·f(r/a)` for every radius and depth, `a` the
 //! contact radius, so `q` and `d/s₁` are both functions of `a` alone for a given kernel.
 //! [`BlurLoss`] tabulates them once per plan, from the kernel's own weights, and reads `G`
-//! off by interpolation. Unlike a first-order step (`s₁ + 2·(s₁ − s₂)`, exact only for a
-//! paraboloid), the table holds for contacts down to two kernel σ, where the kernel reaches
-//! Hertz's surround: there the first-order step kept a fifth of the loss, which the
-//! calibration, made on one sphere, carried into its depth model as a depth-dependent gain
-//! that every flat punch then read too deep.
+//! off by interpolation. It holds for contacts down to two kernel σ, where the kernel
+//! reaches Hertz's surround and a first-order step (`s₁ + 2·(s₁ − s₂)`, exact only for a
+//! paraboloid) keeps part of the loss; a calibration on one sphere would carry that part
+//! into its depth model as a depth-dependent gain, and every flat punch would read deep.
 //!
 //! The surround of a real skin is a finite layer's, not a half-space's: it returns to rest
 //! faster. The table multiplies Hertz's surround by `e^(−(r − a)/λ)` with
@@ -29,14 +28,16 @@
 //! little across the range of λ a layer of this build shows (`docs/pipeline.md`).
 //!
 //! **Where it stops.** Below [`RESOLVED_SIGMAS`] kernel σ of contact radius the gain grows
-//! so steeply with `q` that a background offset of a few thousandths of a radian, or the
-//! noise of a shallow press, moves the reading by tens of percent: the table stops there,
-//! and a sharper contact reads low by what it lacks (the calibration sphere's shallowest
-//! kit presses are such contacts; its depth model takes them up). A flat punch of a few σ,
-//! which loses less than a sphere of the same `q`, reads deep: a sphere's and a punch's
-//! blurred profiles, surrounds included, match to under a percent at depths a tenth apart,
-//! so the map cannot tell them. Contacts much blunter or sharper than the calibrated
+//! so steeply with `q` that a small background offset, or the noise of a shallow press,
+//! moves the reading far: the table stops there, and a sharper contact reads low by what
+//! it lacks (the calibration sphere's shallowest kit presses are such contacts; its depth
+//! model takes them up). A flat punch of a few σ, which loses less than a sphere of the
+//! same `q`, reads deep: a sphere's and a punch's blurred profiles, surrounds included,
+//! match closely at depths a tenth apart (a test below holds them within a percent), so
+//! the map cannot tell them. Contacts much blunter or sharper than the calibrated
 //! indenter are flagged ([`super::BLUNTNESS_RATIO`], [`super::SHARPNESS_RATIO`]).
+
+use crate::ftp::band::box2_variance_px2;
 
 /// Decay length of the skin's surface displacement beyond a contact's edge, mm: a finite
 /// layer's surround, of the order of the clear buffer's thickness.
@@ -75,8 +76,9 @@ impl BlurLoss {
         let k1 = (unit_triangle(lx), unit_triangle(ly));
         let k2 = (convolve(&k1.0, &k1.0), convolve(&k1.1, &k1.1));
         let k3 = (convolve(&k2.0, &k1.0), convolve(&k2.1, &k1.1));
-        let variance = |l: usize| (l.max(1) * l.max(1) - 1) as f64 / 6.0;
-        let sigma_px = (0.5 * (variance(lx) + variance(ly))).sqrt().max(0.5);
+        let sigma_px = (0.5 * (box2_variance_px2(lx) + box2_variance_px2(ly)))
+            .sqrt()
+            .max(0.5);
         let decay_px = LAYER_DECAY_MM / f64::from(px_mm).max(1e-6);
         let mut rows: Vec<(f64, f64)> = Vec::new();
         let mut a = RESOLVED_SIGMAS * sigma_px;
@@ -210,9 +212,8 @@ pub fn apex(map: &[i32], w: usize, region: &[usize], loss: &BlurLoss) -> Option<
 /// `s₁` and `s₂` at the maximum of `s₁` between pixels, from their values at the deepest
 /// pixel `c` and its four neighbours (on a `size` grid): along each axis the parabola
 /// through three values places the maximum within half a pixel, and both readings are
-/// taken there. At a contact of one or two kernel σ the pixel grid alone moves `q` by
-/// several hundredths (a press read between pixels looks blunter), which the gain turns
-/// into tens of percent.
+/// taken there. At a contact of a few kernel σ the pixel grid alone moves `q` (a press
+/// read between pixels looks blunter), and the gain magnifies what moves `q`.
 fn between_pixels(
     (cx, cy): (usize, usize),
     (w, h): (usize, usize),
@@ -424,11 +425,11 @@ mod tests {
 
     /// The kernel σ of two boxes of length `l`, px.
     fn sigma(l: usize) -> f64 {
-        (((l * l - 1) as f64) / 6.0).sqrt()
+        box2_variance_px2(l).sqrt()
     }
 
-    /// Spheres of every size the table resolves read their depth, where the first-order
-    /// step read a sphere of 2σ a fifth shallow, centred on a pixel or between pixels.
+    /// Spheres of every size the table resolves read their depth, centred on a pixel or
+    /// between pixels.
     #[test]
     fn spheres_of_any_radius_read_their_depth() {
         let (l, n, d) = (7, 161, 1000.0);
