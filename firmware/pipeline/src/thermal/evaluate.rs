@@ -132,6 +132,8 @@ const SPREAD_Q16: i64 = (CONTACT_RATIO_SPREAD * ONE as f64) as i64;
 pub struct BlockMap {
     /// Temperature per block, °C (NaN where a block could not be measured).
     pub map_c: Vec<f32>,
+    /// Each reading's variance, °C² (NaN where unmeasured).
+    pub var_c2: Vec<f32>,
     /// Blocks measured.
     pub measured: usize,
     /// Blocks read outside the calibration.
@@ -210,6 +212,7 @@ impl<E: Evaluator + std::fmt::Debug + Send + Sync> Temperatures for E {
         let guess = guesses(self, &black, (gw, gh));
         let mut m = BlockMap {
             map_c: vec![f32::NAN; blocks.len()],
+            var_c2: vec![f32::NAN; blocks.len()],
             measured: 0,
             outside: 0,
             sum_c: 0.0,
@@ -224,6 +227,7 @@ impl<E: Evaluator + std::fmt::Debug + Send + Sync> Temperatures for E {
                 continue;
             };
             m.map_c[b] = r.t_c;
+            m.var_c2[b] = r.var_c2;
             m.outside += usize::from(!r.trusted);
             m.sum_c += f64::from(r.t_c);
             m.measured += 1;

@@ -1,9 +1,10 @@
 //! The coldest and hottest places of a temperature map, read where the neighbours confirm
-//! them. A block is one stripe pair (about 2 mm) and its reading carries that little area's
-//! noise; the most extreme of several hundred such readings is mostly the noisiest one, so
-//! the skin's extremes taken block by block sit well outside its true range even on a
-//! uniform skin. Each block is therefore read as the median of its 5 × 5 neighbourhood
-//! (when more than half of it is measured) before the extremes are taken.
+//! them and where they stand out from the noise. A block is one stripe pair (about 2 mm)
+//! and its reading carries that little area's noise; the most extreme of several hundred
+//! such readings is mostly the noisiest one, so the skin's extremes taken block by block
+//! sit well outside its true range even on a uniform skin. Each block is therefore read as
+//! the median of its 5 × 5 neighbourhood (when more than half of it is measured) before
+//! the extremes are taken.
 //!
 //! The neighbourhood is that wide because neighbouring blocks are not independent: the
 //! black stripes are read over 3 × 3 blocks and shared by each 2 × 2 (`evaluate`), and
@@ -14,67 +15,157 @@
 //! between a misread cell and the skin goes to the skin. A warm object still is the hottest
 //! place when it covers most of a neighbourhood (about 7 × 7 mm); a contact's own
 //! temperature is read over the contact region itself, not here.
+//!
+//! **Standing out.** Where the pigments hardly change colour with temperature (above the
+//! coloured stripes' transition the black stripes alone carry a reading, and their colour
+//! moves by a fraction of a per cent per degree) a block's reading scatters by degrees,
+//! and even the median of a neighbourhood scatters by about a degree: the most extreme of
+//! a few hundred such medians would still sit degrees off on a uniform skin. So a
+//! neighbourhood is a hot (cold) place only where its median departs from the median of
+//! the whole map (the skin) by more than [`STAND_OUT_SIGMAS`] of its own noise, read from
+//! the calibration's variance of its middle block ([`median_sigma_c`]). Where none does,
+//! the skin has no hottest (coldest) place and its median stands for both. The threshold
+//! follows the noise: inside the transition, where a block reads to about 0.1 °C, a place
+//! a few tenths warmer than the skin stands out.
 
 /// Blocks from a block to the edge of its neighbourhood (5 × 5 blocks).
 pub const REACH: usize = 2;
 /// Fewest measured blocks of a neighbourhood for its median to stand for the block: more
 /// than half of it.
 pub const MIN_NEIGHBOURS: usize = 13;
+/// Standard deviations of its median by which a neighbourhood must depart from the skin's
+/// median to be an extreme: beyond what the largest of a few hundred medians of pure noise
+/// reaches (a map holds a few hundred disjoint neighbourhoods).
+pub const STAND_OUT_SIGMAS: f32 = 3.5;
+/// Blocks that share one black-stripe estimate (2 × 2, `evaluate`): a neighbourhood of `n`
+/// blocks holds about `n / 4` independent readings where the black stripes carry them.
+const SHARING: f32 = 4.0;
 
 /// A map's extremes.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Extremes {
-    /// Coldest and hottest neighbourhood median, °C (±∞ when none).
+    /// Coldest and hottest place, °C: a neighbourhood median that stands out from the
+    /// skin, or the skin's median where none does (±∞ when nothing was measured).
     pub min_c: f32,
     /// See `min_c`.
     pub max_c: f32,
-    /// The block whose neighbourhood is hottest.
+    /// The block whose neighbourhood is hottest, when one stands out.
     pub hottest: Option<usize>,
 }
 
-/// The extremes of a `bw × bh` map (°C, NaN where unmeasured).
-pub fn extremes(map_c: &[f32], bw: usize, bh: usize) -> Extremes {
+/// Standard deviation of the median of `n` readings of variance `var_c2` each, °C, with
+/// [`SHARING`] blocks to an independent reading (the median of `m` normal readings
+/// scatters `√(π/2)` times as far as their mean); infinite when the variance is unknown.
+pub fn median_sigma_c(var_c2: f32, n: usize) -> f32 {
+    if var_c2.is_nan() {
+        return f32::INFINITY;
+    }
+    let independent = (n as f32 / SHARING).max(1.0);
+    var_c2.max(0.0).sqrt() * (std::f32::consts::FRAC_PI_2 / independent).sqrt()
+}
+
+/// The extremes of a `bw × bh` map (°C, NaN where unmeasured), each block's reading of
+/// variance `var_c2` (°C², from the calibration's tables).
+pub fn extremes(map_c: &[f32], var_c2: &[f32], bw: usize, bh: usize) -> Extremes {
     let mut e = Extremes {
         min_c: f32::INFINITY,
         max_c: f32::NEG_INFINITY,
         hottest: None,
     };
-    let mut near = [0f32; (2 * REACH + 1) * (2 * REACH + 1)];
-    for b in 0..map_c.len().min(bw * bh) {
+    let n = map_c.len().min(bw * bh);
+    let Some(skin) = skin_median(&map_c[..n]) else {
+        return e;
+    };
+    let mut near = [(0f32, 0f32); (2 * REACH + 1) * (2 * REACH + 1)];
+    let mut confirmed = false;
+    for b in 0..n {
         if map_c[b].is_nan() {
             continue;
         }
-        let (x, y) = (b % bw, b / bw);
-        let mut n = 0;
-        for j in y.saturating_sub(REACH)..(y + REACH + 1).min(bh) {
-            for i in x.saturating_sub(REACH)..(x + REACH + 1).min(bw) {
-                if let Some(&v) = map_c.get(j * bw + i).filter(|v| !v.is_nan()) {
-                    near[n] = v;
-                    n += 1;
-                }
-            }
-        }
-        if n < MIN_NEIGHBOURS {
+        let count = neighbourhood(map_c, var_c2, (bw, bh), b, &mut near);
+        if count < MIN_NEIGHBOURS {
             continue;
         }
-        let (_, &mut t, above) = near[..n].select_nth_unstable_by((n - 1) / 2, f32::total_cmp);
-        let upper = if n % 2 == 0 {
-            above.iter().copied().fold(f32::INFINITY, f32::min)
-        } else {
-            t
-        };
-        e.min_c = e.min_c.min(upper);
-        if t > e.max_c {
-            e.max_c = t;
+        confirmed = true;
+        let ((hot, hot_var), (cold, cold_var)) = middles(&mut near[..count]);
+        let stands =
+            |departure: f32, var: f32| departure > STAND_OUT_SIGMAS * median_sigma_c(var, count);
+        if stands(hot - skin, hot_var) && hot > e.max_c {
+            e.max_c = hot;
             e.hottest = Some(b);
         }
+        if stands(skin - cold, cold_var) {
+            e.min_c = e.min_c.min(cold);
+        }
+    }
+    if !confirmed {
+        return e;
+    }
+    if e.hottest.is_none() {
+        e.max_c = skin;
+    }
+    if e.min_c == f32::INFINITY {
+        e.min_c = skin;
     }
     e
+}
+
+/// The median of the measured readings (the lower middle when their count is even), or
+/// `None` when none is measured.
+fn skin_median(map_c: &[f32]) -> Option<f32> {
+    let mut v: Vec<f32> = map_c.iter().copied().filter(|t| !t.is_nan()).collect();
+    if v.is_empty() {
+        return None;
+    }
+    let mid = (v.len() - 1) / 2;
+    let (_, &mut t, _) = v.select_nth_unstable_by(mid, f32::total_cmp);
+    Some(t)
+}
+
+/// Fills `near` with the measured (reading, variance) pairs of block `b`'s neighbourhood
+/// and returns how many there are.
+fn neighbourhood(
+    map_c: &[f32],
+    var_c2: &[f32],
+    (bw, bh): (usize, usize),
+    b: usize,
+    near: &mut [(f32, f32)],
+) -> usize {
+    let (x, y) = (b % bw, b / bw);
+    let mut n = 0;
+    for j in y.saturating_sub(REACH)..(y + REACH + 1).min(bh) {
+        for i in x.saturating_sub(REACH)..(x + REACH + 1).min(bw) {
+            let k = j * bw + i;
+            if let Some(&v) = map_c.get(k).filter(|v| !v.is_nan()) {
+                near[n] = (v, var_c2.get(k).copied().unwrap_or(f32::NAN));
+                n += 1;
+            }
+        }
+    }
+    n
+}
+
+/// The lower and the upper middle of `near` by reading (the same when their count is
+/// odd), each with its variance.
+fn middles(near: &mut [(f32, f32)]) -> ((f32, f32), (f32, f32)) {
+    let n = near.len();
+    let by_reading = |a: &(f32, f32), b: &(f32, f32)| a.0.total_cmp(&b.0);
+    let (_, &mut lower, above) = near.select_nth_unstable_by((n - 1) / 2, by_reading);
+    let upper = if n.is_multiple_of(2) {
+        above.iter().copied().min_by(by_reading).unwrap_or(lower)
+    } else {
+        lower
+    };
+    (lower, upper)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Variance of every block in the tests below where the pigments resolve a tenth of a
+    /// degree, °C².
+    const FINE_C2: f32 = 0.01;
 
     #[test]
     fn a_stray_block_is_not_the_hottest_but_a_warm_patch_is() {
@@ -87,7 +178,7 @@ mod tests {
             }
         }
         m[6 * bw + 9] = 32.0;
-        let e = extremes(&m, bw, bh);
+        let e = extremes(&m, &vec![FINE_C2; bw * bh], bw, bh);
         assert_eq!(e.max_c, 31.0);
         assert_eq!(e.min_c, 25.0);
         let h = e.hottest.expect("a hottest block");
@@ -111,26 +202,91 @@ mod tests {
         for (x, y) in [(8, 8), (9, 8), (8, 9), (9, 9)] {
             m[y * bw + x] = 30.0;
         }
-        let e = extremes(&m, bw, bh);
-        assert_eq!((e.min_c, e.max_c), (38.0, 38.0));
+        let e = extremes(&m, &vec![FINE_C2; bw * bh], bw, bh);
+        assert_eq!((e.min_c, e.max_c, e.hottest), (38.0, 38.0, None));
     }
 
     #[test]
     fn unmeasured_blocks_neither_count_nor_confirm() {
         let (bw, bh) = (5, 5);
+        let var = vec![FINE_C2; 25];
         let mut m = vec![f32::NAN; 25];
         for (b, v) in m.iter_mut().take(12).enumerate() {
             *v = 20.0 + b as f32;
         }
-        let e = extremes(&m, bw, bh);
+        let e = extremes(&m, &var, bw, bh);
         assert_eq!(
             (e.min_c, e.max_c, e.hottest),
             (f32::INFINITY, f32::NEG_INFINITY, None)
         );
         m[12] = 40.0;
-        // The middle column's neighbourhoods hold all 13: 20…31 and 40, whose middle is 26.
-        let e = extremes(&m, bw, bh);
-        assert_eq!((e.min_c, e.max_c), (26.0, 26.0));
-        assert_eq!(e.hottest.map(|b| b % bw), Some(2));
+        // The middle column's neighbourhoods hold all 13: 20…31 and 40, whose middle is
+        // 26, the skin's median too, so nothing stands out from it.
+        let e = extremes(&m, &var, bw, bh);
+        assert_eq!((e.min_c, e.max_c, e.hottest), (26.0, 26.0, None));
+    }
+
+    /// A uniform skin where a block reads to ±2 °C (the black stripes alone, above the
+    /// coloured transition), one reading per 2 × 2 cell: the largest neighbourhood median
+    /// stands about two degrees above the skin, and none stands out of its noise, so the
+    /// extremes are the skin's.
+    #[test]
+    fn noise_beyond_the_transition_is_not_an_extreme() {
+        let (bw, bh, skin, sigma) = (60, 44, 39.0f32, 2.0f32);
+        let mut rng = crate::test_rng::XorShift(0x9e37_79b9_7f4a_7c15);
+        let m = cells_of_noise(bw, bh, skin, sigma, &mut rng);
+        let var = vec![sigma * sigma; bw * bh];
+        let largest_median = extremes(&m, &vec![0.0; bw * bh], bw, bh).max_c;
+        assert!(largest_median > skin + 1.0, "{largest_median}");
+        let e = extremes(&m, &var, bw, bh);
+        assert!((e.max_c - skin).abs() < 0.3, "hottest {}", e.max_c);
+        assert!((e.min_c - skin).abs() < 0.3, "coldest {}", e.min_c);
+        assert_eq!(e.hottest, None);
+    }
+
+    /// …but a warm object of 6 × 6 blocks (12 mm) ten degrees above that noisy skin, and a
+    /// cold one ten below, are its extremes, read within the noise of a few cells.
+    #[test]
+    fn a_warm_and_a_cold_object_stand_out_of_the_noise() {
+        let (bw, bh, skin, sigma) = (60, 44, 39.0f32, 2.0f32);
+        let mut rng = crate::test_rng::XorShift(0x2545_f491_4f6c_dd1d);
+        let mut m = cells_of_noise(bw, bh, skin, sigma, &mut rng);
+        for y in 10..16 {
+            for x in 20..26 {
+                m[y * bw + x] += 10.0;
+                m[(y + 20) * bw + x + 20] -= 10.0;
+            }
+        }
+        let e = extremes(&m, &vec![sigma * sigma; bw * bh], bw, bh);
+        assert!((e.max_c - (skin + 10.0)).abs() < 2.5, "hottest {}", e.max_c);
+        assert!((e.min_c - (skin - 10.0)).abs() < 2.5, "coldest {}", e.min_c);
+        let h = e.hottest.expect("a hottest place");
+        assert!(
+            (20..26).contains(&(h % bw)) && (10..16).contains(&(h / bw)),
+            "{h}"
+        );
+    }
+
+    /// A `bw × bh` map at `skin` °C, each 2 × 2 cell off by one draw of roughly normal
+    /// noise of `sigma` °C (the sum of twelve uniform draws).
+    fn cells_of_noise(
+        bw: usize,
+        bh: usize,
+        skin: f32,
+        sigma: f32,
+        rng: &mut crate::test_rng::XorShift,
+    ) -> Vec<f32> {
+        let (gw, gh) = (bw.div_ceil(2), bh.div_ceil(2));
+        let cells: Vec<f32> = (0..gw * gh)
+            .map(|_| {
+                let u: f32 = (0..12)
+                    .map(|_| (rng.next() >> 40) as f32 / (1u64 << 24) as f32)
+                    .sum();
+                skin + sigma * (u - 6.0)
+            })
+            .collect();
+        (0..bw * bh)
+            .map(|b| cells[(b / bw / 2) * gw + (b % bw) / 2])
+            .collect()
     }
 }

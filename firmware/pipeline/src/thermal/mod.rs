@@ -49,13 +49,14 @@ pub struct Temperature {
     /// Temperature per block, °C (NaN where a block could not be measured).
     pub map_c: Vec<f32>,
     /// Coldest place, mean and hottest place, °C (NaN when no block was measured); the
-    /// extremes are read over each block's neighbourhood ([`extremes`]).
+    /// extremes are read over each block's neighbourhood, and are the skin's median where
+    /// no place stands out of the noise ([`extremes`]).
     pub min_c: f32,
     /// See `min_c`.
     pub mean_c: f32,
     /// See `min_c`.
     pub max_c: f32,
-    /// Centre of the hottest place, input pixels.
+    /// Centre of the hottest place, input pixels (`None` where no place stands out).
     pub hottest_px: Option<(f32, f32)>,
     /// Temperature over the contact region, °C, when there is contact.
     pub contact_c: Option<f32>,
@@ -267,7 +268,7 @@ impl Thermometer {
         let mut out_of_range = map.outside >= OUT_OF_RANGE_BLOCKS.max(n / 100);
         let contact = regions.and_then(|_| evaluator.read_contact(&region));
         out_of_range |= contact.is_some_and(|r| !r.trusted);
-        let ext = extremes::extremes(&map.map_c, g.bw, g.bh);
+        let ext = extremes::extremes(&map.map_c, &map.var_c2, g.bw, g.bh);
         let nan = |v: f32| if v.is_finite() { v } else { f32::NAN };
         let (mut max_c, mut hottest_px) =
             (nan(ext.max_c), ext.hottest.map(|b| g.block_center_px(b)));
