@@ -39,7 +39,7 @@ pub const MIN_NEIGHBOURS: usize = 13;
 pub const STAND_OUT_SIGMAS: f32 = 3.5;
 /// Blocks that share one black-stripe estimate (2 × 2, `evaluate`): a neighbourhood of `n`
 /// blocks holds about `n / 4` independent readings where the black stripes carry them.
-const SHARING: f32 = 4.0;
+pub const SHARING: f32 = 4.0;
 
 /// A map's extremes.
 #[derive(Debug, Clone, Copy, PartialEq)]
