@@ -125,6 +125,13 @@ fn indentation_shading_does_not_move_temperature() {
                 "mean {:.3} at {t}",
                 temp.mean_c
             );
+            // Nothing on a uniform skin stands out of its noise, the contact included.
+            assert_eq!(temp.hottest_px, None, "{t} °C: hottest {:.3}", temp.max_c);
+            assert!(
+                (temp.max_c - t).abs() <= 0.5,
+                "hottest {:.3} at {t}",
+                temp.max_c
+            );
         }
     }
 }
@@ -205,11 +212,15 @@ fn heated_contact_reads_its_temperature_and_not_its_force() {
         let (fx, fl, truth) = b.run(&s, seed);
         let want = truth.contact_temp_c.unwrap();
         for d in [&fx, &fl] {
-            let got = d.temperature.as_ref().unwrap().contact_c.unwrap();
+            let temp = d.temperature.as_ref().unwrap();
+            let got = temp.contact_c.unwrap();
             assert!(
                 (got - want).abs() <= 0.8,
                 "{depth} mm at {hot} °C: contact reads {got:.3}, truth {want:.3}"
             );
+            // A heated contact stands out of the skin: it is the hottest place.
+            assert_eq!(temp.max_c, got, "{depth} mm at {hot} °C");
+            assert!(temp.hottest_px.is_some(), "{depth} mm at {hot} °C");
         }
         let (cold, _, _) = b.run(&press(depth, ROOM_C), seed);
         assert!(

@@ -25,8 +25,10 @@
 //! the whole map (the skin) by more than [`STAND_OUT_SIGMAS`] of its own noise, read from
 //! the calibration's variance of its middle block ([`median_sigma_c`]). Where none does,
 //! the skin has no hottest (coldest) place and its median stands for both. The threshold
-//! follows the noise: inside the transition, where a block reads to about 0.1 °C, a place
-//! a few tenths warmer than the skin stands out.
+//! follows the noise: inside the transition, where a block reads to a few tenths of a
+//! degree or better, a place a degree warmer than the skin stands out.
+
+use super::static_light::median;
 
 /// Blocks from a block to the edge of its neighbourhood (5 × 5 blocks).
 pub const REACH: usize = 2;
@@ -64,6 +66,13 @@ pub fn median_sigma_c(var_c2: f32, n: usize) -> f32 {
     var_c2.max(0.0).sqrt() * (std::f32::consts::FRAC_PI_2 / independent).sqrt()
 }
 
+/// Whether a reading `departure_c` °C from the skin's median, with standard deviation
+/// `sigma_c`, stands out of its noise ([`STAND_OUT_SIGMAS`]): a neighbourhood's median here,
+/// a contact's own reading in [`super::Thermometer::measure`].
+pub fn stands_out(departure_c: f32, sigma_c: f32) -> bool {
+    departure_c > STAND_OUT_SIGMAS * sigma_c
+}
+
 /// The extremes of a `bw × bh` map (°C, NaN where unmeasured), each block's reading of
 /// variance `var_c2` (°C², from the calibration's tables).
 pub fn extremes(map_c: &[f32], var_c2: &[f32], bw: usize, bh: usize) -> Extremes {
@@ -73,7 +82,8 @@ pub fn extremes(map_c: &[f32], var_c2: &[f32], bw: usize, bh: usize) -> Extremes
         hottest: None,
     };
     let n = map_c.len().min(bw * bh);
-    let Some(skin) = skin_median(&map_c[..n]) else {
+    let mut measured: Vec<f32> = map_c[..n].iter().copied().filter(|t| !t.is_nan()).collect();
+    let Some(skin) = median(&mut measured) else {
         return e;
     };
     let mut near = [(0f32, 0f32); (2 * REACH + 1) * (2 * REACH + 1)];
@@ -88,9 +98,8 @@ pub fn extremes(map_c: &[f32], var_c2: &[f32], bw: usize, bh: usize) -> Extremes
         }
         confirmed = true;
         let ((hot, hot_var), (cold, cold_var)) = middles(&mut near[..count]);
-        let stands =
-            |departure: f32, var: f32| departure > STAND_OUT_SIGMAS * median_sigma_c(var, count);
-        if stands(hot - skin, hot_var) && hot > e.max_c {
+        let stands = |departure: f32, var: f32| stands_out(departure, median_sigma_c(var, count));
+        if hot > e.max_c && stands(hot - skin, hot_var) {
             e.max_c = hot;
             e.hottest = Some(b);
         }
@@ -108,18 +117,6 @@ pub fn extremes(map_c: &[f32], var_c2: &[f32], bw: usize, bh: usize) -> Extremes
         e.min_c = skin;
     }
     e
-}
-
-/// The median of the measured readings (the lower middle when their count is even), or
-/// `None` when none is measured.
-fn skin_median(map_c: &[f32]) -> Option<f32> {
-    let mut v: Vec<f32> = map_c.iter().copied().filter(|t| !t.is_nan()).collect();
-    if v.is_empty() {
-        return None;
-    }
-    let mid = (v.len() - 1) / 2;
-    let (_, &mut t, _) = v.select_nth_unstable_by(mid, f32::total_cmp);
-    Some(t)
 }
 
 /// Fills `near` with the measured (reading, variance) pairs of block `b`'s neighbourhood

@@ -274,8 +274,14 @@ impl Thermometer {
             (nan(ext.max_c), ext.hottest.map(|b| g.block_center_px(b)));
         // A contact is a region read as one, over far more samples than a neighbourhood:
         // warmer than every neighbourhood, it is the hottest place (a warm object smaller
-        // than a neighbourhood is seen there and nowhere else).
-        let warmest = contact.filter(|r| r.trusted && (max_c.is_nan() || r.t_c > max_c));
+        // than a neighbourhood is seen there and nowhere else). Where no neighbourhood
+        // stood out, `max_c` is the skin's median, and the contact must stand out of its
+        // own noise as a neighbourhood would.
+        let above_skin = |r: &Reading| {
+            ext.hottest.is_some() || extremes::stands_out(r.t_c - max_c, r.var_c2.max(0.0).sqrt())
+        };
+        let warmest =
+            contact.filter(|r| r.trusted && (max_c.is_nan() || (r.t_c > max_c && above_skin(r))));
         // The region's centre is found only for such a contact.
         let at = warmest.and_then(|r| Some((r.t_c, regions.as_ref()?.centre()?)));
         if let Some((t_c, (x, y))) = at {

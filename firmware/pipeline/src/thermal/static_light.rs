@@ -127,8 +127,9 @@ fn departures(map_c: &[f32], bw: usize, bh: usize) -> Vec<Option<f32>> {
         .collect()
 }
 
-/// The median of `v` (reordered); `None` when empty.
-fn median(v: &mut [f32]) -> Option<f32> {
+/// The median of `v` (reordered; the upper middle when the count is even); `None` when
+/// empty.
+pub(super) fn median(v: &mut [f32]) -> Option<f32> {
     if v.is_empty() {
         return None;
     }
