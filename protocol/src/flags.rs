@@ -32,7 +32,9 @@ pub enum Flag {
     Misregistration = 3,
     /// Saturated pixels cover part of the measured area.
     OverExposure = 4,
-    /// Some temperature lies outside the calibrated range (reported unclamped).
+    /// Some temperature lies outside the calibrated range (reported unclamped), reaches
+    /// the setpoint above which the camera clipped the calibration kit (a warmer skin reads
+    /// there too), or was read from stripes the camera clipped.
     TemperatureOutOfRange = 5,
     /// The reference frame has drifted from the no-contact image and was not refreshed.
     StaleReference = 6,
@@ -44,7 +46,9 @@ pub enum Flag {
     /// The contact temperature's standard deviation exceeds the one-degree tolerance a
     /// reading is held to: its stripes say little about the temperature there (above the
     /// coloured pigments' transition only the black stripes' faint change is left, and a
-    /// contact's stripe ratio is less sure than flat skin's). Reported as read.
+    /// contact's stripe ratio is less sure than flat skin's). Or a reported temperature
+    /// lies where the calibration's own held-out test missed by more than that. Reported
+    /// as read.
     TemperatureUncertain = 9,
 }
 

@@ -83,6 +83,9 @@ pub struct Scored {
     pub mean_temp_err_c: Option<f32>,
     /// The contact temperature's standard deviation as the pipeline states it, °C.
     pub contact_temp_sigma_c: Option<f32>,
+    /// The true contact temperature (the mean over the contact's disc) and the skin's
+    /// temperature away from any source, °C.
+    pub contact_temp_c: Option<(f32, f32)>,
     /// Hottest block above the truth's hottest point, °C.
     pub max_temp_excess_c: Option<f32>,
     /// A press of 0.2 mm or more reported as no contact.
@@ -381,6 +384,7 @@ fn score(
         force_err_n: None,
         contact_temp_err_c: None,
         contact_temp_sigma_c: None,
+        contact_temp_c: None,
         mean_temp_err_c: None,
         max_temp_excess_c: None,
         missed: false,
@@ -443,12 +447,13 @@ pub fn frames_csv(results: &[UnitResult]) -> String {
     let opt = |v: Option<f32>| v.map(|v| format!("{v:.4}")).unwrap_or_default();
     let mut s = String::from(
         "unit,kind,indenter,depth_mm,depth_err_mm,force_err_n,force_n,centre_err_mm,\
-         contact_temp_err_c,contact_temp_sigma_c,mean_temp_err_c,max_temp_excess_c,failures,flags\n",
+         contact_temp_err_c,contact_temp_sigma_c,contact_temp_c,skin_temp_c,mean_temp_err_c,max_temp_excess_c,\
+         failures,flags\n",
     );
     for f in results.iter().flatten().flatten() {
         let _ = writeln!(
             s,
-            "{},{},{},{:.4},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{:.4},{},{},{},{},{},{},{},{},{},{},{},{}",
             f.unit,
             f.kind.name(),
             f.indenter,
@@ -459,6 +464,8 @@ pub fn frames_csv(results: &[UnitResult]) -> String {
             opt(f.centre_err_mm),
             opt(f.contact_temp_err_c),
             opt(f.contact_temp_sigma_c),
+            opt(f.contact_temp_c.map(|t| t.0)),
+            opt(f.contact_temp_c.map(|t| t.1)),
             opt(f.mean_temp_err_c),
             opt(f.max_temp_excess_c),
             f.failures.join(" "),
@@ -477,6 +484,7 @@ fn score_temperature(s: &mut Scored, state: &SkinState, truth: &Truth, m: &Measu
         let e = got - want;
         s.contact_temp_err_c = Some(e);
         s.contact_temp_sigma_c = t.contact_sigma_c;
+        s.contact_temp_c = Some((want, state.temperature.base_c));
         if e.abs() > 1.0 {
             s.failures.push("contact temperature");
         }

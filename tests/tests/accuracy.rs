@@ -55,6 +55,37 @@ fn a_phantom_on_a_warm_kit_frame_keeps_its_temperature_in_the_fit() {
     }
 }
 
+/// Temperatures a unit's own calibration says it cannot read are flagged, never reported
+/// as if they could: unit 99's camera clips every kit frame above 31 °C (the cleared
+/// pigment and the lamps' reflections reach full scale), so a 44 °C contact read 30.5 °C
+/// and looked like any skin below 31 °C; unit 112's black-stripe model misses its own
+/// held-out setpoints by degrees, and a uniform skin read 7.7 °C low. Neither was flagged.
+#[test]
+fn temperatures_a_calibration_cannot_read_are_flagged() {
+    let work = std::env::temp_dir().join(format!("vistaf-blind-kit-{}", std::process::id()));
+    let results = run_units(&[99, 112], &work, 2, &[], Default::default(), |_| {});
+    let _ = std::fs::remove_dir_all(&work);
+    let mut checked = 0;
+    for r in results {
+        let frames = r.unwrap_or_else(|e| panic!("unit {}: {}", e.unit, e.why));
+        for f in frames {
+            let temperature = f
+                .failures
+                .iter()
+                .any(|q| matches!(*q, "contact temperature" | "mean temperature"));
+            if temperature {
+                checked += 1;
+                let flagged = f.flags.iter().any(|n| n.starts_with("temperature_"));
+                assert!(flagged, "unit {}: {:?} not flagged", f.unit, f);
+            }
+        }
+    }
+    assert!(
+        checked >= 4,
+        "{checked} frames misread: the units no longer show it"
+    );
+}
+
 /// The battery's frames of unit `seed`, calibrated on its own kit.
 fn unit_frames(seed: u64, name: &str) -> Vec<Scored> {
     let work = std::env::temp_dir().join(format!("vistaf-{name}-{}", std::process::id()));

@@ -218,7 +218,7 @@ fn temperature_model<O: Observer>(
         force_calibration: true,
         ..Default::default()
     };
-    let (mut samples, mut labelled) = (Vec::new(), Vec::new());
+    let (mut samples, mut labelled, mut clipped) = (Vec::new(), Vec::new(), Vec::new());
     let mut done = 0;
     for s in run.sets {
         if !s.manifest.frames.iter().any(no_contact) {
@@ -247,6 +247,9 @@ fn temperature_model<O: Observer>(
                 .map(|f| f.name())
                 .collect();
             let phantom = d.window_px.filter(|_| d.contact);
+            if d.flags.contains(Flag::OverExposure) {
+                clipped.push(t);
+            }
             if !spoilt.is_empty() || (d.contact && phantom.is_none()) {
                 run.obs.note(format!(
                     "{set}: {} left out of the temperature fit ({})",
@@ -295,16 +298,33 @@ fn temperature_model<O: Observer>(
         return Ok(None);
     }
     let fitted: Vec<f64> = samples.iter().map(|s| s.t_c).collect();
+    let mut blind_above_c = None;
     if let Some(([lo, hi], beyond)) = beyond_fitted(&labelled, &fitted) {
         let list: Vec<String> = beyond.iter().map(|t| format!("{t}")).collect();
-        run.obs.note(format!(
-            "no frame at {} °C is in the temperature fit: the model covers {lo}–{hi} °C, and \
-             a reading beyond that is extrapolated (add frames at those setpoints)",
-            list.join(", ")
-        ));
+        blind_above_c = blind_above(hi, &beyond, &clipped);
+        run.obs.note(if blind_above_c.is_some() {
+            format!(
+                "no frame at {} °C is in the temperature fit: the camera clipped the warmer \
+                 ones (over_exposure: the cleared pigment and the lamps' reflections reach \
+                 full scale). The model covers {lo}–{hi} °C, and a reading that reaches \
+                 {hi} °C may stand for any warmer skin: it is flagged \
+                 temperature_out_of_range. Lower the LED ring's brightness (led.brightness) or \
+                 the camera's exposure and capture the kit again to read warmer skin",
+                list.join(", ")
+            )
+        } else {
+            format!(
+                "no frame at {} °C is in the temperature fit: the model covers {lo}–{hi} °C, \
+                 and a reading beyond that is extrapolated (add frames at those setpoints)",
+                list.join(", ")
+            )
+        });
     }
     match fit_temperature(&samples) {
-        Ok(m) => Ok(Some(m)),
+        Ok(mut m) => {
+            m.blind_above_c = blind_above_c;
+            Ok(Some(m))
+        }
         Err(e) => {
             run.obs.note(format!("{e}: no temperature model"));
             Ok(None)
@@ -326,6 +346,16 @@ fn beyond_fitted(labelled: &[f64], fitted: &[f64]) -> Option<([f64; 2], Vec<f64>
     beyond.sort_by(f64::total_cmp);
     beyond.dedup_by(|a, b| setpoint(*a) == setpoint(*b));
     (lo <= hi && !beyond.is_empty()).then_some(([lo, hi], beyond))
+}
+
+/// The warmest fitted setpoint `hi` (°C), when every kit setpoint above it that the fit
+/// lacks (`beyond`) was clipped by the camera (`clipped`: the labels of the frames flagged
+/// over-exposed): the camera is blind above it, and a skin warmer reads as it. `None` when
+/// some warmer setpoint is missing for another reason, or none is missing.
+fn blind_above(hi: f64, beyond: &[f64], clipped: &[f64]) -> Option<f64> {
+    let warmer: Vec<f64> = beyond.iter().copied().filter(|t| *t > hi).collect();
+    let seen = |t: f64| clipped.iter().any(|c| setpoint(*c) == setpoint(t));
+    (!warmer.is_empty() && warmer.iter().all(|t| seen(*t))).then_some(hi)
 }
 
 /// The setpoint a label belongs to: labels equal to 1/1000 of their unit (1 µm, 1 mN) are
@@ -565,5 +595,16 @@ mod tests {
         assert_eq!(beyond, [12.5, 30.0, 47.5]);
         assert_eq!(beyond_fitted(&[15.0, 20.0], &fitted), None);
         assert_eq!(beyond_fitted(&labelled, &[]), None);
+    }
+
+    /// Blind above the warmest fitted setpoint only when the camera clipped every warmer
+    /// setpoint the fit lacks; a colder one missing says nothing about it.
+    #[test]
+    fn the_camera_is_blind_above_the_fit_only_where_it_clipped_every_warmer_setpoint() {
+        let beyond = [12.5, 32.0, 35.0];
+        assert_eq!(blind_above(31.0, &beyond, &[35.0, 32.0, 32.0]), Some(31.0));
+        assert_eq!(blind_above(31.0, &beyond, &[35.0]), None);
+        assert_eq!(blind_above(31.0, &[12.5], &[12.5]), None);
+        assert_eq!(blind_above(31.0, &beyond, &[]), None);
     }
 }

@@ -547,6 +547,7 @@ pub fn fit_temperature(samples: &[BlockSample]) -> Result<TemperatureModel, Ther
         coloured,
         black,
         range_c: [lo, hi],
+        blind_above_c: None,
         cv_rmse_transition_c: rms(&in_transition),
         cv_rmse_c: rms(&errs),
         held_out,

@@ -141,7 +141,7 @@ fn with_temperature(
         if t.out_of_range {
             d.flags.insert(vistaf_protocol::Flag::TemperatureOutOfRange);
         }
-        if t.contact_uncertain() {
+        if t.uncertain() {
             d.flags.insert(vistaf_protocol::Flag::TemperatureUncertain);
         }
     }

@@ -369,6 +369,8 @@ pub struct FixedModel {
     /// XYZ rows over the white point, Q16.
     m: [[i64; 3]; 3],
     range: [i64; 2],
+    /// [`TemperatureModel::blind_above_c`], Q16 °C.
+    blind_above: Option<i64>,
     domain: [[i64; 2]; 3],
 }
 
@@ -409,6 +411,7 @@ impl FixedModel {
             f: lab_f_table(),
             m: std::array::from_fn(|i| std::array::from_fn(|k| q16(M[i][k] / D65[i]))),
             range: [q16(model.range_c[0]), q16(model.range_c[1])],
+            blind_above: model.blind_above_c.map(q16),
             domain: [d.r, d.g, d.q].map(|r| [q16(r[0]), q16(r[1])]),
         }
     }
@@ -493,15 +496,25 @@ impl FixedModel {
 
     /// Whether a reading `t` (Q16 °C) of variance `var` (Q16 °C²) lies inside the
     /// calibrated range (± half a degree) within two standard deviations, capped like the
-    /// float model's: 2·min(σ, cap) ≥ need, with σ = ⌊√(var · 2¹⁶)⌋ in Q16 °C. That holds
-    /// exactly when min(σ, cap) ≥ m = ⌈need / 2⌉, that is cap ≥ m and var · 2¹⁶ ≥ m², so
-    /// no square root is taken.
+    /// float model's, and does not reach what the camera could not see
+    /// ([`TemperatureModel::blind_above_c`]).
     fn in_range(&self, t: i64, var: i64) -> bool {
         let need = (t - self.range[1] - ONE / 2).max(self.range[0] - ONE / 2 - t);
-        let m = (need + 1) >> 1;
-        need <= 0
-            || (m <= SIGMA_CAP_Q16 && (var.max(0) as u64).saturating_mul(1 << 16) >= (m * m) as u64)
+        let blind = self
+            .blind_above
+            .is_some_and(|b| two_sigma_reaches(var, b - ONE / 2 - t));
+        two_sigma_reaches(var, need) && !blind
     }
+}
+
+/// Whether two standard deviations of a variance `var` (Q16 °C²), capped like the float
+/// model's, reach `need` (Q16 °C): 2·min(σ, cap) ≥ need, with σ = ⌊√(var · 2¹⁶)⌋ in Q16
+/// °C. That holds exactly when min(σ, cap) ≥ m = ⌈need / 2⌉, that is cap ≥ m and
+/// var · 2¹⁶ ≥ m², so no square root is taken.
+fn two_sigma_reaches(var: i64, need: i64) -> bool {
+    let m = (need + 1) >> 1;
+    need <= 0
+        || (m <= SIGMA_CAP_Q16 && (var.max(0) as u64).saturating_mul(1 << 16) >= (m * m) as u64)
 }
 
 #[cfg(test)]
@@ -511,17 +524,22 @@ mod tests {
     use crate::thermal::lab::Invariants;
 
     /// The range check decides as its square-root form does, also at the edges where
-    /// rounding matters.
+    /// rounding matters: the calibrated range's, and that of a camera blind above 31 °C.
     #[test]
     fn range_check_matches_its_square_root_form() {
-        let fixed = FixedModel::new(&Calibration::default_sim().temperature.unwrap());
+        let mut model = Calibration::default_sim().temperature.unwrap();
+        model.blind_above_c = Some(31.0);
+        let fixed = FixedModel::new(&model);
+        let blind = q16(31.0) - ONE / 2;
         let sqrt_form = |t: i64, var: i64| {
             let sigma = ((var.max(0) as u64).saturating_mul(1 << 16)).isqrt() as i64;
             let two_sigma = 2 * sigma.min(SIGMA_CAP_Q16);
-            t - two_sigma <= fixed.range[1] + ONE / 2 && t + two_sigma >= fixed.range[0] - ONE / 2
+            t - two_sigma <= fixed.range[1] + ONE / 2
+                && t + two_sigma >= fixed.range[0] - ONE / 2
+                && t + two_sigma < blind
         };
         let (mut inside, mut outside) = (0, 0);
-        for edge in [fixed.range[0] - ONE / 2, fixed.range[1] + ONE / 2] {
+        for edge in [fixed.range[0] - ONE / 2, blind, fixed.range[1] + ONE / 2] {
             // Coarse steps, and the edge itself and two capped deviations away, finely.
             let fine = [0, 2 * ONE, -2 * ONE].map(|c| c - 40..c + 40);
             for dt in (-3 * ONE..3 * ONE)

@@ -66,6 +66,10 @@ pub struct Temperature {
     pub contact_sigma_c: Option<f32>,
     /// A block read outside the calibrated range (or outside the calibrated colours).
     pub out_of_range: bool,
+    /// The calibration's own held-out test missed by more than [`HELD_OUT_MISS_LIMIT_C`]
+    /// near a reading this frame reports (the skin's mean, coldest and hottest places,
+    /// the contact): the reading may be off by as much ([`TemperatureModel::held_out_error_c`]).
+    pub calibration_misses: bool,
     /// Blocks measured.
     pub measured: usize,
 }
@@ -75,6 +79,12 @@ impl Temperature {
     pub fn contact_uncertain(&self) -> bool {
         self.contact_sigma_c
             .is_some_and(|s| s > CONTACT_SIGMA_LIMIT_C)
+    }
+
+    /// Whether a reported temperature is not held to its tolerance: the contact's
+    /// deviation, or the calibration's held-out miss near a reading, exceeds it.
+    pub fn uncertain(&self) -> bool {
+        self.contact_uncertain() || self.calibration_misses
     }
 }
 
@@ -91,6 +101,10 @@ pub const OUT_OF_RANGE_BLOCKS: usize = 2;
 /// Largest standard deviation of a contact temperature reported without
 /// `Flag::TemperatureUncertain`, °C: the one-degree tolerance a reading is held to.
 pub const CONTACT_SIGMA_LIMIT_C: f32 = 1.0;
+
+/// Largest miss of the calibration's held-out test near a reported temperature without
+/// `Flag::TemperatureUncertain`, °C: the same tolerance.
+pub const HELD_OUT_MISS_LIMIT_C: f32 = CONTACT_SIGMA_LIMIT_C;
 
 /// Fewest samples of each population in the contact core before the whole contact region
 /// is used instead.
@@ -201,8 +215,9 @@ impl Thermometer {
     /// `phase(y, reference, row)` writes into `row` (units) from the reference's along that
     /// row (`reference`), over the working pixels the FTP found `reliable`; `regions` marks
     /// the contact region and its core. Blocks that saw only a sliver of a stripe pair
-    /// (`drop_partial`) and blocks static light misreads ([`static_light`]) come back
-    /// empty; the others' black stripes are flat-fielded ([`ratio_field`]).
+    /// (`drop_partial`), blocks the camera clipped (`drop_clipped`) and blocks static light
+    /// misreads ([`static_light`]) come back empty; the others' black stripes are
+    /// flat-fielded ([`ratio_field`]).
     pub fn sums(
         &self,
         frame: Pixels<'_>,
@@ -223,6 +238,7 @@ impl Thermometer {
             &self.lin,
         );
         drop_partial(&mut blocks);
+        drop_clipped(&mut blocks);
         self.ratio.apply(&mut blocks);
         if let Some(r) = &regions {
             self.ratio.apply_regions(r, &self.geom, &mut contact);
@@ -266,7 +282,14 @@ impl Thermometer {
         };
         let n = map.measured;
         let mut out_of_range = map.outside >= OUT_OF_RANGE_BLOCKS.max(n / 100);
-        let contact = regions.and_then(|_| evaluator.read_contact(&region));
+        // A clipped contact is read but not trusted: a hot object on a camera near full
+        // scale clears the pigment to white and the top of its stripes is cut.
+        let contact = regions
+            .and_then(|_| evaluator.read_contact(&region))
+            .map(|r| Reading {
+                trusted: r.trusted && !region.is_clipped(),
+                ..r
+            });
         out_of_range |= contact.is_some_and(|r| !r.trusted);
         let ext = extremes::extremes(&map.map_c, &map.var_c2, g.bw, g.bh);
         let nan = |v: f32| if v.is_finite() { v } else { f32::NAN };
@@ -288,24 +311,53 @@ impl Thermometer {
             let f = g.factor as f32;
             (max_c, hottest_px) = (t_c, Some((x * f, y * f)));
         }
+        let mean_c = if n == 0 {
+            f32::NAN
+        } else {
+            (map.sum_c / n as f64) as f32
+        };
+        let reported = [
+            mean_c,
+            ext.min_c,
+            max_c,
+            contact.map_or(f32::NAN, |r| r.t_c),
+        ];
+        let calibration_misses = self
+            .model
+            .as_ref()
+            .is_some_and(|m| misses_near(m, &reported));
         Some(Temperature {
             bw: g.bw,
             bh: g.bh,
             block_mm: (g.block_px * g.factor) as f32 * self.mm_per_px,
             min_c: nan(ext.min_c),
-            mean_c: if n == 0 {
-                f32::NAN
-            } else {
-                (map.sum_c / n as f64) as f32
-            },
+            mean_c,
             max_c,
             hottest_px,
             map_c: map.map_c,
             contact_c: contact.map(|r| r.t_c),
             contact_sigma_c: contact.map(|r| r.var_c2.max(0.0).sqrt()),
             out_of_range,
+            calibration_misses,
             measured: n,
         })
+    }
+}
+
+/// Whether the calibration's held-out test missed by more than [`HELD_OUT_MISS_LIMIT_C`]
+/// near any of the finite `readings` (°C).
+fn misses_near(model: &TemperatureModel, readings: &[f32]) -> bool {
+    readings
+        .iter()
+        .filter(|t| t.is_finite())
+        .any(|&t| model.held_out_error_c(f64::from(t)) > f64::from(HELD_OUT_MISS_LIMIT_C))
+}
+
+/// Empties the blocks the camera clipped ([`Sums::is_clipped`]): what is left of their
+/// stripes is the darker part of each, and reads as another temperature.
+fn drop_clipped(blocks: &mut [Sums]) {
+    for s in blocks.iter_mut().filter(|s| s.is_clipped()) {
+        *s = Sums::default();
     }
 }
 

@@ -454,6 +454,13 @@ pub struct TemperatureModel {
     pub black: PopulationModel,
     /// Calibrated setpoints, °C (lowest, highest): estimates outside are flagged.
     pub range_c: [f64; 2],
+    /// The warmest setpoint the camera could see, °C, when the kit went warmer and the
+    /// camera clipped every frame there: the cleared pigment and the lamps' reflections
+    /// reached full scale. A skin warmer than this reads near it, whatever its temperature,
+    /// so a reading that reaches it (within two standard deviations and half a degree) is
+    /// flagged as out of range. `None` when the camera saw the whole kit.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub blind_above_c: Option<f64>,
     /// Invariants seen in calibration, widened by half their span on each side (the
     /// stripes of a steep indentation mix a little more than any calibration frame's).
     pub domain: Domain,
@@ -549,11 +556,33 @@ impl TemperatureModel {
     /// than two standard deviations beyond it, with half a degree of slack. The deviation
     /// is capped at [`OUT_OF_RANGE_SIGMA_C`]: beyond the calibration no sample says how
     /// wide it is, and a wide guess must not hide a reading far outside.
+    ///
+    /// Below [`TemperatureModel::blind_above_c`] the reverse holds as well: a reading that
+    /// reaches within half a degree of it may stand for any warmer skin.
     pub fn out_of_range(&self, t: f64, var: f64) -> bool {
         let two_sigma = 2.0 * var.max(0.0).sqrt().min(OUT_OF_RANGE_SIGMA_C);
         !t.is_finite()
             || t - two_sigma > self.range_c[1] + 0.5
             || t + two_sigma < self.range_c[0] - 0.5
+            || self.blind_above_c.is_some_and(|b| t + two_sigma >= b - 0.5)
+    }
+
+    /// How far the calibration's own held-out test missed near `t` (°C): the absolute
+    /// error of the per-setpoint means with that setpoint left out of both fits
+    /// ([`TemperatureModel::held_out`]), linear between setpoints and the end setpoint's
+    /// beyond them; 0 without any. A systematic miss no block's scatter shows: a colour
+    /// path the models could not follow there, a setpoint the kit's frames misread.
+    pub fn held_out_error_c(&self, t: f64) -> f64 {
+        let h = &self.held_out;
+        let miss = |e: &SetpointError| (e.estimate_c - e.setpoint_c).abs();
+        let Some(k) = h.iter().position(|e| e.setpoint_c >= t) else {
+            return h.last().map_or(0.0, miss);
+        };
+        if k == 0 || h[k].setpoint_c <= h[k - 1].setpoint_c {
+            return miss(&h[k]);
+        }
+        let f = (t - h[k - 1].setpoint_c) / (h[k].setpoint_c - h[k - 1].setpoint_c);
+        miss(&h[k - 1]) + f * (miss(&h[k]) - miss(&h[k - 1]))
     }
 
     /// Whether the stored shapes agree with each other.
@@ -564,6 +593,7 @@ impl TemperatureModel {
             && self.coloured.model.features().len() == 3
             && self.black.model.features().len() == 3
             && self.range_c[0] < self.range_c[1]
+            && self.blind_above_c.is_none_or(|b| b.is_finite())
             && [self.domain.r, self.domain.g, self.domain.q]
                 .iter()
                 .all(|r| within(r[0], FEATURE_LIMIT) && within(r[1], FEATURE_LIMIT) && r[0] < r[1])
@@ -573,6 +603,48 @@ impl TemperatureModel {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The held-out miss between and beyond the setpoints.
+    #[test]
+    fn the_held_out_miss_is_read_between_setpoints() {
+        let mut m = crate::calibration::Calibration::default_sim()
+            .temperature
+            .unwrap_or_else(|| unreachable!("the default calibration has a temperature model"));
+        let at = |t: f64, e: f64| SetpointError {
+            setpoint_c: t,
+            estimate_c: t + e,
+        };
+        m.held_out = vec![at(20.0, 0.2), at(30.0, -2.2), at(40.0, 0.5)];
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-9;
+        assert!(close(m.held_out_error_c(10.0), 0.2));
+        assert!(close(m.held_out_error_c(25.0), 1.2));
+        assert!(close(m.held_out_error_c(30.0), 2.2));
+        assert!(close(m.held_out_error_c(38.0), 0.84));
+        assert!(close(m.held_out_error_c(50.0), 0.5));
+        m.held_out.clear();
+        assert_eq!(m.held_out_error_c(30.0), 0.0);
+    }
+
+    /// Out of range: beyond the calibrated setpoints by two (capped) deviations and half a
+    /// degree, or, on a camera blind above some setpoint, reaching it.
+    #[test]
+    fn a_reading_that_reaches_what_the_camera_could_not_see_is_out_of_range() {
+        let mut m = crate::calibration::Calibration::default_sim()
+            .temperature
+            .unwrap_or_else(|| unreachable!("the default calibration has a temperature model"));
+        m.range_c = [15.0, 47.5];
+        assert!(!m.out_of_range(30.0, 0.04) && !m.out_of_range(48.0, 0.04));
+        assert!(m.out_of_range(48.5, 0.04) && m.out_of_range(14.0, 0.04));
+        m.blind_above_c = Some(31.0);
+        // 30 °C ± 0.2: 30.4 stays below 30.5; ± 0.3 reaches it.
+        assert!(!m.out_of_range(30.0, 0.04));
+        assert!(m.out_of_range(30.0, 0.09));
+        assert!(m.out_of_range(30.6, 0.0) && m.out_of_range(40.0, 0.0));
+        assert!(
+            !m.out_of_range(20.0, 25.0),
+            "the deviation is capped at 1 °C"
+        );
+    }
 
     #[test]
     fn monomials_count_and_order() {

@@ -144,6 +144,7 @@ mod tests {
         Sums {
             sum: [q(c), q(k)],
             n: [n, n],
+            clipped: [0, 0],
         }
     }
 

@@ -47,15 +47,30 @@ pub struct Sums {
     pub sum: [[u64; 3]; 2],
     /// Samples per population.
     pub n: [u32; 2],
+    /// Samples per population left out because a channel was saturated.
+    pub clipped: [u32; 2],
 }
 
 impl Sums {
     /// Fewest samples of each population for a block to be measured.
     pub const MIN_SAMPLES: u32 = 4;
 
+    /// A region is clipped when saturation took more than this share (1/64) of either
+    /// population's samples ([`Sums::clipped`]).
+    pub const CLIPPED_SHARE_LOG2: u32 = 6;
+
     /// Whether both populations were seen often enough.
     pub fn enough(&self) -> bool {
         self.n[0] >= Self::MIN_SAMPLES && self.n[1] >= Self::MIN_SAMPLES
+    }
+
+    /// Whether the camera clipped enough of these stripes that their mean colour is not
+    /// the skin's: a saturated sample is left out, and what is left is the darker part of
+    /// a distribution whose top was cut, so a region near full scale reads darker than it
+    /// is. Where the coloured stripes have cleared (above their transition) the reading
+    /// hangs on a per cent of the stripes' ratio, and a cut top moves it by degrees.
+    pub fn is_clipped(&self) -> bool {
+        (0..2).any(|p| self.clipped[p] > 0)
     }
 
     /// Adds another block's sums.
@@ -65,6 +80,7 @@ impl Sums {
                 self.sum[p][k] += o.sum[p][k];
             }
             self.n[p] += o.n[p];
+            self.clipped[p] += o.clipped[p];
         }
     }
 
@@ -608,10 +624,10 @@ impl BlockRow<'_> {
     }
 }
 
-/// A few samples' sums in 32 bits (linear R, G, B and the count, per population), added
-/// to a [`Sums`] at the end.
+/// A few samples' sums in 32 bits (linear R, G, B, the count and the saturated samples
+/// left out, per population), added to a [`Sums`] at the end.
 #[derive(Default, Clone, Copy)]
-struct Part([[u32; 4]; 2]);
+struct Part([[u32; 5]; 2]);
 
 impl Part {
     /// One input pixel `p` (sRGB bytes) at grating phase `t` (units): skipped at a stripe
@@ -641,6 +657,7 @@ impl Part {
             lin[usize::from(p[2])],
         );
         if CHECK && (r | g | b) & SATURATED != 0 {
+            self.0[pop][4] += 1;
             return;
         }
         let s = &mut self.0[pop];
@@ -656,6 +673,7 @@ impl Part {
                 acc.sum[p][k] += u64::from(self.0[p][k]);
             }
             acc.n[p] += self.0[p][3];
+            acc.clipped[p] += self.0[p][4];
         }
     }
 }
@@ -860,9 +878,13 @@ mod tests {
             };
             let read = |x: usize, y: usize, pop: Option<usize>, s: &mut Sums| {
                 let p = img.get_pixel(x as u32, y as u32).0;
-                let Some(pop) = pop.filter(|_| !p.contains(&255)) else {
+                let Some(pop) = pop else {
                     return;
                 };
+                if p.contains(&255) {
+                    s.clipped[pop] += 1;
+                    return;
+                }
                 for k in 0..3 {
                     s.sum[pop][k] += u64::from(lin[usize::from(p[k])]);
                 }
@@ -911,6 +933,7 @@ mod tests {
             }
             assert_eq!(contact, want_contact, "factor {f}");
             assert!(contact[1].n[0] > 0 && want.iter().any(|b| b.n[1] > 0));
+            assert!(contact[0].clipped[0] > 0 && want.iter().any(|b| b.clipped[1] > 0));
         }
     }
 
@@ -1020,11 +1043,13 @@ mod tests {
         let one = Sums {
             sum: [[1, 2, 3], [4, 5, 6]],
             n: [1, 2],
+            clipped: [0, 1],
         };
         let p = pool(&vec![one; 12], 4, 3, 1);
         assert_eq!(p[0].n[0], 4); // corner: 2 × 2
         assert_eq!(p[5].n[0], 9); // inside: 3 × 3
         assert_eq!(p[5].sum[1], [36, 45, 54]);
+        assert_eq!(p[5].clipped, [0, 9]);
     }
 
     #[test]
