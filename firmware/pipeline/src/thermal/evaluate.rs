@@ -121,8 +121,10 @@ impl Evaluator for FixedModel {
 /// many stripe pairs average this out, and the block-to-block pattern is learnt from the
 /// reference (`super::ratio_field`). Where the coloured stripes are inside their
 /// transition a reading hardly moves with `q`; above it the black stripes carry the
-/// reading alone and move by degrees per per cent of `q` (`docs/temperature.md`).
-pub const CONTACT_RATIO_SPREAD: f64 = 0.01;
+/// reading alone and move by degrees per per cent of `q`. The value is the spread the
+/// shifts measured on heated contacts show as a standard deviation, so that the stated σ
+/// covers their errors as a σ should (`docs/temperature.md`).
+pub const CONTACT_RATIO_SPREAD: f64 = 0.02;
 
 /// [`CONTACT_RATIO_SPREAD`] in Q16.
 const SPREAD_Q16: i64 = (CONTACT_RATIO_SPREAD * ONE as f64) as i64;
