@@ -50,11 +50,16 @@ pub enum Flag {
     /// lies where the calibration's own held-out test missed by more than that. Reported
     /// as read.
     TemperatureUncertain = 9,
+    /// The contact is narrower than the band resolves (a radius under two of its blur σ,
+    /// about 1.6 mm whatever the camera): the band keeps a share of its peak that depends on
+    /// its shape, so the peak depth reads low by an unknown part of it. Area, centre,
+    /// volume and force stand (they integrate the map, which the blur does not change).
+    DepthUnresolved = 10,
 }
 
 impl Flag {
     /// Every flag, in bit order.
-    pub const ALL: [Flag; 10] = [
+    pub const ALL: [Flag; 11] = [
         Flag::LowContrast,
         Flag::PhaseSlope,
         Flag::UnwrapFailure,
@@ -65,6 +70,7 @@ impl Flag {
         Flag::DepthOutOfRange,
         Flag::ForceOutOfRange,
         Flag::TemperatureUncertain,
+        Flag::DepthUnresolved,
     ];
 
     /// The flag's bit in [`QualityFlags`].
@@ -85,6 +91,7 @@ impl Flag {
             Flag::DepthOutOfRange => "depth_out_of_range",
             Flag::ForceOutOfRange => "force_out_of_range",
             Flag::TemperatureUncertain => "temperature_uncertain",
+            Flag::DepthUnresolved => "depth_unresolved",
         }
     }
 

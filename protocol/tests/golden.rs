@@ -242,7 +242,7 @@ fn every_golden_file_has_a_sample() {
 /// bump `PROTOCOL_VERSION` and update the constant below together with the golden files.
 #[test]
 fn schema_hash_is_pinned() {
-    assert_eq!(PROTOCOL_VERSION, 7);
+    assert_eq!(PROTOCOL_VERSION, 8);
     assert_eq!(
         schema_hash(),
         PINNED_SCHEMA_HASH,
@@ -255,20 +255,26 @@ const PINNED_SCHEMA_HASH: u64 = 0xc9d8_ea77_8716_206a;
 
 #[test]
 fn a_hello_of_another_version_is_named_not_misread() {
-    // A future Hello: version 8, a different hash, and a field this build does not know.
+    // A future Hello: the next version, a different hash, and a field this build does not know.
     let mut payload = Vec::new();
-    payload.extend(postcard::to_stdvec(&(0u32, 8u16, 0x1111_2222_3333_4444u64)).unwrap());
+    payload.extend(
+        postcard::to_stdvec(&(0u32, PROTOCOL_VERSION + 1, 0x1111_2222_3333_4444u64)).unwrap(),
+    );
     payload.extend([0xff, 0xff, 0xff, 0xff, 0xff, 0xff]);
     let got = decoded(&payload);
     assert_eq!(
         got,
         vec![Err(FrameError::ProtocolMismatch {
-            protocol_version: 8,
+            protocol_version: PROTOCOL_VERSION + 1,
             schema_hash: 0x1111_2222_3333_4444
         })]
     );
     let text = got[0].clone().unwrap_err().to_string();
-    assert!(text.contains("v8") && text.contains("v7"), "{text}");
+    let (next, this) = (
+        format!("v{}", PROTOCOL_VERSION + 1),
+        format!("v{PROTOCOL_VERSION}"),
+    );
+    assert!(text.contains(&next) && text.contains(&this), "{text}");
 }
 
 /// A Hello of this very version and schema that does not decode (a serial that is not

@@ -169,10 +169,16 @@ fn summaries_cross_a_pty_in_order_and_match_the_scene() {
         assert_eq!(beyond_force, s.force_mn >= force_limit_mn, "{s:?}");
         assert!(s.force_mn <= force_limit_mn, "{s:?}");
     }
-    assert!(
-        inside.iter().all(|s| s.flags.is_empty()),
-        "no flag inside the envelope"
-    );
+    // Inside the envelope only a shallow press narrower than the band resolves (under
+    // 0.5 mm deep for this sphere) carries a flag, and says just that.
+    for s in inside {
+        let unresolved = s.flags.contains(Flag::DepthUnresolved);
+        assert!(
+            s.flags.iter().all(|f| f == Flag::DepthUnresolved)
+                && (!unresolved || s.peak_depth_um < 600),
+            "inside the envelope: {s:?}"
+        );
+    }
     // The summaries before are the deepest calibrated presses; each must match its depth.
     let tail = &inside[inside.len() - 10..];
     for (s, want) in tail.iter().zip(&depths[depths.len() - 10..]) {

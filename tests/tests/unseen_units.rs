@@ -10,6 +10,7 @@
 use vistaf_calibrate::{calibrate, Quiet};
 use vistaf_hardware::frameset::FrameSet;
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation};
+use vistaf_protocol::Flag;
 use vistaf_sim::contact::{Contact, Footprint, Indenter};
 use vistaf_sim::scene::{center_mm, ROOM_C, SPHERE_R_MM};
 use vistaf_sim::sets::{kit_states, write_states, SetOptions};
@@ -72,8 +73,12 @@ fn check_unit(seed: u64) {
         let (img, truth) = r.render(&press(depth), 1000 + k as u64);
         let d = a.analyze(&img).unwrap();
         let tol = 0.03 * depth + 0.02;
+        // A press whose contact is narrower than the band resolves (about 1.6 mm of
+        // radius, 0.5 mm deep for this sphere) may read low, and then says so and nothing
+        // else; a wider one meets the tolerance and carries no flag.
+        let unresolved = d.flags.contains(Flag::DepthUnresolved);
         assert!(
-            (d.peak_depth_mm - depth).abs() <= tol,
+            (d.peak_depth_mm - depth).abs() <= tol || unresolved,
             "{label}: {} mm for {depth} mm",
             d.peak_depth_mm
         );
@@ -85,7 +90,7 @@ fn check_unit(seed: u64) {
             "{label}: centre off by {err_mm} mm at {depth} mm"
         );
         assert!(
-            d.flags.is_empty(),
+            d.flags.iter().all(|f| f == Flag::DepthUnresolved) && (depth < 0.6 || !unresolved),
             "{label}: {depth} mm flagged {:?}",
             d.flags
         );

@@ -30,7 +30,7 @@ use vistaf_pipeline::image_ops::gray_down_f32;
 use vistaf_pipeline::input::decode_scale;
 use vistaf_pipeline::thermal::stripes::{Geometry, Sums};
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement};
-use vistaf_protocol::Flag;
+use vistaf_protocol::{Flag, QualityFlags};
 
 use crate::fit::{fit_depth, fit_force, Sample};
 
@@ -94,8 +94,25 @@ fn sha_of(set: &FrameSet) -> Result<String, CalibrateError> {
 /// Which label a stage fits.
 #[derive(Clone, Copy)]
 enum Label {
+    /// The indentation, for the depth model.
     Depth,
+    /// The indentation, for the indenter's area against its measured depth.
+    Shape,
     Force,
+}
+
+impl Label {
+    /// The flags a frame fitted on this label may carry and still be trusted: a force is
+    /// read from the whole map, which the band's blur leaves as it was, so a peak too narrow
+    /// to resolve (`depth_unresolved`, the lightest kit presses) does not spoil it; nor
+    /// does it spoil the area against the depth *as measured*, which is how a frame is
+    /// later compared with the calibrated indenter (`Flag::PhaseSlope`).
+    fn tolerates(self) -> QualityFlags {
+        match self {
+            Label::Depth => QualityFlags::NONE,
+            Label::Shape | Label::Force => QualityFlags::NONE.with(Flag::DepthUnresolved),
+        }
+    }
 }
 
 struct Run<'a, O: Observer> {
@@ -108,7 +125,8 @@ struct Run<'a, O: Observer> {
 
 impl<O: Observer> Run<'_, O> {
     /// Analyses every frame carrying `label > 0` (and `only` accepts) with `calib`; returns
-    /// (label, result) for the unflagged ones.
+    /// (label, result) for those without a flag the label does not tolerate
+    /// ([`Label::tolerates`]).
     fn analyze(
         &mut self,
         calib: &Calibration,
@@ -137,7 +155,7 @@ impl<O: Observer> Run<'_, O> {
                 done += 1;
                 self.obs.progress(stage, done, total);
                 let y = match label {
-                    Label::Depth => f.depth_mm,
+                    Label::Depth | Label::Shape => f.depth_mm,
                     Label::Force => f.force_n,
                 };
                 let Some(y) = y.filter(|v| *v > 0.0 && only(*v)) else {
@@ -150,7 +168,7 @@ impl<O: Observer> Run<'_, O> {
                         set: set.clone(),
                         cause,
                     })?;
-                if d.flags.is_empty() {
+                if QualityFlags(d.flags.0 & !label.tolerates().0).is_empty() {
                     out.push((y, d));
                 } else {
                     let names: Vec<&str> = d.flags.iter().map(|f| f.name()).collect();
@@ -527,7 +545,7 @@ fn shape_signature<O: Observer>(
     run: &mut Run<'_, O>,
     calib: &Calibration,
 ) -> Result<Option<ShapeSignature>, CalibrateError> {
-    let shaped = run.analyze(calib, Label::Depth, "indenter shape", &|_| true)?;
+    let shaped = run.analyze(calib, Label::Shape, "indenter shape", &|_| true)?;
     let shape_samples: Vec<Sample> = shaped
         .iter()
         .filter(|(_, d)| d.contact)

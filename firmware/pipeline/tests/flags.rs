@@ -142,7 +142,8 @@ fn a_punch_filling_most_of_the_view_is_reported() {
 
 /// Spheres sharper than the calibrated 10 mm indenter are smoothed by the band more than
 /// the calibration knows: wherever the depth error leaves the tolerance, the phase-slope
-/// flag is set, and the calibrated indenter itself is never flagged.
+/// flag is set (or, for a contact narrower than the band resolves, `depth_unresolved`), and
+/// the calibrated indenter itself is never taken for another shape.
 #[test]
 fn out_of_tolerance_sharp_contacts_are_flagged_and_the_calibrated_indenter_is_not() {
     for (r, d) in [
@@ -160,14 +161,15 @@ fn out_of_tolerance_sharp_contacts_are_flagged_and_the_calibrated_indenter_is_no
             let x = analyze(&sphere(r, d), imp);
             let err = (x.peak_depth_mm - d).abs();
             let flagged = x.flags.contains(Flag::PhaseSlope);
+            let unresolved = x.flags.contains(Flag::DepthUnresolved);
             if r == 10.0 {
                 assert!(
-                    !flagged && err <= 0.03 * d + 0.02,
+                    !flagged && (err <= 0.03 * d + 0.02 || unresolved),
                     "{imp:?} R {r} d {d}: {x:?}"
                 );
             } else if err > 0.03 * d + 0.02 {
                 assert!(
-                    flagged,
+                    flagged || unresolved,
                     "{imp:?} R {r} d {d}: error {err} mm without a flag: {x:?}"
                 );
             }

@@ -29,9 +29,15 @@
 //!
 //! **Where it stops.** Below [`RESOLVED_SIGMAS`] kernel σ of contact radius the gain grows
 //! so steeply with `q` that a small background offset, or the noise of a shallow press,
-//! moves the reading far: the table stops there, and a sharper contact reads low by what
-//! it lacks (the calibration sphere's shallowest kit presses are such contacts; its depth
-//! model takes them up). A flat punch of a few σ, which loses less than a sphere of the
+//! moves the reading far, and a contact of another shape loses another share: such a
+//! contact is not resolved. The table stops there, so a sharper contact reads low by what
+//! it lacks; it is flagged (`depth_unresolved`, [`Apex::resolved`]) and left out of the
+//! calibration's depth fit (the calibration sphere's shallowest kit presses are such
+//! contacts): a depth model that took up their loss would read every wider contact of
+//! that phase deep. Running the table on below the resolved size, to read such a contact
+//! as a sphere, was measured and dropped: its steeper gains amplify the noise of shallow
+//! presses past the tolerance more often than they mend a low reading
+//! (`docs/pipeline.md`). A flat punch of a few σ, which loses less than a sphere of the
 //! same `q`, reads deep: a sphere's and a punch's blurred profiles, surrounds included,
 //! match closely at depths a tenth apart (a test below holds them within a percent), so
 //! the map cannot tell them. Contacts much blunter or sharper than the calibrated
@@ -56,6 +62,9 @@ pub struct Apex {
     pub peak: i32,
     /// The deepest point of the once-blurred map, an index into the map.
     pub at: usize,
+    /// Whether the contact is as wide as the table resolves ([`RESOLVED_SIGMAS`]): below,
+    /// the peak is raised by the table's first gain only, and reads low.
+    pub resolved: bool,
 }
 
 /// The blur's share of a sphere's apex for one demodulator kernel: `d/s₁` against
@@ -100,6 +109,12 @@ impl BlurLoss {
     /// The kernel's two-box lengths, working pixels.
     pub fn lengths(&self) -> (usize, usize) {
         self.lengths
+    }
+
+    /// Whether an apex of sharpness `q` is as wide as the table resolves: not below its
+    /// first row.
+    pub fn resolves(&self, q: f64) -> bool {
+        self.rows.first().is_none_or(|&(q0, _)| q >= q0)
     }
 
     /// `d/s₁` at `q`: the table's first gain below it (a contact under the resolved size),
@@ -206,6 +221,7 @@ pub fn apex(map: &[i32], w: usize, region: &[usize], loss: &BlurLoss) -> Option<
     Some(Apex {
         peak: (s1 * loss.gain(s2 / s1)).round() as i32,
         at: ay * w + ax,
+        resolved: loss.resolves(s2 / s1),
     })
 }
 
@@ -445,14 +461,32 @@ mod tests {
         }
     }
 
-    /// Where the correction stops: a sphere under the resolved size reads shallow, and a
-    /// punch of a few σ, which loses less than a sphere of its sharpness, reads deep.
+    /// Where the correction stops: a sphere under the resolved size reads shallow and is
+    /// said to be unresolved, wider ones are resolved, and a punch of a few σ, which loses
+    /// less than a sphere of its sharpness, reads deep.
     #[test]
     fn a_tiny_sphere_reads_shallow_and_a_narrow_punch_deep() {
         let (l, n, d) = (7, 161, 1000.0);
+        let resolved = |z: &[i32]| {
+            let region = super::super::features::dominant_component(z, n, 0);
+            apex(z, n, &region, &BlurLoss::new((l, l), PX_MM)).map(|a| a.resolved)
+        };
         let z = blurred(sphere, 1.2 * sigma(l), d, (n, 0.0), l);
         let got = corrected(&z, n, (l, l));
         assert!((400..=900).contains(&got), "sphere at 1.2σ: {got}");
+        assert_eq!(
+            resolved(&z),
+            Some(false),
+            "a sphere of 1.2σ is not resolved"
+        );
+        for a_sigmas in [2.2, 4.0] {
+            let z = blurred(sphere, a_sigmas * sigma(l), d, (n, 0.0), l);
+            assert_eq!(
+                resolved(&z),
+                Some(true),
+                "a sphere of {a_sigmas}σ is resolved"
+            );
+        }
         let z = blurred(punch, 2.5 * sigma(l), d, (n, 0.0), l);
         let got = corrected(&z, n, (l, l));
         assert!((1030..=1250).contains(&got), "punch at 2.5σ: {got}");

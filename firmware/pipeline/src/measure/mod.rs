@@ -505,6 +505,9 @@ impl<M: PhaseMap> Found<'_, M> {
             unwrap: (unreached, residues),
         };
         let mut flags = limits.flags(&feats, carrier, ctx);
+        if !apex.resolved {
+            flags.insert(Flag::DepthUnresolved);
+        }
         let (force_n, beyond) = bounded_force(ctx.calib, &inputs);
         if beyond {
             flags.insert(Flag::ForceOutOfRange);
