@@ -54,7 +54,7 @@ fn sphere_presses_meet_the_depth_and_centre_tolerances() {
         for (d, f) in replay("press-sphere", imp).iter().zip(&set.manifest.frames) {
             let want = f.depth_mm.unwrap() as f32;
             let tol = 0.03 * want + 0.02;
-            // The 0.1 mm press touches 0.7 mm of radius, narrower than the band resolves:
+            // The 0.1 mm press touches 1 mm of radius, narrower than the band resolves:
             // it may read low, and says so. The others meet the tolerance unflagged.
             let narrow = want < 0.5;
             let expected = if narrow {

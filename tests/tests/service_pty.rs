@@ -169,8 +169,9 @@ fn summaries_cross_a_pty_in_order_and_match_the_scene() {
         assert_eq!(beyond_force, s.force_mn >= force_limit_mn, "{s:?}");
         assert!(s.force_mn <= force_limit_mn, "{s:?}");
     }
-    // Inside the envelope only a shallow press narrower than the band resolves (under
-    // 0.5 mm deep for this sphere) carries a flag, and says just that.
+    // Inside the envelope only a shallow press narrower than the band resolves (a contact
+    // radius √(R·d) under about 1.6 mm: about 0.26 mm deep for this 10 mm sphere; the bound
+    // below leaves room for the unit's own blur) carries a flag, and says just that.
     for s in inside {
         let unresolved = s.flags.contains(Flag::DepthUnresolved);
         assert!(
