@@ -56,10 +56,10 @@ fn a_phantom_on_a_warm_kit_frame_keeps_its_temperature_in_the_fit() {
 }
 
 /// Temperatures a unit's own calibration says it cannot read are flagged, never reported
-/// as if they could: unit 99's camera clips every kit frame above 31 °C (the cleared
-/// pigment and the lamps' reflections reach full scale), so a 44 °C contact read 30.5 °C
-/// and looked like any skin below 31 °C; unit 112's black-stripe model misses its own
-/// held-out setpoints by degrees, and a uniform skin read 7.7 °C low. Neither was flagged.
+/// as if they could: unit 99's camera clips every warm kit frame (the cleared pigment and
+/// the lamps' reflections reach full scale), so a hot contact reads as the warmest skin
+/// the camera saw; unit 112's black-stripe model misses its own held-out setpoints by
+/// degrees, and a uniform skin reads degrees off.
 #[test]
 fn temperatures_a_calibration_cannot_read_are_flagged() {
     let work = std::env::temp_dir().join(format!("vistaf-blind-kit-{}", std::process::id()));

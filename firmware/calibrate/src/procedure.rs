@@ -30,7 +30,7 @@ use vistaf_pipeline::image_ops::gray_down_f32;
 use vistaf_pipeline::input::decode_scale;
 use vistaf_pipeline::thermal::stripes::{Geometry, Sums};
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement};
-use vistaf_protocol::{Flag, QualityFlags};
+use vistaf_protocol::Flag;
 
 use crate::fit::{fit_depth, fit_force, Sample};
 
@@ -102,16 +102,16 @@ enum Label {
 }
 
 impl Label {
-    /// The flags a frame fitted on this label may carry and still be trusted: a force is
-    /// read from the whole map, which the band's blur leaves as it was, so a peak too narrow
-    /// to resolve (`depth_unresolved`, the lightest kit presses) does not spoil it; nor
-    /// does it spoil the area against the depth *as measured*, which is how a frame is
+    /// Whether a frame fitted on this label may carry `flag` and still be trusted: a force
+    /// is read from the whole map, which the band's blur leaves as it was, so a peak too
+    /// narrow to resolve (`depth_unresolved`, the lightest kit presses) does not spoil it;
+    /// nor does it spoil the area against the depth *as measured*, which is how a frame is
     /// later compared with the calibrated indenter (`Flag::PhaseSlope`).
-    fn tolerates(self) -> QualityFlags {
-        match self {
-            Label::Depth => QualityFlags::NONE,
-            Label::Shape | Label::Force => QualityFlags::NONE.with(Flag::DepthUnresolved),
-        }
+    fn tolerates(self, flag: Flag) -> bool {
+        matches!(
+            (self, flag),
+            (Label::Shape | Label::Force, Flag::DepthUnresolved)
+        )
     }
 }
 
@@ -168,7 +168,7 @@ impl<O: Observer> Run<'_, O> {
                         set: set.clone(),
                         cause,
                     })?;
-                if QualityFlags(d.flags.0 & !label.tolerates().0).is_empty() {
+                if d.flags.iter().all(|f| label.tolerates(f)) {
                     out.push((y, d));
                 } else {
                     let names: Vec<&str> = d.flags.iter().map(|f| f.name()).collect();

@@ -34,10 +34,9 @@
 //! it lacks; it is flagged (`depth_unresolved`, [`Apex::resolved`]) and left out of the
 //! calibration's depth fit (the calibration sphere's shallowest kit presses are such
 //! contacts): a depth model that took up their loss would read every wider contact of
-//! that phase deep. Running the table on below the resolved size, to read such a contact
-//! as a sphere, was measured and dropped: its steeper gains amplify the noise of shallow
-//! presses past the tolerance more often than they mend a low reading
-//! (`docs/pipeline.md`). A flat punch of a few σ, which loses less than a sphere of the
+//! that phase deep. The table does not run on below the resolved size to read such a
+//! contact as a sphere: its steeper gains would amplify the noise of shallow presses past
+//! the tolerance more often than they mend a low reading (`docs/pipeline.md`). A flat punch of a few σ, which loses less than a sphere of the
 //! same `q`, reads deep: a sphere's and a punch's blurred profiles, surrounds included,
 //! match closely at depths a tenth apart (a test below holds them within a percent), so
 //! the map cannot tell them. Contacts much blunter or sharper than the calibrated

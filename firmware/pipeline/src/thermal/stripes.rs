@@ -64,13 +64,17 @@ impl Sums {
         self.n[0] >= Self::MIN_SAMPLES && self.n[1] >= Self::MIN_SAMPLES
     }
 
-    /// Whether the camera clipped enough of these stripes that their mean colour is not
+    /// Whether the camera clipped enough of these stripes (more than 1/64 of either
+    /// population's samples, [`Sums::CLIPPED_SHARE_LOG2`]) that their mean colour is not
     /// the skin's: a saturated sample is left out, and what is left is the darker part of
     /// a distribution whose top was cut, so a region near full scale reads darker than it
     /// is. Where the coloured stripes have cleared (above their transition) the reading
     /// hangs on a per cent of the stripes' ratio, and a cut top moves it by degrees.
     pub fn is_clipped(&self) -> bool {
-        (0..2).any(|p| self.clipped[p] > 0)
+        (0..2).any(|p| {
+            let seen = u64::from(self.n[p]) + u64::from(self.clipped[p]);
+            u64::from(self.clipped[p]) << Self::CLIPPED_SHARE_LOG2 > seen
+        })
     }
 
     /// Adds another block's sums.
@@ -1050,6 +1054,21 @@ mod tests {
         assert_eq!(p[5].n[0], 9); // inside: 3 × 3
         assert_eq!(p[5].sum[1], [36, 45, 54]);
         assert_eq!(p[5].clipped, [0, 9]);
+    }
+
+    /// A region is clipped when saturation took more than 1/64 of either population's
+    /// samples, not at the first saturated one.
+    #[test]
+    fn a_region_is_clipped_past_a_share_of_its_samples() {
+        let with = |n: [u32; 2], clipped: [u32; 2]| Sums {
+            sum: [[0; 3]; 2],
+            n,
+            clipped,
+        };
+        assert!(!with([63, 100], [1, 0]).is_clipped());
+        assert!(with([62, 100], [2, 0]).is_clipped());
+        assert!(with([100, 0], [0, 1]).is_clipped());
+        assert!(!with([100, 100], [0, 0]).is_clipped());
     }
 
     #[test]
