@@ -228,6 +228,8 @@ pub(super) struct Limits<'a, P> {
     pub(super) amp_medians: (u32, u32),
     /// Unreached samples and residues of the unwrapping.
     pub(super) unwrap: (usize, usize),
+    /// Whether the apex is as wide as the blur correction resolves.
+    pub(super) resolved: bool,
 }
 
 impl<P> Limits<'_, P> {
@@ -242,11 +244,19 @@ impl<P> Limits<'_, P> {
         // A contact much sharper than the calibrated indenter (less area at the same depth)
         // is smoothed by the band more than the calibration knows: its depth reads low; a
         // much blunter one is smoothed less: its depth reads deep.
-        let unlike = ctx.calib.shape.as_ref().is_some_and(|s| {
-            let calibrated = s.area_mm2_at(f64::from(feats.peak_mm));
-            let area = f64::from(feats.area_mm2);
-            area < SHARPNESS_RATIO * calibrated || area > BLUNTNESS_RATIO * calibrated
-        });
+        // Beyond the calibrated depth the signature extrapolates, and an unresolved contact's
+        // depth is open whatever its shape: both carry their own flag instead.
+        let beyond = ctx
+            .calib
+            .calibrated_depth_mm()
+            .is_some_and(|d| f64::from(feats.peak_mm) > DEPTH_RANGE_SLACK * d);
+        let comparable = self.resolved && !beyond;
+        let unlike = comparable
+            && ctx.calib.shape.as_ref().is_some_and(|s| {
+                let calibrated = s.area_mm2_at(f64::from(feats.peak_mm));
+                let area = f64::from(feats.area_mm2);
+                area < SHARPNESS_RATIO * calibrated || area > BLUNTNESS_RATIO * calibrated
+            });
         let slope_limit = SLOPE_LIMIT * 65_536.0 * BAND_HALF_WIDTH * carrier.freq();
         let ((_, (bw, bh)), deformed) = (self.win.pixels(), &self.pass.deformed);
         if unlike || self.band_lost() || slope_p98_exceeds(self.up, deformed, bw, bh, slope_limit) {
@@ -257,11 +267,7 @@ impl<P> Limits<'_, P> {
             flags.insert(Flag::UnwrapFailure);
         }
         // Deeper than the calibration saw: the depth model extrapolates.
-        if ctx
-            .calib
-            .calibrated_depth_mm()
-            .is_some_and(|d| f64::from(feats.peak_mm) > DEPTH_RANGE_SLACK * d)
-        {
+        if beyond {
             flags.insert(Flag::DepthOutOfRange);
         }
         flags

@@ -87,10 +87,12 @@ pub const SHARPNESS_RATIO: f64 = 0.7;
 /// a blunter contact of a few blur σ (a flat punch, a letter's stroke) reads deep by what
 /// a sphere of its sharpness would have lost more. There a sphere's and a punch's blurred
 /// profiles match to under a percent at depths a tenth apart, so the map cannot tell them:
-/// a contact this much wider than the calibrated indenter is flagged instead. (A sphere's
-/// contact area at a given depth grows with its radius, so spheres up to twice the
-/// calibrated one pass.)
-pub const BLUNTNESS_RATIO: f64 = 2.0;
+/// a contact this much wider than the calibrated indenter is flagged instead. A small
+/// punch's rim also raises its plateau where the demodulator is not a linear blur, and
+/// its area then stays near a sphere's: the margin is narrow so that most such presses
+/// are caught, at the cost of flagging spheres over 1.3 times the calibrated radius
+/// (a sphere's area at a given depth grows with its radius; `docs/pipeline.md`).
+pub const BLUNTNESS_RATIO: f64 = 1.3;
 /// Misregistration flag: a global offset beyond this, rad (0.4 of a period: up to there the
 /// offset is removed exactly; towards half a period it becomes ambiguous).
 pub const MISREGISTRATION_RAD: f32 = 0.8 * std::f32::consts::PI;
@@ -503,6 +505,7 @@ impl<M: PhaseMap> Found<'_, M> {
             up: &up,
             amp_medians: self.amp_medians,
             unwrap: (unreached, residues),
+            resolved: apex.resolved,
         };
         let mut flags = limits.flags(&feats, carrier, ctx);
         if !apex.resolved {
