@@ -217,7 +217,8 @@ impl DepthPass {
 }
 
 /// What the region's samples say about the limits of the measurement: the phase slope
-/// beyond the band, residues the unwrapping met, a depth beyond the calibration.
+/// beyond the band, residues the unwrapping met, a depth beyond the calibration, an apex too
+/// narrow to resolve.
 pub(super) struct Limits<'a, P> {
     pub(super) coarse: &'a Coarse<'a, P>,
     pub(super) margin: &'a Margin,
@@ -243,9 +244,10 @@ impl<P> Limits<'_, P> {
         let mut flags = QualityFlags::NONE;
         // A contact much sharper than the calibrated indenter (less area at the same depth)
         // is smoothed by the band more than the calibration knows: its depth reads low; a
-        // much blunter one is smoothed less: its depth reads deep.
-        // Beyond the calibrated depth the signature extrapolates, and an unresolved contact's
-        // depth is open whatever its shape: both carry their own flag instead.
+        // much blunter one is smoothed less: its depth reads deep. The shape is compared
+        // where the signature was measured: beyond the calibrated depth it extrapolates,
+        // and an unresolved contact's depth is open whatever its shape; both carry their
+        // own flag instead.
         let beyond = ctx
             .calib
             .calibrated_depth_mm()
@@ -269,6 +271,9 @@ impl<P> Limits<'_, P> {
         // Deeper than the calibration saw: the depth model extrapolates.
         if beyond {
             flags.insert(Flag::DepthOutOfRange);
+        }
+        if !self.resolved {
+            flags.insert(Flag::DepthUnresolved);
         }
         flags
     }

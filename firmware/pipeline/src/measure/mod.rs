@@ -508,9 +508,6 @@ impl<M: PhaseMap> Found<'_, M> {
             resolved: apex.resolved,
         };
         let mut flags = limits.flags(&feats, carrier, ctx);
-        if !apex.resolved {
-            flags.insert(Flag::DepthUnresolved);
-        }
         let (force_n, beyond) = bounded_force(ctx.calib, &inputs);
         if beyond {
             flags.insert(Flag::ForceOutOfRange);
