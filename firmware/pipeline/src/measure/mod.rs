@@ -474,7 +474,16 @@ impl<M: PhaseMap> Found<'_, M> {
         // deepest point there) and the half-depth component around the apex. The map's value
         // at the apex is read once for the component, the features and the temperature's
         // contact region.
-        let region = dominant_component(&pass.depth_um, bw, threshold_um);
+        // The apex is looked for only where the demodulator's kernel lies wholly in the
+        // image, a period from every edge: nearer, the kernel averages padding, and a press
+        // reaching there can show a spurious peak deeper than its own, which would take the
+        // apex, and with it the centre, millimetres away. A region lying wholly that near
+        // the edge is no contact. The component, the depth map, area, volume and integrated
+        // phase keep the edge's pixels: their values are mostly sound, and without them the
+        // centre of a press near the edge moves inward and its force reads short.
+        let whole_kernel = Margin::new(carrier.period_px().ceil() as usize, grid.w, grid.h);
+        let mut region = dominant_component(&pass.depth_um, bw, threshold_um);
+        region.retain(|&i| whole_kernel.contains(x0 + i % bw, y0 + i / bw));
         // The apex is read on the window's phase as read, surround and noise included: the
         // blur acts on the phase, and the correction compares blurs of the whole surface.
         let apex = apex::apex(&up, bw, &region, ctx.blur_loss)?;
