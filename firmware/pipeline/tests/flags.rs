@@ -74,8 +74,9 @@ fn a_shift_near_half_a_period_flags_misregistration() {
 /// Flat punches keep the depth the band takes from the calibrated sphere's apex, so they
 /// read deep: wherever a punch of more area than the blunt margin allows
 /// (`BLUNTNESS_RATIO`) leaves the tolerance, the phase-slope flag is set. The 3 mm disc
-/// at 0.8 mm sits inside a wider margin and reads deep there. (A narrower or deeper punch
-/// near the sphere's area can still read deep unflagged: `docs/accuracy.md`.)
+/// at 0.8 mm reads just past the tolerance with less than twice the sphere's area, so only
+/// a narrow margin flags it. (A narrower or deeper punch near the sphere's area can still
+/// read deep unflagged: `docs/accuracy.md`.)
 #[test]
 fn out_of_tolerance_blunt_contacts_are_flagged() {
     let mut flagged_any = false;

@@ -483,7 +483,11 @@ impl<M: PhaseMap> Found<'_, M> {
         // centre of a press near the edge moves inward and its force reads short.
         let whole_kernel = Margin::new(carrier.period_px().ceil() as usize, grid.w, grid.h);
         let mut region = dominant_component(&pass.depth_um, bw, threshold_um);
-        region.retain(|&i| whole_kernel.contains(x0 + i % bw, y0 + i / bw));
+        let window_inside =
+            whole_kernel.contains(x0, y0) && whole_kernel.contains(x0 + bw - 1, y0 + bh - 1);
+        if !window_inside {
+            region.retain(|&i| whole_kernel.contains(x0 + i % bw, y0 + i / bw));
+        }
         // The apex is read on the window's phase as read, surround and noise included: the
         // blur acts on the phase, and the correction compares blurs of the whole surface.
         let apex = apex::apex(&up, bw, &region, ctx.blur_loss)?;
