@@ -55,11 +55,16 @@ pub enum Flag {
     /// its shape, so the peak depth reads low by an unknown part of it. Area, centre,
     /// volume and force stand (they integrate the map, which the blur does not change).
     DepthUnresolved = 10,
+    /// Half the contact's depth or more lies within a grating period of the edge of the
+    /// view, where the demodulator's kernel reaches past the image, or runs beyond it: what
+    /// lies beyond is not seen, so force, area and volume read low and the centre lies
+    /// inward; the peak is the deepest point in view.
+    ContactAtEdge = 11,
 }
 
 impl Flag {
     /// Every flag, in bit order.
-    pub const ALL: [Flag; 11] = [
+    pub const ALL: [Flag; 12] = [
         Flag::LowContrast,
         Flag::PhaseSlope,
         Flag::UnwrapFailure,
@@ -71,6 +76,7 @@ impl Flag {
         Flag::ForceOutOfRange,
         Flag::TemperatureUncertain,
         Flag::DepthUnresolved,
+        Flag::ContactAtEdge,
     ];
 
     /// The flag's bit in [`QualityFlags`].
@@ -92,6 +98,7 @@ impl Flag {
             Flag::ForceOutOfRange => "force_out_of_range",
             Flag::TemperatureUncertain => "temperature_uncertain",
             Flag::DepthUnresolved => "depth_unresolved",
+            Flag::ContactAtEdge => "contact_at_edge",
         }
     }
 

@@ -1,13 +1,15 @@
 //! The accuracy battery: units drawn wide ([`SensorUnit::wide`]), each calibrated on its own
 //! kit (the 10 mm sphere, uniform temperatures) and measured blind on scenes the kit never
 //! showed: the calibration sphere anywhere in view, other spheres, flat cylinders, letter
-//! punches, heated presses, presses at other skin temperatures and uniform skins, with
-//! exposure and white balance drifting from frame to frame.
+//! punches, heated presses, presses at other skin temperatures, presses whose contact
+//! reaches the edge of the view or runs past it (as objects meet a palm's edge) and uniform
+//! skins, with exposure and white balance drifting from frame to frame.
 //!
 //! Every frame is scored against its truth. A quantity beyond its tolerance is a *failure*;
 //! a failure without any flag is a *silent failure*, the one a robot cannot guard against.
 //! Tolerances: peak depth 3 % + 0.02 mm; contact centre 1.5 mm; force 8 % + 0.3 N for the
-//! calibration sphere and 25 % + 0.3 N for other indenters; temperature 1 °C (contact and
+//! calibration sphere wholly in view and 25 % + 0.3 N for other indenters and for presses
+//! at the edge; temperature 1 °C (contact and
 //! skin mean), and a skin's hottest place (`temp_max_c`) within 1.5 °C of its truth. A press of 0.2 mm or
 //! more reported as no contact is *missed*; a contact reported more than 3 mm from any
 //! press (or on an untouched skin) is a *phantom*.
@@ -40,6 +42,9 @@ pub enum Kind {
     Heated,
     /// The calibration sphere at the skin's temperature, the skin not at room temperature.
     SkinWarm,
+    /// A sphere or a flat cylinder whose contact reaches the edge of the view or runs past
+    /// it, as a palm's edge meets an object.
+    AtEdge,
     /// No contact, a uniform skin.
     Uniform,
 }
@@ -54,6 +59,7 @@ impl Kind {
             Kind::Letter => "letter punches",
             Kind::Heated => "heated sphere",
             Kind::SkinWarm => "sphere at skin temperature",
+            Kind::AtEdge => "press at the edge",
             Kind::Uniform => "uniform skin",
         }
     }
@@ -71,6 +77,9 @@ pub struct Scored {
     pub indenter: String,
     /// True peak depth, mm.
     pub depth_mm: f32,
+    /// How far inside the view the contact's rim lies at its nearest edge, mm (negative:
+    /// the contact runs past the edge; None without a press).
+    pub rim_inside_mm: Option<f32>,
     /// Peak depth error, mm (None without a press).
     pub depth_err_mm: Option<f32>,
     /// Centre error, mm.
@@ -329,7 +338,66 @@ fn scenes(unit: &SensorUnit, rng: &mut Rng) -> Vec<(Kind, SkinState)> {
         drift(&mut s, rng);
         v.push((Kind::Uniform, s));
     }
+    // Drawn after every other kind: each kind's draws stay the same whatever follows it.
+    let d = rng.range(0.3, 2.0) as f32;
+    v.push((Kind::AtEdge, at_edge(unit, rng, cal, d)));
+    let other = match rng.next_u64() % 4 {
+        0 => Indenter::Sphere { r_mm: 5.0 },
+        1 => Indenter::Sphere { r_mm: 20.0 },
+        k => Indenter::Punch(Footprint::Disc {
+            r_mm: 1.0 + k as f32,
+        }),
+    };
+    let d = rng.range(0.2, 1.0) as f32;
+    v.push((Kind::AtEdge, at_edge(unit, rng, other, d)));
     v
+}
+
+/// The radius within which the skin touches the indenter, mm: Hertz's for a sphere, the
+/// footprint's bounding circle for a punch.
+fn contact_reach_mm(indenter: &Indenter, depth_mm: f32) -> f32 {
+    match indenter {
+        Indenter::Sphere { r_mm } => (r_mm * depth_mm).sqrt(),
+        Indenter::Punch(Footprint::Disc { r_mm }) => *r_mm,
+        Indenter::Punch(fp) => fp.bound_mm() * std::f32::consts::SQRT_2,
+    }
+}
+
+/// A press whose contact's rim lies at a random edge of the view, from 1 mm inside it to
+/// past it by up to 0.6 of the contact's radius (the centre always in view).
+fn at_edge(unit: &SensorUnit, rng: &mut Rng, indenter: Indenter, depth_mm: f32) -> SkinState {
+    let mmpp = unit.mm_per_px();
+    let (fw, fh) = (unit.width_px as f32 * mmpp, unit.height_px as f32 * mmpp);
+    let a = contact_reach_mm(&indenter, depth_mm);
+    let from_edge = a + rng.range(-0.6 * f64::from(a), 1.0) as f32;
+    let along = |rng: &mut Rng, span: f32| {
+        let m = (a + 1.0).min(0.45 * span);
+        rng.range(f64::from(m), f64::from(span - m)) as f32
+    };
+    let centre = match rng.next_u64() % 4 {
+        0 => (from_edge, along(rng, fh)),
+        1 => (fw - from_edge, along(rng, fh)),
+        2 => (along(rng, fw), from_edge),
+        _ => (along(rng, fw), fh - from_edge),
+    };
+    let mut s = SkinState::idle(ROOM_C);
+    s.contacts.push(Contact {
+        indenter,
+        center_mm: centre,
+        depth_mm,
+    });
+    drift(&mut s, rng);
+    s
+}
+
+/// How far inside the view the first contact's rim lies at its nearest edge, mm.
+fn rim_inside_mm(unit: &SensorUnit, state: &SkinState) -> Option<f32> {
+    let c = state.contacts.first()?;
+    let mmpp = unit.mm_per_px();
+    let (fw, fh) = (unit.width_px as f32 * mmpp, unit.height_px as f32 * mmpp);
+    let (x, y) = c.center_mm;
+    let nearest = x.min(fw - x).min(y).min(fh - y);
+    Some(nearest - contact_reach_mm(&c.indenter, c.depth_mm))
 }
 
 /// A press at a random place where its contact lies wholly in view.
@@ -337,8 +405,8 @@ fn pressed(unit: &SensorUnit, rng: &mut Rng, indenter: Indenter, depth_mm: f32) 
     let mmpp = unit.mm_per_px();
     let (fw, fh) = (unit.width_px as f32 * mmpp, unit.height_px as f32 * mmpp);
     let reach = match &indenter {
-        Indenter::Sphere { r_mm } => (r_mm * depth_mm).sqrt(),
         Indenter::Punch(fp) => fp.bound_mm() * std::f32::consts::SQRT_2,
+        sphere => contact_reach_mm(sphere, depth_mm),
     } + 1.0;
     let at = |rng: &mut Rng, span: f32| {
         let m = reach.min(0.45 * span);
@@ -379,6 +447,7 @@ fn score(
         kind,
         indenter: indenter_label(state),
         depth_mm: truth.peak_depth_mm,
+        rim_inside_mm: rim_inside_mm(unit, state),
         depth_err_mm: None,
         centre_err_mm: None,
         force_err_n: None,
@@ -446,18 +515,19 @@ pub fn frames_csv(results: &[UnitResult]) -> String {
     use std::fmt::Write as _;
     let opt = |v: Option<f32>| v.map(|v| format!("{v:.4}")).unwrap_or_default();
     let mut s = String::from(
-        "unit,kind,indenter,depth_mm,depth_err_mm,force_err_n,force_n,centre_err_mm,\
+        "unit,kind,indenter,depth_mm,rim_inside_mm,depth_err_mm,force_err_n,force_n,centre_err_mm,\
          contact_temp_err_c,contact_temp_sigma_c,contact_temp_c,skin_temp_c,mean_temp_err_c,max_temp_excess_c,\
          failures,flags\n",
     );
     for f in results.iter().flatten().flatten() {
         let _ = writeln!(
             s,
-            "{},{},{},{:.4},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{:.4},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             f.unit,
             f.kind.name(),
             f.indenter,
             f.depth_mm,
+            opt(f.rim_inside_mm),
             opt(f.depth_err_mm),
             opt(f.force_err_n.map(|e| e.0)),
             opt(f.force_err_n.map(|e| e.1)),

@@ -125,23 +125,28 @@ impl Phase for i32 {
     }
 }
 
-/// Unwraps the window `wrapped` (`w × h`) inside `region`, seeded from the samples outside
-/// it: by scan lines when the window is free of residues (exact representations; see the
-/// module doc), otherwise by the quality-guided fill ordered by `quality()` (computed only
-/// then). Returns the unwrapped phase, the region samples no seed reaches, and the residues
-/// inside the region.
+/// Unwraps the window `wrapped` (`w × h`) inside `unwrapped`, seeded from the samples
+/// outside it: by scan lines when the window is free of residues (exact representations;
+/// see the module doc), otherwise by the quality-guided fill ordered by `quality()`
+/// (computed only then). Returns the unwrapped phase, and the samples of `counted` (within
+/// `unwrapped`: those whose failures matter) no seed reaches and the residues among them.
 pub fn unwrap_window<P: Phase>(
     wrapped: &[P],
-    region: &[bool],
+    (unwrapped, counted): (&[bool], &[bool]),
     w: usize,
     h: usize,
     quality: impl FnOnce() -> Vec<u32>,
 ) -> (Vec<P>, usize, usize) {
-    if let Some(u) = P::scan_unwrap(wrapped, region, w, h) {
+    if let Some(u) = P::scan_unwrap(wrapped, unwrapped, w, h) {
         return (u, 0, 0);
     }
-    let (u, unreached) = unwrap_region(wrapped, &quality(), region, w, h);
-    (u, unreached, residues(wrapped, region, w, h))
+    let (u, done) = fill(wrapped, &quality(), unwrapped, w, h);
+    let unreached = counted
+        .iter()
+        .zip(&done)
+        .filter(|(c, d)| **c && !**d)
+        .count();
+    (u, unreached, residues(wrapped, counted, w, h))
 }
 
 /// Unwraps `wrapped` inside `region` (both `w × h`), seeded from the pixels outside it.
@@ -154,6 +159,24 @@ pub fn unwrap_region<P: Phase>(
     w: usize,
     h: usize,
 ) -> (Vec<P>, usize) {
+    let (out, done) = fill(wrapped, quality, region, w, h);
+    let unreached = region
+        .iter()
+        .zip(&done)
+        .filter(|(r, d)| **r && !**d)
+        .count();
+    (out, unreached)
+}
+
+/// The quality-guided fill of [`unwrap_region`]: the unwrapped phase, and which samples
+/// hold an unwrapped value (the seeds and every region sample reached).
+fn fill<P: Phase>(
+    wrapped: &[P],
+    quality: &[u32],
+    region: &[bool],
+    w: usize,
+    h: usize,
+) -> (Vec<P>, Vec<bool>) {
     let mut out = wrapped.to_vec();
     let mut done: Vec<bool> = region.iter().map(|r| !r).collect();
     let qmax = u64::from(quality.iter().copied().max().unwrap_or(0).max(1));
@@ -213,12 +236,7 @@ pub fn unwrap_region<P: Phase>(
             }
         }
     }
-    let unreached = region
-        .iter()
-        .zip(&done)
-        .filter(|(r, d)| **r && !**d)
-        .count();
-    (out, unreached)
+    (out, done)
 }
 
 /// Phase residues (2 × 2 loops whose wrapped differences do not sum to zero) inside
@@ -320,7 +338,7 @@ mod tests {
             assert_eq!(scanned, filled, "seed {seed}");
             // More than a turn deep: the scan did unwrap.
             assert!(scanned.iter().any(|&p| p < -65_536));
-            let (u, unreached, n_res) = unwrap_window(&wrapped, &region, w, h, || {
+            let (u, unreached, n_res) = unwrap_window(&wrapped, (&region, &region), w, h, || {
                 panic!("the quality is only computed for the fill")
             });
             assert_eq!((u, unreached, n_res), (filled, 0, 0));
@@ -335,7 +353,8 @@ mod tests {
         let i = (h / 2) * w + w / 2 + 3;
         twisted[i] = i32::wrapped_diff(twisted[i], 32_768);
         assert_eq!(i32::scan_unwrap(&twisted, &region, w, h), None);
-        let (u, unreached, n_res) = unwrap_window(&twisted, &region, w, h, || quality.clone());
+        let (u, unreached, n_res) =
+            unwrap_window(&twisted, (&region, &region), w, h, || quality.clone());
         let (filled, filled_unreached) = unwrap_region(&twisted, &quality, &region, w, h);
         assert_eq!((u, unreached), (filled, filled_unreached));
         assert_eq!(n_res, residues(&twisted, &region, w, h));
@@ -362,8 +381,12 @@ mod tests {
         // No seed at all: nothing fixes the constant, and the fill reaches nothing.
         let all = vec![true; w * h];
         assert_eq!(i32::scan_unwrap(&wrapped, &all, w, h), None);
-        let (_, unreached, _) = unwrap_window(&wrapped, &all, w, h, || quality.clone());
+        let (_, unreached, _) = unwrap_window(&wrapped, (&all, &all), w, h, || quality.clone());
         assert_eq!(unreached, w * h);
+        // Only the counted samples' failures are reported.
+        let half: Vec<bool> = (0..w * h).map(|i| i < w * h / 2).collect();
+        let (_, unreached, _) = unwrap_window(&wrapped, (&all, &half), w, h, || quality.clone());
+        assert_eq!(unreached, w * h / 2);
         // Float phases always take the fill.
         let f: Vec<f32> = wrapped.iter().map(|&p| p as f32 / 10_000.0).collect();
         assert_eq!(f32::scan_unwrap(&f, &region, w, h), None);

@@ -76,11 +76,19 @@ impl Window {
 }
 
 /// The window's indentation phase (signed so that indentation is positive, units),
-/// unwrapped when it can have wrapped; and, of the unwrapping, the samples it could not
-/// reach and the residues it met.
+/// unwrapped when it can have wrapped; and, of the unwrapping, the region's samples it
+/// could not reach and the residues it met in the region.
+///
+/// The samples outside the region seed the unwrapping as background. An untrusted sample
+/// (in the margin along the edge, or with fringes too faint) was never tested for
+/// contact: a press reaching the edge has its deep, wrapped part there, and taking it for
+/// background unwrapped the press a turn low, until it read as no contact. An untrusted
+/// sample whose phase stands beyond the contact threshold `thr` (units) is therefore
+/// unwrapped with the region instead of seeding it; what the unwrapping meets outside the
+/// region is not counted against the contact.
 pub(super) fn indentation_phase<P: PhaseNum>(
     coarse: &Coarse<'_, P>,
-    region: &[bool],
+    (region, thr): (&[bool], i32),
     win: &Window,
     (offset, sign): (P, i32),
     when: Unwrap,
@@ -106,7 +114,13 @@ pub(super) fn indentation_phase<P: PhaseNum>(
         Unwrap::Never => false,
     };
     let (u, unreached, residues) = if unwrap {
-        unwrap_window(&local, &in_region, cbw, cbh, || {
+        let not_seeds: Vec<bool> = in_region
+            .iter()
+            .zip(&local)
+            .zip(win.of(&coarse.rel, cw))
+            .map(|((&r, p), ok)| r || (!ok && p.units().abs() > thr))
+            .collect();
+        unwrap_window(&local, (&not_seeds, &in_region), cbw, cbh, || {
             let (a, r) = (win.of(&coarse.amp, cw), win.of(&coarse.amp_r, cw));
             a.iter().zip(&r).map(|(a, r)| *a.min(r)).collect()
         })

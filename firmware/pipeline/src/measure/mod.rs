@@ -441,7 +441,7 @@ impl<M: PhaseMap> Found<'_, M> {
         let region = region_samples(self.tiles_on, &grid);
         let (signed, unreached, residues) = indentation_phase(
             self.coarse,
-            &region,
+            (&region, self.bg.threshold),
             &win,
             (self.bg.offset, sign),
             ctx.unwrap,
@@ -521,6 +521,12 @@ impl<M: PhaseMap> Found<'_, M> {
             resolved: apex.resolved,
         };
         let mut flags = limits.flags(&feats, carrier, ctx);
+        // Half the contact's depth reaching where the kernel averages padding: the contact
+        // may run on past the image, and nothing beyond it is seen.
+        let at_edge = |&i: &usize| !whole_kernel.contains(x0 + i % bw, y0 + i / bw);
+        if !window_inside && contact.iter().any(at_edge) {
+            flags.insert(Flag::ContactAtEdge);
+        }
         let (force_n, beyond) = bounded_force(ctx.calib, &inputs);
         if beyond {
             flags.insert(Flag::ForceOutOfRange);
