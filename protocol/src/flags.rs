@@ -56,8 +56,8 @@ pub enum Flag {
     /// volume and force stand (they integrate the map, which the blur does not change).
     DepthUnresolved = 10,
     /// Half the contact's depth or more lies within a grating period of the edge of the
-    /// view, where the demodulator's kernel reaches past the image, or runs beyond it: what
-    /// lies beyond is not seen, so force, area and volume read low and the centre lies
+    /// view, where the demodulator's kernel reaches past the image: the contact may run on
+    /// past the edge, unseen, so force, area and volume may read low and the centre lie
     /// inward; the peak is the deepest point in view.
     ContactAtEdge = 11,
 }
