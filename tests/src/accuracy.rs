@@ -78,7 +78,8 @@ pub struct Scored {
     /// True peak depth, mm.
     pub depth_mm: f32,
     /// How far inside the view the contact's rim lies at its nearest edge, mm (negative:
-    /// the contact runs past the edge; None without a press).
+    /// the contact runs past the edge; a letter's rim is its bounding circle; None without
+    /// a press).
     pub rim_inside_mm: Option<f32>,
     /// Peak depth error, mm (None without a press).
     pub depth_err_mm: Option<f32>,
