@@ -367,35 +367,22 @@ fn contact_reach_mm(indenter: &Indenter, depth_mm: f32) -> f32 {
 /// A press whose contact's rim lies at a random edge of the view, from 1 mm inside it to
 /// past it by up to 0.6 of the contact's radius (the centre always in view).
 fn at_edge(unit: &SensorUnit, rng: &mut Rng, indenter: Indenter, depth_mm: f32) -> SkinState {
-    let mmpp = unit.mm_per_px();
-    let (fw, fh) = (unit.width_px as f32 * mmpp, unit.height_px as f32 * mmpp);
+    let (fw, fh) = unit.view_mm();
     let a = contact_reach_mm(&indenter, depth_mm);
     let from_edge = a + rng.range(-0.6 * f64::from(a), 1.0) as f32;
-    let along = |rng: &mut Rng, span: f32| {
-        let m = (a + 1.0).min(0.45 * span);
-        rng.range(f64::from(m), f64::from(span - m)) as f32
-    };
     let centre = match rng.next_u64() % 4 {
-        0 => (from_edge, along(rng, fh)),
-        1 => (fw - from_edge, along(rng, fh)),
-        2 => (along(rng, fw), from_edge),
-        _ => (along(rng, fw), fh - from_edge),
+        0 => (from_edge, within(rng, fh, a + 1.0)),
+        1 => (fw - from_edge, within(rng, fh, a + 1.0)),
+        2 => (within(rng, fw, a + 1.0), from_edge),
+        _ => (within(rng, fw, a + 1.0), fh - from_edge),
     };
-    let mut s = SkinState::idle(ROOM_C);
-    s.contacts.push(Contact {
-        indenter,
-        center_mm: centre,
-        depth_mm,
-    });
-    drift(&mut s, rng);
-    s
+    press_at(rng, indenter, centre, depth_mm)
 }
 
 /// How far inside the view the first contact's rim lies at its nearest edge, mm.
 fn rim_inside_mm(unit: &SensorUnit, state: &SkinState) -> Option<f32> {
     let c = state.contacts.first()?;
-    let mmpp = unit.mm_per_px();
-    let (fw, fh) = (unit.width_px as f32 * mmpp, unit.height_px as f32 * mmpp);
+    let (fw, fh) = unit.view_mm();
     let (x, y) = c.center_mm;
     let nearest = x.min(fw - x).min(y).min(fh - y);
     Some(nearest - contact_reach_mm(&c.indenter, c.depth_mm))
@@ -403,21 +390,29 @@ fn rim_inside_mm(unit: &SensorUnit, state: &SkinState) -> Option<f32> {
 
 /// A press at a random place where its contact lies wholly in view.
 fn pressed(unit: &SensorUnit, rng: &mut Rng, indenter: Indenter, depth_mm: f32) -> SkinState {
-    let mmpp = unit.mm_per_px();
-    let (fw, fh) = (unit.width_px as f32 * mmpp, unit.height_px as f32 * mmpp);
+    let (fw, fh) = unit.view_mm();
     let reach = match &indenter {
         Indenter::Punch(fp) => fp.bound_mm() * std::f32::consts::SQRT_2,
         sphere => contact_reach_mm(sphere, depth_mm),
     } + 1.0;
-    let at = |rng: &mut Rng, span: f32| {
-        let m = reach.min(0.45 * span);
-        rng.range(f64::from(m), f64::from(span - m)) as f32
-    };
-    let centre = (at(rng, fw), at(rng, fh));
+    let centre = (within(rng, fw, reach), within(rng, fh, reach));
+    press_at(rng, indenter, centre, depth_mm)
+}
+
+/// A random place along a span `span_mm` long, `margin_mm` or more from both ends (at most
+/// 0.45 of the span, so a short span still leaves room).
+fn within(rng: &mut Rng, span_mm: f32, margin_mm: f32) -> f32 {
+    let m = margin_mm.min(0.45 * span_mm);
+    rng.range(f64::from(m), f64::from(span_mm - m)) as f32
+}
+
+/// `indenter` pressed `depth_mm` at `centre_mm` on a skin at room temperature, the light
+/// drifting ([`drift`]).
+fn press_at(rng: &mut Rng, indenter: Indenter, centre_mm: (f32, f32), depth_mm: f32) -> SkinState {
     let mut s = SkinState::idle(ROOM_C);
     s.contacts.push(Contact {
         indenter,
-        center_mm: centre,
+        center_mm: centre_mm,
         depth_mm,
     });
     drift(&mut s, rng);

@@ -141,12 +141,11 @@ pub fn unwrap_window<P: Phase>(
         return (u, 0, 0);
     }
     let (u, done) = fill(wrapped, &quality(), unwrapped, w, h);
-    let unreached = counted
-        .iter()
-        .zip(&done)
-        .filter(|(c, d)| **c && !**d)
-        .count();
-    (u, unreached, residues(wrapped, counted, w, h))
+    (
+        u,
+        unreached(counted, &done),
+        residues(wrapped, counted, w, h),
+    )
 }
 
 /// Unwraps `wrapped` inside `region` (both `w × h`), seeded from the pixels outside it.
@@ -160,12 +159,12 @@ pub fn unwrap_region<P: Phase>(
     h: usize,
 ) -> (Vec<P>, usize) {
     let (out, done) = fill(wrapped, quality, region, w, h);
-    let unreached = region
-        .iter()
-        .zip(&done)
-        .filter(|(r, d)| **r && !**d)
-        .count();
-    (out, unreached)
+    (out, unreached(region, &done))
+}
+
+/// How many samples of `of` the fill left without a value (`done` false).
+fn unreached(of: &[bool], done: &[bool]) -> usize {
+    of.iter().zip(done).filter(|(o, d)| **o && !**d).count()
 }
 
 /// The quality-guided fill of [`unwrap_region`]: the unwrapped phase, and which samples

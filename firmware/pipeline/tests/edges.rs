@@ -4,7 +4,7 @@
 #![allow(clippy::unwrap_used)] // tests unwrap: a failure is the test failing
 
 use vistaf_pipeline::calibration::Calibration;
-use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation};
+use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement};
 use vistaf_protocol::Flag;
 use vistaf_sim::contact::{Contact, Indenter};
 use vistaf_sim::scene::{ROOM_C, SPHERE_R_MM};
@@ -13,96 +13,121 @@ use vistaf_sim::{Renderer, SensorUnit, SkinState};
 /// The centre tolerance of the accuracy battery (`vistaf_tests::accuracy`), mm.
 const CENTRE_TOLERANCE_MM: f32 = 1.5;
 
-/// The calibrated sphere pressed with its contact's rim 0 and 6 pixels inside each edge
-/// (within a grating period, 16 pixels on this unit): on both paths the contact is found
-/// and its centre lies within the tolerance. Were the apex looked for up to the edge, a
-/// spurious peak there would take it and move the centre past the tolerance.
-#[test]
-fn a_press_reaching_the_edge_is_read_at_its_place() {
-    let unit = SensorUnit::reference_sized(320, 240);
-    let r = Renderer::new(unit.clone());
-    let (reference, _) = r.render(&SkinState::idle(ROOM_C), 1);
-    let opts = AnalyzerOptions {
-        force_calibration: true,
-        ..Default::default()
-    };
-    let mmpp = unit.mm_per_px();
-    let (w, h) = (unit.width_px as f32 * mmpp, unit.height_px as f32 * mmpp);
-    for imp in [Implementation::Fixed, Implementation::Float] {
-        let a = Analyzer::new(&reference, Calibration::default_sim(), imp, opts).unwrap();
-        for depth_mm in [0.8f32, 1.4] {
-            let contact_r_mm = (SPHERE_R_MM * depth_mm).sqrt();
-            for gap_px in [0.0f32, 6.0] {
-                let off = contact_r_mm + gap_px * mmpp;
-                for center_mm in [
-                    (w - off, h / 2.0),
-                    (off, h / 2.0),
-                    (w / 2.0, h - off),
-                    (w / 2.0, off),
-                ] {
-                    let mut s = SkinState::idle(ROOM_C);
-                    s.contacts.push(Contact {
-                        indenter: Indenter::Sphere { r_mm: SPHERE_R_MM },
-                        center_mm,
-                        depth_mm,
-                    });
-                    let (img, truth) = r.render(&s, 9);
-                    let m = a.analyze(&img).unwrap();
-                    let (c, t) = (m.centroid_px.unwrap(), truth.contact_px.unwrap());
-                    let err_mm = (c.0 - t.0).hypot(c.1 - t.1) * mmpp;
-                    assert!(
-                        err_mm < CENTRE_TOLERANCE_MM,
-                        "{imp:?}: {depth_mm} mm at {center_mm:?} mm read {err_mm:.2} mm away: {m:?}"
-                    );
-                }
-            }
-        }
-    }
+/// One press at the edge as a path read it.
+struct Read {
+    imp: Implementation,
+    center_mm: (f32, f32),
+    m: Measurement,
+    /// The measured centre's distance from the true one, mm (`None` without a contact).
+    centre_err_mm: Option<f32>,
 }
 
-/// A press deep enough for its phase to wrap, centred a grating period from the edge, inside
-/// the band along it where no phase is trusted: its deep part lies there, and must not
-/// seed the unwrapping as background. Taken for background, it unwrapped the press a turn
-/// low, and a 1.85 mm press read as no contact. The unit is the one a battery frame showed
-/// it on (a fine phase response: the press wraps well inside its calibrated depth); the
-/// default calibration reads its depth wrong, so only the contact's place is asserted.
-#[test]
-fn a_deep_press_centred_near_the_edge_is_reported_at_its_place() {
-    let unit = SensorUnit::wide(61);
-    let r = Renderer::new(unit.clone());
-    let (reference, _) = r.render(&SkinState::idle(ROOM_C), 1);
-    let opts = AnalyzerOptions {
-        force_calibration: true,
-        ..Default::default()
-    };
-    let mmpp = unit.mm_per_px();
-    let (w, h) = (unit.width_px as f32 * mmpp, unit.height_px as f32 * mmpp);
-    let depth_mm = 1.85f32;
-    assert!(depth_mm * unit.phase_gain_rad_per_mm > std::f32::consts::PI);
-    let off = unit.period_px * mmpp;
-    for imp in [Implementation::Fixed, Implementation::Float] {
-        let a = Analyzer::new(&reference, Calibration::default_sim(), imp, opts).unwrap();
-        for center_mm in [
-            (w - off, h / 2.0),
-            (off, h / 2.0),
-            (w / 2.0, h - off),
-            (w / 2.0, off),
-        ] {
+/// A unit under the default calibration, on both paths.
+struct Edges {
+    unit: SensorUnit,
+    r: Renderer,
+    paths: Vec<(Implementation, Analyzer)>,
+}
+
+impl Edges {
+    fn new(unit: SensorUnit) -> Edges {
+        let r = Renderer::new(unit.clone());
+        let (reference, _) = r.render(&SkinState::idle(ROOM_C), 1);
+        let opts = AnalyzerOptions {
+            force_calibration: true,
+            ..Default::default()
+        };
+        let paths = [Implementation::Fixed, Implementation::Float]
+            .into_iter()
+            .map(|imp| {
+                let a = Analyzer::new(&reference, Calibration::default_sim(), imp, opts);
+                (imp, a.unwrap())
+            })
+            .collect();
+        Edges { unit, r, paths }
+    }
+
+    /// The calibrated sphere pressed `depth_mm`, its centre `off_mm` from each edge in
+    /// turn (halfway along it), read by both paths.
+    fn press_each_edge(&self, depth_mm: f32, off_mm: f32) -> Vec<Read> {
+        let mmpp = self.unit.mm_per_px();
+        let (w, h) = self.unit.view_mm();
+        let centres = [
+            (w - off_mm, h / 2.0),
+            (off_mm, h / 2.0),
+            (w / 2.0, h - off_mm),
+            (w / 2.0, off_mm),
+        ];
+        let mut out = Vec::new();
+        for center_mm in centres {
             let mut s = SkinState::idle(ROOM_C);
             s.contacts.push(Contact {
                 indenter: Indenter::Sphere { r_mm: SPHERE_R_MM },
                 center_mm,
                 depth_mm,
             });
-            let (img, truth) = r.render(&s, 9);
-            let m = a.analyze(&img).unwrap();
-            let (c, t) = (m.centroid_px, truth.contact_px.unwrap());
-            let err_mm = c.map(|c| (c.0 - t.0).hypot(c.1 - t.1) * mmpp);
-            assert!(
-                m.contact && err_mm.is_some_and(|e| e < CENTRE_TOLERANCE_MM),
-                "{imp:?}: {depth_mm} mm at {center_mm:?} mm: {err_mm:?} mm away: {m:?}"
-            );
+            let (img, truth) = self.r.render(&s, 9);
+            let t = truth.contact_px.unwrap();
+            for (imp, a) in &self.paths {
+                let m = a.analyze(&img).unwrap();
+                let centre_err_mm = m.centroid_px.map(|c| (c.0 - t.0).hypot(c.1 - t.1) * mmpp);
+                out.push(Read {
+                    imp: *imp,
+                    center_mm,
+                    m,
+                    centre_err_mm,
+                });
+            }
         }
+        out
+    }
+}
+
+/// The calibrated sphere pressed with its contact's rim 0 and 6 pixels inside each edge
+/// (within a grating period, 16 pixels on this unit): on both paths the contact is found
+/// and its centre lies within the tolerance. Were the apex looked for up to the edge, a
+/// spurious peak there would take it and move the centre past the tolerance.
+#[test]
+fn a_press_reaching_the_edge_is_read_at_its_place() {
+    let e = Edges::new(SensorUnit::reference_sized(320, 240));
+    let mmpp = e.unit.mm_per_px();
+    for depth_mm in [0.8f32, 1.4] {
+        let contact_r_mm = (SPHERE_R_MM * depth_mm).sqrt();
+        for gap_px in [0.0f32, 6.0] {
+            for p in e.press_each_edge(depth_mm, contact_r_mm + gap_px * mmpp) {
+                let err_mm = p.centre_err_mm.unwrap();
+                assert!(
+                    err_mm < CENTRE_TOLERANCE_MM,
+                    "{:?}: {depth_mm} mm at {:?} mm read {err_mm:.2} mm away: {:?}",
+                    p.imp,
+                    p.center_mm,
+                    p.m
+                );
+            }
+        }
+    }
+}
+
+/// A press deep enough for its phase to wrap, centred a grating period from the edge, inside
+/// the band along it where no phase is trusted: its deep part lies there, and must not seed
+/// the unwrapping as background, which would unwrap the press a turn low until it read as
+/// no contact. The unit's phase response is steep enough for the press to wrap well inside
+/// the depths it is calibrated for; the default calibration reads its depth wrong, so only
+/// the contact's place is asserted.
+#[test]
+fn a_deep_press_centred_near_the_edge_is_reported_at_its_place() {
+    let e = Edges::new(SensorUnit::wide(61));
+    let depth_mm = 1.85f32;
+    assert!(depth_mm * e.unit.phase_gain_rad_per_mm > std::f32::consts::PI);
+    for p in e.press_each_edge(depth_mm, e.unit.period_px * e.unit.mm_per_px()) {
+        assert!(
+            p.m.contact && p.centre_err_mm.is_some_and(|e| e < CENTRE_TOLERANCE_MM),
+            "{:?}: {depth_mm} mm at {:?} mm: {:?} mm away: {:?}",
+            p.imp,
+            p.center_mm,
+            p.centre_err_mm,
+            p.m
+        );
     }
 }
 
@@ -111,42 +136,24 @@ fn a_deep_press_centred_near_the_edge_is_reported_at_its_place() {
 /// press with its rim 3 mm inside the view is not.
 #[test]
 fn a_contact_running_past_the_edge_is_flagged() {
-    let unit = SensorUnit::reference_sized(320, 240);
-    let r = Renderer::new(unit.clone());
-    let (reference, _) = r.render(&SkinState::idle(ROOM_C), 1);
-    let opts = AnalyzerOptions {
-        force_calibration: true,
-        ..Default::default()
-    };
-    let mmpp = unit.mm_per_px();
-    let (w, h) = (unit.width_px as f32 * mmpp, unit.height_px as f32 * mmpp);
+    let e = Edges::new(SensorUnit::reference_sized(320, 240));
     let depth_mm = 1.0f32;
     let contact_r_mm = (SPHERE_R_MM * depth_mm).sqrt();
-    for imp in [Implementation::Fixed, Implementation::Float] {
-        let a = Analyzer::new(&reference, Calibration::default_sim(), imp, opts).unwrap();
-        for (rim_inside_mm, flagged) in [(-1.0f32, true), (3.0, false)] {
-            let off = contact_r_mm + rim_inside_mm;
-            for center_mm in [
-                (w - off, h / 2.0),
-                (off, h / 2.0),
-                (w / 2.0, h - off),
-                (w / 2.0, off),
-            ] {
-                let mut s = SkinState::idle(ROOM_C);
-                s.contacts.push(Contact {
-                    indenter: Indenter::Sphere { r_mm: SPHERE_R_MM },
-                    center_mm,
-                    depth_mm,
-                });
-                let (img, _) = r.render(&s, 9);
-                let m = a.analyze(&img).unwrap();
-                assert!(m.contact, "{imp:?}: no contact at {center_mm:?} mm");
-                assert_eq!(
-                    m.flags.contains(Flag::ContactAtEdge),
-                    flagged,
-                    "{imp:?}: rim {rim_inside_mm} mm inside at {center_mm:?} mm: {m:?}"
-                );
-            }
+    for (rim_inside_mm, flagged) in [(-1.0f32, true), (3.0, false)] {
+        for p in e.press_each_edge(depth_mm, contact_r_mm + rim_inside_mm) {
+            assert!(
+                p.m.contact,
+                "{:?}: no contact at {:?} mm",
+                p.imp, p.center_mm
+            );
+            assert_eq!(
+                p.m.flags.contains(Flag::ContactAtEdge),
+                flagged,
+                "{:?}: rim {rim_inside_mm} mm inside at {:?} mm: {:?}",
+                p.imp,
+                p.center_mm,
+                p.m
+            );
         }
     }
 }

@@ -162,6 +162,12 @@ impl SensorUnit {
         GRATING_PERIOD_MM / self.period_px
     }
 
+    /// The view's width and height on the skin, mm.
+    pub fn view_mm(&self) -> (f32, f32) {
+        let mmpp = self.mm_per_px();
+        (self.width_px as f32 * mmpp, self.height_px as f32 * mmpp)
+    }
+
     /// Grating phase change for an indentation of `depth_mm` (monotone, saturating):
     /// `−g·s·[(1−β)(1 − e^(−h/s)) + β·tanh(h/s)]` (β the imperfections' phase shape, 0 for
     /// an ideal build); negative, as indentation moves the stripes towards −carrier.

@@ -81,11 +81,11 @@ impl Window {
 ///
 /// The samples outside the region seed the unwrapping as background. An untrusted sample
 /// (in the margin along the edge, or with fringes too faint) was never tested for
-/// contact: a press reaching the edge has its deep, wrapped part there, and taking it for
-/// background unwrapped the press a turn low, until it read as no contact. An untrusted
-/// sample whose phase stands beyond the contact threshold `thr` (units) is therefore
-/// unwrapped with the region instead of seeding it; what the unwrapping meets outside the
-/// region is not counted against the contact.
+/// contact: a press reaching the edge has its deep, wrapped part there, and taken for
+/// background it would unwrap the press a turn low, until it read as no contact. An
+/// untrusted sample whose phase stands beyond the contact threshold `thr` (units) is
+/// therefore unwrapped with the region instead of seeding it; what the unwrapping meets
+/// outside the region is not counted against the contact.
 pub(super) fn indentation_phase<P: PhaseNum>(
     coarse: &Coarse<'_, P>,
     (region, thr): (&[bool], i32),

@@ -482,11 +482,12 @@ impl<M: PhaseMap> Found<'_, M> {
         // phase keep the edge's pixels: their values are mostly sound, and without them the
         // centre of a press near the edge moves inward and its force reads short.
         let whole_kernel = Margin::new(carrier.period_px().ceil() as usize, grid.w, grid.h);
+        let kernel_inside = |&i: &usize| whole_kernel.contains(x0 + i % bw, y0 + i / bw);
         let mut region = dominant_component(&pass.depth_um, bw, threshold_um);
         let window_inside =
             whole_kernel.contains(x0, y0) && whole_kernel.contains(x0 + bw - 1, y0 + bh - 1);
         if !window_inside {
-            region.retain(|&i| whole_kernel.contains(x0 + i % bw, y0 + i / bw));
+            region.retain(kernel_inside);
         }
         // The apex is read on the window's phase as read, surround and noise included: the
         // blur acts on the phase, and the correction compares blurs of the whole surface.
@@ -523,8 +524,7 @@ impl<M: PhaseMap> Found<'_, M> {
         let mut flags = limits.flags(&feats, carrier, ctx);
         // Half the contact's depth reaching where the kernel averages padding: the contact
         // may run on past the image, and nothing beyond it is seen.
-        let at_edge = |&i: &usize| !whole_kernel.contains(x0 + i % bw, y0 + i / bw);
-        if !window_inside && contact.iter().any(at_edge) {
+        if !window_inside && !contact.iter().all(kernel_inside) {
             flags.insert(Flag::ContactAtEdge);
         }
         let (force_n, beyond) = bounded_force(ctx.calib, &inputs);
