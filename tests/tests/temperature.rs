@@ -283,6 +283,42 @@ fn a_contact_temperature_says_how_sure_it_is() {
     );
 }
 
+/// An LED ring lighting the skin obliquely brightens the side of a dimple facing it and
+/// darkens the other, to first order in the slope: across a sphere's contact the light is
+/// a plane. The contact's coloured and black stripes lie at different places, and above the
+/// coloured transition a per cent of their ratio is degrees. Heated contacts at 40 °C under
+/// a strong oblique light from four directions, at depths that slide the stripes under the
+/// contact through half a period, read within 0.5 °C of the truth on both paths
+/// ([`vistaf_pipeline::thermal::trend`]).
+#[test]
+fn an_oblique_light_across_a_contact_does_not_read_as_heat() {
+    let (mut worst, mut n) = (0.0f32, 0);
+    for (k, dir) in [0.3f32, 1.9, 3.5, 5.0].into_iter().enumerate() {
+        let mut u = SensorUnit::reference();
+        u.imperfections.oblique_gain = 1.0;
+        u.imperfections.oblique_dir_rad = dir;
+        let c = center_mm(&u);
+        let b = bench_of(u);
+        for (j, depth) in [0.5f32, 0.7, 0.9, 1.1, 1.3].into_iter().enumerate() {
+            let (fx, fl, truth) = b.run(
+                &heated_press(c, depth, 40.0),
+                1500 + 10 * k as u64 + j as u64,
+            );
+            let want = truth.contact_temp_c.unwrap();
+            for d in [&fx, &fl] {
+                let got = d.temperature.as_ref().unwrap().contact_c.unwrap();
+                worst = worst.max((got - want).abs());
+                n += 1;
+            }
+        }
+    }
+    println!("worst {worst:.2} over {n} readings");
+    assert!(
+        worst <= 0.5,
+        "worst contact error {worst:.2} °C over {n} readings"
+    );
+}
+
 /// A sphere pressed `depth_mm` at `c` (mm), the skin under it at `hot_c`.
 fn heated_press(c: (f32, f32), depth_mm: f32, hot_c: f32) -> SkinState {
     let mut s = SkinState::idle(ROOM_C);

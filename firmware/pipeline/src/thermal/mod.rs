@@ -5,6 +5,7 @@
 //!  reference ─▶ grating phase per working pixel (once)
 //!  frame + FTP's Δφ ─▶ frame's grating phase ─▶ stripe centres, per input pixel
 //!        ─▶ linear colour sums per block (one stripe pair) and over the contact
+//!        ─▶ contact: both populations read at one point, the light's slope taken out
 //!        ─▶ black stripes flat-fielded by the reference's pattern of their ratio
 //!        ─▶ invariants (chromaticity, black/coloured ratio)
 //!        ─▶ float: CIELAB + both polynomials + inverse-variance fusion
@@ -17,6 +18,7 @@
 //! arithmetic ([`Evaluator`]), and [`fixed`] the device path's integer evaluation of the
 //! models. [`static_light`] finds the blocks glare misreads, from the reference,
 //! [`ratio_field`] takes the reference's block-to-block pattern out of the stripes' ratio,
+//! [`trend`] the light's slope across the contact out of its two populations' means,
 //! and [`extremes`] reads the map's coldest and hottest places. Fitting the models is the
 //! calibration's job (`vistaf-calibrate`).
 
@@ -28,6 +30,7 @@ pub mod model;
 pub mod ratio_field;
 pub mod static_light;
 pub mod stripes;
+pub mod trend;
 
 use crate::input::Pixels;
 
@@ -217,7 +220,8 @@ impl Thermometer {
     /// the contact region and its core. Blocks that saw only a sliver of a stripe pair
     /// (`drop_partial`), blocks the camera clipped (`drop_clipped`) and blocks static light
     /// misreads ([`static_light`]) come back empty; the others' black stripes are
-    /// flat-fielded ([`ratio_field`]).
+    /// flat-fielded ([`ratio_field`]). The contact region's and its core's sums are read at
+    /// the midpoint of their two populations' centroids ([`trend`]).
     pub fn sums(
         &self,
         frame: Pixels<'_>,
@@ -226,7 +230,7 @@ impl Thermometer {
         regions: Option<Regions<'_>>,
     ) -> (Vec<Sums>, [Sums; 2]) {
         let w = self.geom.w;
-        let (mut blocks, mut contact) = stripes::accumulate(
+        let (mut blocks, contact) = stripes::accumulate(
             frame,
             &self.geom,
             |y, row: &mut [u16]| {
@@ -237,6 +241,9 @@ impl Thermometer {
             regions,
             &self.lin,
         );
+        // The light's slope across the contact is taken out before the reference's pattern:
+        // the pattern is the skin's, the slope the indentation's.
+        let mut contact = contact.levelled();
         drop_partial(&mut blocks);
         drop_clipped(&mut blocks);
         self.ratio.apply(&mut blocks);

@@ -22,6 +22,7 @@
 use crate::input::Pixels;
 
 use super::lab::{linear_table, Invariants};
+use super::trend::Trend;
 
 /// Half-width of the kept band around a stripe centre, phase units (±45°).
 pub const KEEP_UNITS: i32 = 65_536 / 8;
@@ -103,6 +104,36 @@ impl Sums {
         }
         let (c, k) = self.means();
         Invariants::from_linear(c, k, white.means().1)
+    }
+}
+
+/// The contact region's sums and its core's (index 0 the region, 1 the core), with their
+/// samples' spatial moments ([`Trend`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Contact {
+    /// Colour sums of the region and of its core.
+    pub sums: [Sums; 2],
+    /// The same samples' moments.
+    pub trends: [Trend; 2],
+}
+
+impl Contact {
+    /// The region's and the core's sums, each read at the midpoint of its two populations'
+    /// centroids: each population's channels scaled by its factor ([`Trend::factors`]),
+    /// unchanged where the trend declines.
+    pub fn levelled(&self) -> [Sums; 2] {
+        let mut sums = self.sums;
+        for (s, t) in sums.iter_mut().zip(&self.trends) {
+            let Some(factors) = t.factors() else {
+                continue;
+            };
+            for (channels, f) in s.sum.iter_mut().zip(factors) {
+                for v in channels.iter_mut() {
+                    *v = (*v as f64 * f).round() as u64;
+                }
+            }
+        }
+        sums
     }
 }
 
@@ -278,7 +309,7 @@ pub fn accumulate(
     reliable: &[bool],
     regions: Option<Regions<'_>>,
     lin: &[u32; 256],
-) -> (Vec<Sums>, [Sums; 2]) {
+) -> (Vec<Sums>, Contact) {
     let regions = regions.unwrap_or_default();
     // The inner loop is specialised for the common factors, so it unrolls.
     match g.factor {
@@ -298,7 +329,7 @@ fn run<const F: usize>(
     reliable: &[bool],
     regions: Regions<'_>,
     lin: &[u32; 256],
-) -> (Vec<Sums>, [Sums; 2]) {
+) -> (Vec<Sums>, Contact) {
     let f = if F == 0 { g.factor } else { F };
     // Rows of the frame's phase, row y in slot y mod 3: a contact row reads its neighbours
     // above and below, each computed once.
@@ -323,7 +354,7 @@ fn run<const F: usize>(
             s
         }));
     };
-    let mut contact = [Sums::default(); 2];
+    let mut contact = Contact::default();
     let class = &class_table();
     // Each input pixel's phase offset from its working pixel's, padded to the largest factor
     // so that for a specialised factor the slice has a length the compiler knows.
@@ -387,6 +418,7 @@ fn run<const F: usize>(
                 cx0,
                 span: (rx0, rx1),
                 carrier: g.carrier_units,
+                y_px: yw * f,
             };
             row.add_to::<F>(f, lin, &mut contact);
         }
@@ -464,19 +496,23 @@ struct ContactRow<'a> {
     span: (usize, usize),
     /// The reference carrier's advance per working pixel across and down, units.
     carrier: [i32; 2],
+    /// The input row of the working row's first row.
+    y_px: usize,
 }
 
 impl ContactRow<'_> {
     /// Adds every input pixel of the row's contact working pixels to the contact region's
     /// sums (`contact`: the region, its core), at the frame's own local grating (see
     /// `local_phases` and `keep_units`): summed over the row in 32 bits (the core, and the
-    /// rest of the region) and added to the region's sums at its end. `f` input pixels per
-    /// working pixel each way (`F` when not 0).
-    fn add_to<const F: usize>(&self, f: usize, lin: &[u32; 256], contact: &mut [Sums; 2]) {
+    /// rest of the region) and added to the region's sums at its end, with each sample's
+    /// place in the trends ([`Trend`]). `f` input pixels per working pixel each way (`F`
+    /// when not 0).
+    fn add_to<const F: usize>(&self, f: usize, lin: &[u32; 256], contact: &mut Contact) {
         let f = if F == 0 { f } else { F };
         let w = self.theta.len();
         let (x0, x1) = self.span;
         let mut parts = RowParts::default();
+        let mut row_trends = [Trend::default(); 2];
         for xw in (x0..x1.min(w)).filter(|&x| self.reliable[x]) {
             let reg = self
                 .codes
@@ -490,17 +526,26 @@ impl ContactRow<'_> {
             let gx = gradient(self.theta[xa], self.theta[xb], xb - xa, self.carrier[0]);
             let gy = gradient(self.up[xw], self.down[xw], self.ny, self.carrier[1]);
             let keep = keep_units(gx, gy, self.carrier);
-            let part = parts.part(reg == region::CORE, f * f, contact);
+            let core = reg == region::CORE;
+            let part = parts.part(core, f * f, &mut contact.sums);
+            let trend = &mut row_trends[usize::from(core)];
             local_phases(self.theta[xw], gx, gy, f, |ky, ts| {
                 let px = self.pixels.run(ky, xw * f, f);
-                for (p, &t) in px.iter().zip(ts) {
-                    if let Some(pop) = kept(t, keep) {
-                        part.add::<true>(pop, lin, p);
+                for (kx, (p, &t)) in px.iter().zip(ts).enumerate() {
+                    let Some(pop) = kept(t, keep) else {
+                        continue;
+                    };
+                    if let Some(l) = part.add::<true>(pop, lin, p) {
+                        trend.add(pop, (xw * f + kx, self.y_px + ky), l);
                     }
                 }
             });
         }
-        parts.flush(contact);
+        parts.flush(&mut contact.sums);
+        let [ring, core] = row_trends;
+        contact.trends[0].add_all(&ring);
+        contact.trends[0].add_all(&core);
+        contact.trends[1].add_all(&core);
     }
 }
 
@@ -647,14 +692,14 @@ impl Part {
     ) {
         let pop = usize::from(class[usize::from(t >> 6)]);
         if pop <= 1 {
-            self.add::<CHECK>(pop, lin, p);
+            let _ = self.add::<CHECK>(pop, lin, p);
         }
     }
 
     /// One input pixel `p` of population `pop`, unless a channel is saturated (tested when
-    /// `CHECK`).
+    /// `CHECK`); its lightness (the linear channels' sum) when it was added.
     #[inline(always)]
-    fn add<const CHECK: bool>(&mut self, pop: usize, lin: &[u32; 256], p: &[u8; 3]) {
+    fn add<const CHECK: bool>(&mut self, pop: usize, lin: &[u32; 256], p: &[u8; 3]) -> Option<u32> {
         let (r, g, b) = (
             lin[usize::from(p[0])],
             lin[usize::from(p[1])],
@@ -662,13 +707,14 @@ impl Part {
         );
         if CHECK && (r | g | b) & SATURATED != 0 {
             self.0[pop][4] += 1;
-            return;
+            return None;
         }
         let s = &mut self.0[pop];
         s[0] += r;
         s[1] += g;
         s[2] += b;
         s[3] += 1;
+        Some(r + g + b)
     }
 
     fn add_to(&self, acc: &mut Sums) {
@@ -818,8 +864,11 @@ mod tests {
             let with_regions = Some(Regions::new(&regions, 0, 0, w));
             let (with, contact) = accumulate((&img).into(), &g, theta, &rel, with_regions, &lin);
             assert_eq!(plain, with, "factor {f}");
-            assert_eq!(none, [Sums::default(); 2]);
-            assert!(contact[0].n[0] > 0 && contact[0].n[1] > 0, "factor {f}");
+            assert_eq!(none, Contact::default());
+            assert!(
+                contact.sums[0].n[0] > 0 && contact.sums[0].n[1] > 0,
+                "factor {f}"
+            );
         }
     }
 
@@ -873,6 +922,7 @@ mod tests {
             );
             let mut want = vec![Sums::default(); g.bw * g.bh];
             let mut want_contact = [Sums::default(); 2];
+            let mut want_trends = [Trend::default(); 2];
             // The blocks classify in steps of 64 units, as the table does.
             let grid_pop = |t: i32| {
                 let t = i32::from((t as u16 & !63) as i16).abs();
@@ -919,9 +969,14 @@ mod tests {
                     local_phases(th(xw, yw), gx, gy, f, |ky, ts| {
                         for (kx, &t) in ts.iter().enumerate() {
                             let (x, y) = (xw * f + kx, yw * f + ky);
-                            read(x, y, kept(t, keep), &mut want_contact[0]);
-                            if reg == region::CORE {
-                                read(x, y, kept(t, keep), &mut want_contact[1]);
+                            let core = usize::from(reg == region::CORE);
+                            for r in 0..=core {
+                                read(x, y, kept(t, keep), &mut want_contact[r]);
+                                let p = img.get_pixel(x as u32, y as u32).0;
+                                if let (Some(pop), false) = (kept(t, keep), p.contains(&255)) {
+                                    let l = p.iter().map(|&c| lin[usize::from(c)]).sum();
+                                    want_trends[r].add(pop, (x, y), l);
+                                }
                             }
                         }
                     });
@@ -935,9 +990,11 @@ mod tests {
                     g.bw, g.bh, g.block_px
                 );
             }
-            assert_eq!(contact, want_contact, "factor {f}");
-            assert!(contact[1].n[0] > 0 && want.iter().any(|b| b.n[1] > 0));
-            assert!(contact[0].clipped[0] > 0 && want.iter().any(|b| b.clipped[1] > 0));
+            assert_eq!(contact.sums, want_contact, "factor {f}");
+            assert_eq!(contact.trends, want_trends, "factor {f}");
+            let sums = contact.sums;
+            assert!(sums[1].n[0] > 0 && want.iter().any(|b| b.n[1] > 0));
+            assert!(sums[0].clipped[0] > 0 && want.iter().any(|b| b.clipped[1] > 0));
         }
     }
 
@@ -1096,7 +1153,7 @@ mod tests {
             None,
             &lin,
         );
-        assert_eq!(inside, [Sums::default(); 2]);
+        assert_eq!(inside, Contact::default());
         for b in &blocks {
             assert!(b.enough());
             let (c, k) = b.means();
