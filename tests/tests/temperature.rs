@@ -287,8 +287,8 @@ fn a_contact_temperature_says_how_sure_it_is() {
 /// darkens the other, to first order in the slope: across a sphere's contact the light is
 /// a plane. The contact's coloured and black stripes lie at different places, and above the
 /// coloured transition a per cent of their ratio is degrees. Heated contacts at 40 °C under
-/// a strong oblique light from four directions, at depths that slide the stripes under the
-/// contact through half a period, read within 0.5 °C of the truth on both paths
+/// a strong oblique light from four directions, at five depths from 0.5 to 1.3 mm (the
+/// stripes slide under the contact with depth), read within 0.5 °C of the truth on both paths
 /// ([`vistaf_pipeline::thermal::trend`]).
 #[test]
 fn an_oblique_light_across_a_contact_does_not_read_as_heat() {
