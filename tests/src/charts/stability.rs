@@ -130,9 +130,12 @@ fn small_unit() -> SensorUnit {
     SensorUnit::reference_sized(320, 240)
 }
 
-/// Force-and-shape flags (everything but the temperature range).
+/// Force-and-shape flags: everything but the temperature's own (out of range, uncertain),
+/// which a depth axis does not judge (a washed-out grating reads as heat and says so).
 fn shape_flagged(d: &Measurement) -> bool {
-    d.flags.iter().any(|f| f != Flag::TemperatureOutOfRange)
+    d.flags
+        .iter()
+        .any(|f| !matches!(f, Flag::TemperatureOutOfRange | Flag::TemperatureUncertain))
 }
 
 /// A depth sweep point: peak depth error over its tolerance.
