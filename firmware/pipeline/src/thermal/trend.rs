@@ -20,7 +20,7 @@
 //! assumed or calibrated. Fitting each population's own plane instead (which would also
 //! keep a trend of the pigment's own) left the dark black stripes' noise in the
 //! correction. Reading a mean away from its centroid costs noise: where the region is too
-//! narrow across the stripes to tell the slope there (a stripe or two of each population),
+//! narrow across the stripes to tell the slope there (about one stripe of each population),
 //! the step would grow a mean's variance more than [`MAX_NOISE_GAIN`] times, and both
 //! means are left as they are.
 //!
