@@ -692,7 +692,7 @@ impl Part {
     ) {
         let pop = usize::from(class[usize::from(t >> 6)]);
         if pop <= 1 {
-            let _ = self.add::<CHECK>(pop, lin, p);
+            self.add::<CHECK>(pop, lin, p);
         }
     }
 

@@ -9,17 +9,17 @@
 //! An oblique ring lights a dimple's slopes to first order in the slope, and inside a
 //! sphere's contact the slope grows linearly from its centre: across the contact the light
 //! is a plane, tilted by tens of per cent between rims. Above the coloured transition the
-//! reading hangs on a per cent of the ratio, so that tilt moved a heated contact's reading
-//! by degrees, changing sign as the stripes slid under the contact with its depth.
+//! reading hangs on a per cent of the ratio, so such a tilt moves a heated contact's
+//! reading by degrees, changing sign as the stripes slide under the contact with depth.
 //!
 //! So the light's relative slope across the region is fitted to both populations' samples
 //! at once, by least squares (the light multiplies both stripes alike, each about its own
 //! mean lightness, the sum of its linear channels), and both populations' means are read at
 //! one point, the midpoint of their centroids. A light linear across the region cancels
 //! by construction, whatever its direction and strength; nothing about the light is
-//! assumed or calibrated. Fitting each population's own plane instead (which would also
-//! keep a trend of the pigment's own) left the dark black stripes' noise in the
-//! correction. Reading a mean away from its centroid costs noise: where the region is too
+//! assumed or calibrated. Each population's own plane would also keep a trend of the
+//! pigment's own, but would carry the dark black stripes' noise into the correction
+//! (`docs/temperature.md` compares the variants). Reading a mean away from its centroid costs noise: where the region is too
 //! narrow across the stripes to tell the slope there (about one stripe of each population),
 //! the step would grow a mean's variance more than [`MAX_NOISE_GAIN`] times, and both
 //! means are left as they are.
@@ -140,6 +140,11 @@ impl Sym {
         self.0 * self.2 - self.1 * self.1
     }
 
+    /// `M + w·o`.
+    fn plus(self, w: f64, o: &Sym) -> Sym {
+        Sym(self.0 + w * o.0, self.1 + w * o.1, self.2 + w * o.2)
+    }
+
     /// `M⁻¹ v`.
     fn solve(&self, v: (f64, f64)) -> (f64, f64) {
         let det = self.det();
@@ -165,15 +170,9 @@ impl Slope {
     /// moments): the bright coloured stripes weigh most. `None` when the samples do not
     /// span both directions.
     fn shared(pops: &[Population; 2]) -> Option<Slope> {
-        let mut normal = Sym(0.0, 0.0, 0.0);
-        let mut rhs = (0.0, 0.0);
+        let (mut normal, mut rhs) = (Sym(0.0, 0.0, 0.0), (0.0, 0.0));
         for p in pops {
-            let w = p.mean * p.mean;
-            normal = Sym(
-                normal.0 + w * p.scatter.0,
-                normal.1 + w * p.scatter.1,
-                normal.2 + w * p.scatter.2,
-            );
+            normal = normal.plus(p.mean * p.mean, &p.scatter);
             rhs = (rhs.0 + p.mean * p.cross.0, rhs.1 + p.mean * p.cross.1);
         }
         if normal.det() <= f64::EPSILON * (normal.0 * normal.2).max(f64::MIN_POSITIVE) {
