@@ -50,6 +50,13 @@ impl Edges {
     /// The calibrated sphere pressed `depth_mm`, its centre `off_mm` from each edge in
     /// turn (halfway along it), read by both paths.
     fn press_each_edge(&self, depth_mm: f32, off_mm: f32) -> Vec<Read> {
+        let sphere = Indenter::Sphere { r_mm: SPHERE_R_MM };
+        self.press_each_edge_with(sphere, depth_mm, off_mm)
+    }
+
+    /// `indenter` pressed `depth_mm`, its centre `off_mm` from each edge in turn (halfway
+    /// along it), read by both paths.
+    fn press_each_edge_with(&self, indenter: Indenter, depth_mm: f32, off_mm: f32) -> Vec<Read> {
         let mmpp = self.unit.mm_per_px();
         let (w, h) = self.unit.view_mm();
         let centres = [
@@ -62,7 +69,7 @@ impl Edges {
         for center_mm in centres {
             let mut s = SkinState::idle(ROOM_C);
             s.contacts.push(Contact {
-                indenter: Indenter::Sphere { r_mm: SPHERE_R_MM },
+                indenter: indenter.clone(),
                 center_mm,
                 depth_mm,
             });
@@ -152,6 +159,35 @@ fn a_contact_running_past_the_edge_is_flagged() {
                 "{:?}: rim {rim_inside_mm} mm inside at {:?} mm: {:?}",
                 p.imp,
                 p.center_mm,
+                p.m
+            );
+        }
+    }
+}
+
+/// A 5 mm sphere pressed 0.5 mm, centred three quarters of a grating period and a period
+/// from the edge, on a unit of a short period (7 px): a contact's phase is trusted from one
+/// period in, where the demodulator's kernel lies wholly in the image, and the press is
+/// found there, reported at its place and flagged `contact_at_edge`, on both paths and at
+/// every edge. With no phase trusted within a period and a half of the edge, too little of
+/// the press remained to be a contact on this unit: it read as none at most edges, with no
+/// flag.
+#[test]
+fn a_press_centred_within_a_period_of_the_edge_is_found() {
+    let e = Edges::new(SensorUnit::wide(55));
+    let period_mm = e.unit.period_px * e.unit.mm_per_px();
+    let (r_mm, depth_mm) = (5.0f32, 0.5f32);
+    for periods in [0.75f32, 1.0] {
+        let off_mm = periods * period_mm;
+        for p in e.press_each_edge_with(Indenter::Sphere { r_mm }, depth_mm, off_mm) {
+            assert!(
+                p.m.contact
+                    && p.m.flags.contains(Flag::ContactAtEdge)
+                    && p.centre_err_mm.is_some_and(|e| e < CENTRE_TOLERANCE_MM),
+                "{:?}: {depth_mm} mm at {:?} mm: {:?} mm away: {:?}",
+                p.imp,
+                p.center_mm,
+                p.centre_err_mm,
                 p.m
             );
         }

@@ -179,16 +179,33 @@ pub(super) struct Coarse<'a, P> {
     pub(super) amp_r: std::borrow::Cow<'a, [u32]>,
     /// Inside the margin, with both amplitudes above `lim`.
     pub(super) rel: Vec<bool>,
+    /// The same inside the contact's margin (narrower): where a contact's phase is read.
+    pub(super) rel_contact: Vec<bool>,
     /// Samples inside the margin, and those reliable.
     pub(super) inside_n: usize,
     pub(super) reliable_n: usize,
 }
 
-/// Reads the coarse grid: the only place the background's phase is computed.
+/// The coarse samples (`cw × ch`) inside `m`, one run per row: columns `cx` with `cx·GRID`
+/// in `xs`, rows likewise.
+fn sample_runs(
+    m: &Margin,
+    (cw, ch): (usize, usize),
+) -> impl Iterator<Item = std::ops::Range<usize>> + '_ {
+    let cols = m.xs.start.div_ceil(GRID).min(cw)..m.xs.end.div_ceil(GRID).min(cw);
+    (0..ch)
+        .filter(|cy| m.ys.contains(&(cy * GRID)))
+        .map(move |cy| cy * cw + cols.start..cy * cw + cols.end)
+}
+
+/// Reads the coarse grid: the only place the background's phase is computed. Samples are
+/// reliable inside `margin` (the background's) or `contact_margin` (a contact's, no wider
+/// than the background's) where both amplitudes exceed `lim`.
 pub(super) fn read_coarse<'a, M: PhaseMap>(
     map: &'a M,
     lim: u32,
     margin: &Margin,
+    contact_margin: &Margin,
 ) -> Coarse<'a, M::P> {
     let (w, h) = map.size();
     let (cw, ch) = (w.div_ceil(GRID), h.div_ceil(GRID));
@@ -198,16 +215,17 @@ pub(super) fn read_coarse<'a, M: PhaseMap>(
     let phase: Vec<M::P> = map.wrapped_all();
     let amp = map.amp_frame_all();
     let amp_r = map.amp_ref_all();
-    let (mut inside_n, mut reliable_n) = (0, 0);
-    let mut rel = vec![false; n];
-    // The samples inside the margin: columns `cx` with `cx·GRID` in `xs`, rows likewise.
-    let cols = margin.xs.start.div_ceil(GRID).min(cw)..margin.xs.end.div_ceil(GRID).min(cw);
-    for cy in (0..ch).filter(|cy| margin.ys.contains(&(cy * GRID))) {
-        let run = cy * cw + cols.start..cy * cw + cols.end;
+    let mut rel_contact = vec![false; n];
+    for run in sample_runs(contact_margin, (cw, ch)) {
         let pairs = amp[run.clone()].iter().zip(&amp_r[run.clone()]);
-        for (r, (&a, &b)) in rel[run.clone()].iter_mut().zip(pairs) {
+        for (r, (&a, &b)) in rel_contact[run].iter_mut().zip(pairs) {
             *r = a > lim && b > lim;
         }
+    }
+    let (mut inside_n, mut reliable_n) = (0, 0);
+    let mut rel = vec![false; n];
+    for run in sample_runs(margin, (cw, ch)) {
+        rel[run.clone()].copy_from_slice(&rel_contact[run.clone()]);
         inside_n += run.len();
         reliable_n += rel[run].iter().map(|&r| usize::from(r)).sum::<usize>();
     }
@@ -217,6 +235,7 @@ pub(super) fn read_coarse<'a, M: PhaseMap>(
         amp,
         amp_r,
         rel,
+        rel_contact,
         inside_n,
         reliable_n,
     }
@@ -332,8 +351,9 @@ mod tests {
     }
 
     /// Reliability per coarse sample against its plain reading: inside the margin (the
-    /// sample's working pixel, `GRID·cx`, `GRID·cy`) with both amplitudes above the limit;
-    /// odd and even sizes and margins, one wider than the image.
+    /// sample's working pixel, `GRID·cx`, `GRID·cy`) with both amplitudes above the limit,
+    /// for the background's margin and a contact's narrower one; odd and even sizes and
+    /// margins, one wider than the image.
     #[test]
     fn reliable_samples_follow_the_margin_and_amplitudes() {
         let mut rng = crate::test_rng::XorShift(0x2545_f491_4f6c_dd1d);
@@ -349,14 +369,20 @@ mod tests {
                 amp: (0..n).map(|_| (rng.next() % 1000) as u32).collect(),
                 amp_ref: (0..n).map(|_| (rng.next() % 1000) as u32).collect(),
             };
-            let margin = Margin::new(m, w, h);
-            let c = read_coarse(&map, 300, &margin);
+            let (margin, contact_margin) = (Margin::new(m, w, h), Margin::new(m * 2 / 3, w, h));
+            let c = read_coarse(&map, 300, &margin, &contact_margin);
             let cw = w.div_ceil(GRID);
             let (mut inside_n, mut reliable_n) = (0, 0);
             for k in 0..n {
-                let inside = margin.contains(GRID * (k % cw), GRID * (k / cw));
-                let want = inside && map.amp[k] > 300 && map.amp_ref[k] > 300;
+                let (x, y) = (GRID * (k % cw), GRID * (k / cw));
+                let bright = map.amp[k] > 300 && map.amp_ref[k] > 300;
+                let (inside, want) = (margin.contains(x, y), margin.contains(x, y) && bright);
                 assert_eq!(c.rel[k], want, "{w}×{h} margin {m}, sample {k}");
+                let want_contact = contact_margin.contains(x, y) && bright;
+                assert_eq!(
+                    c.rel_contact[k], want_contact,
+                    "{w}×{h} margin {m}, sample {k}"
+                );
                 inside_n += usize::from(inside);
                 reliable_n += usize::from(want);
             }

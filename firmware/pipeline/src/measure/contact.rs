@@ -117,7 +117,7 @@ pub(super) fn indentation_phase<P: PhaseNum>(
         let not_seeds: Vec<bool> = in_region
             .iter()
             .zip(&local)
-            .zip(win.of(&coarse.rel, cw))
+            .zip(win.of(&coarse.rel_contact, cw))
             .map(|((&r, p), ok)| r || (!ok && p.units().abs() > thr))
             .collect();
         unwrap_window(&local, (&not_seeds, &in_region), cbw, cbh, || {
@@ -320,7 +320,7 @@ impl<P> Limits<'_, P> {
             }
             let k = cy * c.cw + cx;
             seen += 1;
-            if !c.rel[k] || u64::from(c.amp[k]) * 2 * rm < u64::from(c.amp_r[k]) * fm {
+            if !c.rel_contact[k] || u64::from(c.amp[k]) * 2 * rm < u64::from(c.amp_r[k]) * fm {
                 lost += 1;
             }
         }

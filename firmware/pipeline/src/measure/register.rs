@@ -124,7 +124,14 @@ pub(super) fn background<P: PhaseNum>(
         .round()
         .max(TILE_MIN_SAMPLES as f32) as usize;
     let tiles_above = |phi: &[i32], thr: i32| {
-        contact_tiles(phi, &coarse.rel, thr, grid.coarse, grid.tiles, min_total)
+        contact_tiles(
+            phi,
+            &coarse.rel_contact,
+            thr,
+            grid.coarse,
+            grid.tiles,
+            min_total,
+        )
     };
     let noise = local_noise_units(&phi, &coarse.rel, grid.coarse.0, grid.coarse.1, noise_box);
     let threshold = threshold_of(noise);
