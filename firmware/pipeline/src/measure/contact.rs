@@ -235,6 +235,7 @@ impl DepthPass {
 /// narrow to resolve.
 pub(super) struct Limits<'a, P> {
     pub(super) coarse: &'a Coarse<'a, P>,
+    /// Where a contact's phase is trusted: a grating period in from the edge.
     pub(super) margin: &'a Margin,
     pub(super) win: &'a Window,
     pub(super) pass: &'a DepthPass,

@@ -396,6 +396,7 @@ struct Found<'a, M: PhaseMap> {
     map: &'a M,
     factor: usize,
     coarse: &'a Coarse<'a, M::P>,
+    /// Where a contact's phase is trusted: a grating period in from the edge.
     margin: &'a Margin,
     bg: &'a Background<M::P>,
     tiles_on: &'a [bool],
