@@ -169,9 +169,9 @@ fn a_contact_running_past_the_edge_is_flagged() {
 /// from the edge, on a unit of a short period (7 px): a contact's phase is trusted from one
 /// period in, where the demodulator's kernel lies wholly in the image, and the press is
 /// found there, reported at its place and flagged `contact_at_edge`, on both paths and at
-/// every edge. With no phase trusted within a period and a half of the edge, too little of
-/// the press remained to be a contact on this unit: it read as none at one edge or more,
-/// with no flag.
+/// every edge. Were no phase trusted within a period and a half of the edge, too little of
+/// the press would remain to be a contact on this unit, and it would read as none, with no
+/// flag.
 #[test]
 fn a_press_centred_within_a_period_of_the_edge_is_found() {
     let e = Edges::new(SensorUnit::wide(55));

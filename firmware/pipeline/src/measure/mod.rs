@@ -206,7 +206,6 @@ pub fn measure<M: PhaseMap>(
     let mut flags = image_flags(map, &coarse, amp_medians, ctx);
     let bg = register::background(&coarse, &grid, carrier, ctx.indentation_sign());
     flags.insert_all(background_flags(&bg));
-    let reliable = reliable_pixels(&coarse.rel, &grid, &margin);
     let mut wrapped = WrappedPhase {
         cw: grid.coarse.0,
         coarse: coarse.phase.iter().map(|p| p.units()).collect(),
@@ -223,6 +222,7 @@ pub fn measure<M: PhaseMap>(
     // wrapped to the other sign, and it must be unwrapped, not seeded from. Only
     // indentation (positive signed phase) is reported as depth.
     let Some((tiles_on, tiles)) = &bg.contact else {
+        let reliable = reliable_pixels(&coarse.rel, &grid, &margin);
         return (frame.without_contact(reliable), wrapped);
     };
     let found = Found {
@@ -235,10 +235,31 @@ pub fn measure<M: PhaseMap>(
         amp_medians,
     };
     let contact_reliable = reliable_pixels(&coarse.rel_contact, &grid, &contact_margin);
-    match found.measure(carrier, ctx, &contact_reliable, &mut wrapped) {
+    let c = found.measure(carrier, ctx, &contact_reliable, &mut wrapped);
+    // What the temperature reads: the same map within the background's margin.
+    let reliable = within(contact_reliable, grid.w, &margin);
+    match c {
         Some(c) => (frame.with_contact(c, *tiles, reliable), wrapped),
         None => (frame.without_contact(reliable), wrapped),
     }
+}
+
+/// A reliability map (`w` pixels across) built on a narrower margin, cut to `margin`: what
+/// [`reliable_pixels`] gives there, since the samples inside both margins are reliable
+/// alike. A pixel reads the coarse sample at or before it, so the margin's first row and
+/// column count only when they hold a sample (a multiple of [`GRID`]).
+fn within(mut reliable: Vec<bool>, w: usize, margin: &Margin) -> Vec<bool> {
+    let on_grid = |r: &std::ops::Range<usize>| r.start.next_multiple_of(GRID).min(r.end)..r.end;
+    let (xs, ys) = (on_grid(&margin.xs), on_grid(&margin.ys));
+    for (y, row) in reliable.chunks_exact_mut(w).enumerate() {
+        if ys.contains(&y) {
+            row[..xs.start].fill(false);
+            row[xs.end..].fill(false);
+        } else {
+            row.fill(false);
+        }
+    }
+    reliable
 }
 
 /// Flags the image earns before any phase is read: fringes too faint against the
@@ -492,7 +513,7 @@ impl<M: PhaseMap> Found<'_, M> {
         // the edge is no contact. The component, the depth map, area, volume and integrated
         // phase keep the edge's pixels: their values are mostly sound, and without them the
         // centre of a press near the edge moves inward and its force reads short.
-        let whole_kernel = Margin::new(carrier.period_px().ceil() as usize, grid.w, grid.h);
+        let whole_kernel = self.margin;
         let kernel_inside = |&i: &usize| whole_kernel.contains(x0 + i % bw, y0 + i / bw);
         let mut region = dominant_component(&pass.depth_um, bw, threshold_um);
         let window_inside =
@@ -553,5 +574,41 @@ impl<M: PhaseMap> Found<'_, M> {
             origin: (x0, y0),
             size: (bw, bh),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The temperature's reliability map cut from a contact's narrower one ([`within`]) is
+    /// the map [`reliable_pixels`] builds on the background's margin: odd and even sizes and
+    /// margins, equal margins, and a background margin wider than the image.
+    #[test]
+    fn a_contact_map_cut_to_the_background_margin_is_the_background_map() {
+        let mut rng = crate::test_rng::XorShift(0x9e37_79b9_7f4a_7c15);
+        for ((w, h), (m_bg, m_contact)) in [
+            ((320usize, 240usize), (24usize, 16usize)),
+            ((37, 23), (5, 3)),
+            ((38, 17), (7, 4)),
+            ((40, 30), (6, 6)),
+            ((9, 7), (20, 3)),
+        ] {
+            let grid = Grid::of((w, h));
+            let cw = grid.coarse.0;
+            let n = cw * grid.coarse.1;
+            let bright: Vec<bool> = (0..n).map(|_| !rng.next().is_multiple_of(5)).collect();
+            let (bg, contact) = (Margin::new(m_bg, w, h), Margin::new(m_contact, w, h));
+            // As `read_coarse` marks them: bright and inside the margin at the sample.
+            let samples = |m: &Margin| -> Vec<bool> {
+                (0..n)
+                    .map(|k| bright[k] && m.contains(GRID * (k % cw), GRID * (k / cw)))
+                    .collect()
+            };
+            let cut = within(reliable_pixels(&samples(&contact), &grid, &contact), w, &bg);
+            let direct = reliable_pixels(&samples(&bg), &grid, &bg);
+            assert!(direct.iter().any(|&r| r) || m_bg * 2 >= w.min(h));
+            assert_eq!(cut, direct, "{w}×{h}, margins {m_bg} and {m_contact}");
+        }
     }
 }

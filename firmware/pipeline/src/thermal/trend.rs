@@ -19,10 +19,10 @@
 //! by construction, whatever its direction and strength; nothing about the light is
 //! assumed or calibrated. Each population's own plane would also keep a trend of the
 //! pigment's own, but would carry the dark black stripes' noise into the correction
-//! (`docs/temperature.md` compares the variants). Reading a mean away from its centroid costs noise: where the region is too
-//! narrow across the stripes to tell the slope there (about one stripe of each population),
-//! the step would grow a mean's variance more than [`MAX_NOISE_GAIN`] times, and both
-//! means are left as they are.
+//! (`docs/temperature.md` compares the variants). Reading a mean away from its centroid
+//! costs noise: where the region is too narrow across the stripes to tell the slope there
+//! (about one stripe of each population), the step would grow a mean's variance more than
+//! [`MAX_NOISE_GAIN`] times, and both means are left as they are.
 //!
 //! The moments are summed exactly in integers with the colour sums, on both paths; the
 //! fit is a 2 × 2 solve once per frame in floating point (a few dozen operations, which the
