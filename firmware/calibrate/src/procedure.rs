@@ -28,7 +28,6 @@ use vistaf_pipeline::calibration::{
 use vistaf_pipeline::ftp::carrier;
 use vistaf_pipeline::image_ops::gray_down_f32;
 use vistaf_pipeline::input::decode_scale;
-use vistaf_pipeline::thermal::stripes::{Geometry, Sums};
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement};
 use vistaf_protocol::Flag;
 
@@ -198,21 +197,6 @@ const COLOUR_FLAGS: [Flag; 3] = [
     Flag::StaleReference,
 ];
 
-/// Empties the blocks of a no-contact frame's `sums` around the contact its phase showed
-/// (`window`, working pixels, grown by a block): the stripes were placed by that phase, so
-/// their colours there are a mix; everywhere else the skin is read as it is. Returns how
-/// many blocks were emptied.
-fn leave_out_phantom(sums: &mut [Sums], g: &Geometry, window: [usize; 4]) -> usize {
-    let mut n = 0;
-    for b in g.blocks_around(window, 1) {
-        if let Some(s) = sums.get_mut(b) {
-            *s = Sums::default();
-            n += 1;
-        }
-    }
-    n
-}
-
 /// Colour → temperature from the frames labelled `temperature_c` without contact
 /// (`depth_mm` and `force_n` absent or 0); `None` (with a note) when there are too few.
 fn temperature_model<O: Observer>(
@@ -258,39 +242,35 @@ fn temperature_model<O: Observer>(
             labelled.push(t);
             run.obs.progress("colour → temperature", done, total);
             s.decoded_frame(i, run.scale, &mut frame)?;
-            let (d, mut sums) = an.colour_sums(&frame).map_err(pipe)?;
+            // The label says the skin is at rest: a contact its phase shows is a misreading,
+            // and the stripes are placed as they lie at rest.
+            let (d, sums) = an.colour_sums_at_rest(&frame).map_err(pipe)?;
             let spoilt: Vec<&str> = COLOUR_FLAGS
                 .iter()
                 .filter(|f| d.flags.contains(**f))
                 .map(|f| f.name())
                 .collect();
-            let phantom = d.window_px.filter(|_| d.contact);
             if d.flags.contains(Flag::OverExposure) {
                 clipped.push(t);
             }
-            if !spoilt.is_empty() || (d.contact && phantom.is_none()) {
+            if !spoilt.is_empty() {
                 run.obs.note(format!(
                     "{set}: {} left out of the temperature fit ({})",
                     f.file,
-                    if spoilt.is_empty() {
-                        "shows contact".to_string()
-                    } else {
-                        spoilt.join(", ")
-                    }
+                    spoilt.join(", ")
                 ));
                 continue;
             }
-            let g = an.thermometer().geometry();
-            if let Some(window) = phantom {
-                let n = leave_out_phantom(&mut sums, g, window);
+            if d.contact {
                 run.obs.note(format!(
                     "{set}: {} shows contact where its label says none (the phase misread \
                      there: the pigment's colour at this temperature lowers the grating's \
-                     contrast, under a glare spot say); the {n} blocks around it left out of \
-                     the temperature fit, the rest kept",
+                     contrast, under a glare spot say); kept in the temperature fit with its \
+                     stripes placed by the registration where the phase moved",
                     f.file,
                 ));
             }
+            let g = an.thermometer().geometry();
             let pooled = pool(&sums, g.bw, g.bh, BLACK_POOL);
             // As the thermometer reads them: the coloured stripes against the
             // neighbourhood's black stripes.

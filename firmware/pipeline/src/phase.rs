@@ -205,9 +205,35 @@ pub struct WrappedPhase {
     pub(crate) coarse: Vec<i32>,
     /// The region's window: origin, width, height and values (every pixel of it is read).
     pub(crate) local: Option<(usize, usize, usize, usize, Vec<i32>)>,
+    /// The registration the measurement found and its contact threshold, units: where
+    /// [`WrappedPhase::at_rest`] puts a sample back, and how far it may have moved.
+    pub(crate) offset: i32,
+    pub(crate) threshold: i32,
 }
 
 impl WrappedPhase {
+    /// The difference as a frame known to be at rest reads it (a calibration frame
+    /// labelled without contact): each sample that moved from the registration by more
+    /// than the contact threshold is put back on it, and the contact region's pixels are
+    /// dropped. With nothing pressing, the stripes lie where the reference's do, moved by
+    /// the registration; a phase moved there is a misreading (under a glare spot, or where
+    /// the pigment's colour lowers the grating's contrast), and stripes placed by it mix
+    /// the two populations. Samples within the threshold keep their reading, so a slow
+    /// drift of the grating under it (the skin warming) is followed as the service
+    /// follows it.
+    pub fn at_rest(&self) -> WrappedPhase {
+        let moved = |d: i32| i32::from(d.wrapping_sub(self.offset) as i16).abs() > self.threshold;
+        WrappedPhase {
+            cw: self.cw,
+            coarse: (self.coarse.iter())
+                .map(|&d| if moved(d) { self.offset } else { d })
+                .collect(),
+            local: None,
+            offset: self.offset,
+            threshold: self.threshold,
+        }
+    }
+
     /// The frame's grating phase along working row `y` into `out` (units): `reference` (the
     /// reference's phase along that row) plus the wrapped phase difference, in one pass.
     pub fn frame_row(&self, y: usize, reference: &[u16], out: &mut [u16]) {
@@ -286,6 +312,39 @@ mod tests {
         }
     }
 
+    /// A frame at rest reads the registration wherever its phase moved beyond the contact
+    /// threshold, either way and across the wrap, keeps its reading within it, and drops
+    /// the contact region's pixels.
+    #[test]
+    fn a_frame_at_rest_puts_its_moved_samples_back_on_the_registration() {
+        let (offset, threshold) = (32_000, 400);
+        let read = [
+            (32_000, 32_000),   // on the registration
+            (32_399, 32_399),   // within the threshold
+            (31_601, 31_601),   // within, the other way
+            (-33_137, -33_137), // within, across the wrap (32_399 one cycle down)
+            (32_401, offset),   // just beyond
+            (-32_000, offset),  // beyond, across the wrap
+            (20_000, offset),   // far the other way
+        ];
+        let wrapped = WrappedPhase {
+            cw: read.len(),
+            coarse: read.iter().map(|r| r.0).collect(),
+            local: Some((0, 0, 1, 1, vec![9_000])),
+            offset,
+            threshold,
+        };
+        let rest = wrapped.at_rest();
+        assert_eq!(rest.coarse, read.iter().map(|r| r.1).collect::<Vec<_>>());
+        assert!(rest.local.is_none());
+        let mut out = [0u16; 1];
+        rest.frame_row(0, &[0], &mut out);
+        assert_eq!(
+            out[0], offset as u16,
+            "the region's pixel reads the registration"
+        );
+    }
+
     /// The frame's phase row against its plain reading, pixel by pixel: the reference's
     /// phase plus the contact window's value inside it and the nearest coarse sample
     /// elsewhere, on odd and even widths, with and without a window.
@@ -307,6 +366,7 @@ mod tests {
                     cw,
                     coarse: coarse.clone(),
                     local: local.clone(),
+                    ..Default::default()
                 };
                 for y in 0..h {
                     let r = &reference[y * w..(y + 1) * w];

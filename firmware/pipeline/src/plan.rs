@@ -317,17 +317,47 @@ impl Analyzer {
         &self.calib
     }
 
-    /// The frame's force-side result and its colour sums per block (for calibrating
-    /// colour → temperature; no model needed).
+    /// The frame's force-side result and its colour sums per block, the stripes placed
+    /// by the frame's phase as the service places them (no model needed).
     pub fn colour_sums<'i>(
         &self,
         frame: impl Into<Pixels<'i>>,
     ) -> Result<(Measurement, Vec<Sums>), PipelineError> {
-        let frame = frame.into();
+        self.sums_placed(frame.into(), false)
+    }
+
+    /// As [`Analyzer::colour_sums`], for a frame known to be at rest (a calibration frame
+    /// labelled without contact). When its phase shows a contact all the same (a misreading),
+    /// the stripes are placed by the phase it reads at rest ([`WrappedPhase::at_rest`]), so
+    /// the spot keeps its colours for the colour → temperature fit. Otherwise they are
+    /// placed as the service places them: a phase the pigment's colour moves without a
+    /// contact moves alike in service, and the fit must see the colours as read there. The
+    /// result still says what the phase showed.
+    pub fn colour_sums_at_rest<'i>(
+        &self,
+        frame: impl Into<Pixels<'i>>,
+    ) -> Result<(Measurement, Vec<Sums>), PipelineError> {
+        self.sums_placed(frame.into(), true)
+    }
+
+    /// The colour sums, the stripes placed at rest when `at_rest` and the phase shows a
+    /// contact, by the phase as read otherwise.
+    fn sums_placed(
+        &self,
+        frame: Pixels<'_>,
+        at_rest: bool,
+    ) -> Result<(Measurement, Vec<Sums>), PipelineError> {
         self.run(frame, &mut Scratch::default(), |d, wrapped| {
+            let rest;
+            let placed = if at_rest && d.contact {
+                rest = wrapped.at_rest();
+                &rest
+            } else {
+                wrapped
+            };
             let (s, _) = self.thermo.sums(
                 frame,
-                |y, r, row| wrapped.frame_row(y, r, row),
+                |y, r, row| placed.frame_row(y, r, row),
                 &d.reliable,
                 None,
             );

@@ -210,6 +210,8 @@ pub fn measure<M: PhaseMap>(
         cw: grid.coarse.0,
         coarse: coarse.phase.iter().map(|p| p.units()).collect(),
         local: None,
+        offset: bg.offset.units(),
+        threshold: bg.threshold,
     };
     let frame = FrameResult {
         grid,

@@ -277,22 +277,6 @@ impl Geometry {
         };
         (side(bx, self.w), side(by, self.h))
     }
-
-    /// The blocks that hold any working pixel of the box `[x0, y0, x1, y1)` grown by
-    /// `margin` blocks each way, as indices (clipped to the image).
-    pub fn blocks_around(
-        &self,
-        [x0, y0, x1, y1]: [usize; 4],
-        margin: usize,
-    ) -> impl Iterator<Item = usize> + '_ {
-        let span = |lo: usize, hi: usize, n: usize| {
-            let first = (lo / self.block_px).saturating_sub(margin);
-            let last = (hi.max(lo + 1).div_ceil(self.block_px) + margin).min(n);
-            first..last
-        };
-        let (xs, ys) = (span(x0, x1, self.bw), span(y0, y1, self.bh));
-        ys.flat_map(move |y| xs.clone().map(move |x| y * self.bw + x))
-    }
 }
 
 /// Sums colours per block, and over the contact region and its core (`regions`).
@@ -1082,21 +1066,6 @@ mod tests {
         assert_eq!(contact[1].n.iter().sum::<u32>() as usize, n.div_ceil(3));
         let sum: u64 = contact[0].sum.iter().map(|s| s[1]).sum();
         assert_eq!(sum, n as u64 * (1 << 16));
-    }
-
-    #[test]
-    fn the_blocks_around_a_box_are_those_it_touches_and_a_margin() {
-        // 10-pixel blocks, 5 × 4 of them.
-        let g = Geometry::new(50, 40, 1, 0.1, 0.0);
-        assert_eq!(g.block_px, 10);
-        let at = |b: usize| (b % g.bw, b / g.bw);
-        let touched: Vec<_> = g.blocks_around([12, 5, 21, 9], 0).map(at).collect();
-        assert_eq!(touched, [(1, 0), (2, 0)]);
-        let grown: Vec<_> = g.blocks_around([12, 5, 21, 9], 1).map(at).collect();
-        assert_eq!(grown.len(), 4 * 2, "clipped at the top: {grown:?}");
-        assert!(grown.contains(&(0, 1)) && grown.contains(&(3, 1)));
-        let corner: Vec<_> = g.blocks_around([49, 39, 50, 40], 1).map(at).collect();
-        assert_eq!(corner, [(3, 2), (4, 2), (3, 3), (4, 3)]);
     }
 
     #[test]
