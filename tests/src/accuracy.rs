@@ -93,9 +93,10 @@ pub struct Scored {
     pub mean_temp_err_c: Option<f32>,
     /// The contact temperature's standard deviation as the pipeline states it, °C.
     pub contact_temp_sigma_c: Option<f32>,
-    /// The true contact temperature (the mean over the contact's disc) and the skin's
-    /// temperature away from any source, °C.
-    pub contact_temp_c: Option<(f32, f32)>,
+    /// The true contact temperature (the mean over the contact's disc), °C.
+    pub contact_temp_c: Option<f32>,
+    /// The skin's temperature away from any source, °C (wherever a temperature was read).
+    pub skin_temp_c: Option<f32>,
     /// Hottest block above the truth's hottest point, °C.
     pub max_temp_excess_c: Option<f32>,
     /// A press of 0.2 mm or more reported as no contact.
@@ -450,6 +451,7 @@ fn score(
         contact_temp_err_c: None,
         contact_temp_sigma_c: None,
         contact_temp_c: None,
+        skin_temp_c: None,
         mean_temp_err_c: None,
         max_temp_excess_c: None,
         missed: false,
@@ -530,8 +532,8 @@ pub fn frames_csv(results: &[UnitResult]) -> String {
             opt(f.centre_err_mm),
             opt(f.contact_temp_err_c),
             opt(f.contact_temp_sigma_c),
-            opt(f.contact_temp_c.map(|t| t.0)),
-            opt(f.contact_temp_c.map(|t| t.1)),
+            opt(f.contact_temp_c),
+            opt(f.skin_temp_c),
             opt(f.mean_temp_err_c),
             opt(f.max_temp_excess_c),
             f.failures.join(" "),
@@ -546,11 +548,12 @@ fn score_temperature(s: &mut Scored, state: &SkinState, truth: &Truth, m: &Measu
         s.failures.push("no temperature");
         return;
     };
+    s.skin_temp_c = Some(state.temperature.base_c);
     if let (Some(want), Some(got)) = (truth.contact_temp_c, t.contact_c) {
         let e = got - want;
         s.contact_temp_err_c = Some(e);
         s.contact_temp_sigma_c = t.contact_sigma_c;
-        s.contact_temp_c = Some((want, state.temperature.base_c));
+        s.contact_temp_c = Some(want);
         if e.abs() > 1.0 {
             s.failures.push("contact temperature");
         }
