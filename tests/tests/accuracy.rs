@@ -55,11 +55,11 @@ fn a_phantom_on_a_warm_kit_frame_keeps_its_temperature_in_the_fit() {
     }
 }
 
-/// On this unit (a grating of 28 px) the phase of the kit frames from 17.5 to 24 °C shows a
-/// contact at the image's edge whose window spans most of the view. Those frames' colours
-/// must stay in the fit: with the blocks of that window left out, the coloured stripes' model
-/// lost its setpoints from 20 to 24 °C and uniform skins read 1.1–3.1 °C low, one of them
-/// without a flag.
+/// On this unit (a coarse grating) the phase of the cool kit frames shows a contact at the
+/// image's edge whose window spans most of the view. Those frames' colours must stay in the
+/// fit: with the blocks of that window left out, the coloured stripes' model loses the
+/// setpoints those frames hold and uniform skins read low, some without a flag
+/// (`docs/temperature.md`).
 #[test]
 fn a_phantom_whose_window_spans_the_view_keeps_its_frame_in_the_fit() {
     let frames = unit_frames(72, "wide-phantom");

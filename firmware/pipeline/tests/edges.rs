@@ -166,7 +166,7 @@ fn a_contact_running_past_the_edge_is_flagged() {
 }
 
 /// A 5 mm sphere pressed 0.5 mm, centred three quarters of a grating period and a period
-/// from the edge, on a unit of a short period (7 px): a contact's phase is trusted from one
+/// from the edge, on a unit of a short period: a contact's phase is trusted from one
 /// period in, where the demodulator's kernel lies wholly in the image, and the press is
 /// found there, reported at its place and flagged `contact_at_edge`, on both paths and at
 /// every edge. Were no phase trusted within a period and a half of the edge, too little of

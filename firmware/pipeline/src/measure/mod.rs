@@ -53,12 +53,13 @@ pub const UNWRAP_TRIGGER_RAD: f32 = 0.6 * std::f32::consts::PI;
 /// A pixel is unreliable when its fringe amplitude is below this fraction of the
 /// reference's median.
 pub const RELIABLE_AMPLITUDE: f32 = 0.3;
+/// Periods from the edge within which a contact's phase is not trusted: nearer, the
+/// demodulator's kernel (the two box passes reach a period each way) averages padding.
+pub const CONTACT_MARGIN_PERIODS: f32 = 1.0;
 /// Periods from the edge within which the background (registration, noise floor) and the
-/// measurement's reliability map, which the temperature reads, are not trusted. A
-/// contact's phase is trusted from one period in, where the demodulator's kernel lies
-/// wholly in the image; the background is read half a period further in, so that the
-/// padding's faint pull on the phase there moves neither the registration nor the
-/// stripes' placement.
+/// measurement's reliability map, which the temperature reads, are not trusted: half a
+/// period further in than a contact's, so that the padding's faint pull on the phase there
+/// moves neither the registration nor the stripes' placement.
 pub const BACKGROUND_MARGIN_PERIODS: f32 = 1.5;
 /// Low contrast: the frame's median fringe amplitude below this fraction of the reference's
 /// (between where the contrast sweep of `docs/performance.md` still holds depth within
@@ -186,11 +187,9 @@ pub fn measure<M: PhaseMap>(
     let amp_ref_median = map.amp_ref_median().max(1);
     let reliable_amp =
         (u64::from(amp_ref_median) * (RELIABLE_AMPLITUDE * 1024.0) as u64 / 1024) as u32;
-    // The two box passes reach one period each way: a contact's phase is trusted from a
-    // period in; the background's, and the stripes' placement, from a period and a half.
     let margin_px = |periods: f32| (periods * carrier.period_px()).ceil() as usize;
     let margin = Margin::new(margin_px(BACKGROUND_MARGIN_PERIODS), grid.w, grid.h);
-    let contact_margin = Margin::new(margin_px(1.0), grid.w, grid.h);
+    let contact_margin = Margin::new(margin_px(CONTACT_MARGIN_PERIODS), grid.w, grid.h);
     let coarse = read_coarse(map, reliable_amp, &margin, &contact_margin);
     // The frame's median fringe amplitude, over every fourth coarse sample (as many as the
     // noise floor's).
