@@ -92,18 +92,7 @@ fn a_jpeg_camera_calibrates_at_half_scale_and_measures_as_its_lossless_twin() {
 /// a depth sweep measured; the worst depth error, mm.
 fn worst_depth_error(dir: &Path, enc: &str) -> f64 {
     let kit = dir.join(enc.replace(':', "-"));
-    let kit_s = kit.to_str().unwrap();
-    let mut args = vec![
-        "simulate",
-        "--calibration-kit",
-        "--no-truth",
-        "--out",
-        kit_s,
-        "--encode",
-        enc,
-    ];
-    args.extend(CAMERA);
-    skin(&args);
+    simulate(&kit, enc, &["--calibration-kit"]);
     let cal = kit.join("cal.json");
     let sets: Vec<String> = ["depth", "force", "temperature"]
         .iter()
@@ -125,28 +114,30 @@ fn worst_depth_error(dir: &Path, enc: &str) -> f64 {
     assert_eq!(c["unit"]["decode_scale"], 2, "{enc}: {}", c["unit"]);
     assert_eq!(c["unit"]["width_px"], 640, "{enc}");
     let scene = kit.join("sweep");
-    let mut args = vec![
-        "simulate",
-        "--scene",
-        "sweep-depth",
-        "--frames",
-        "6",
-        "--seed",
-        "9",
-        "--no-truth",
-        "--out",
-        scene.to_str().unwrap(),
-        "--encode",
-        enc,
-    ];
-    args.extend(CAMERA);
-    skin(&args);
+    let sweep = ["--scene", "sweep-depth", "--frames", "6", "--seed", "9"];
+    simulate(&scene, enc, &sweep);
     let e = errors(&scene, &cal);
     assert!(e.len() >= 4, "{enc}: {e:?}");
     let centre = e.iter().map(|v| v.1).fold(0.0, f64::max);
     // In the camera's pixels: a 1/2-scale position doubled back.
     assert!(centre < 4.0, "{enc}: centre off by {centre:.1} px");
     e.iter().map(|v| v.0.abs()).fold(0.0, f64::max)
+}
+
+/// `vistaf-skin simulate` of the 1280 × 720 camera into `out`, its frames encoded as `enc`,
+/// with `what` to simulate.
+fn simulate(out: &Path, enc: &str, what: &[&str]) {
+    let mut args = vec!["simulate"];
+    args.extend(what);
+    args.extend([
+        "--no-truth",
+        "--out",
+        out.to_str().unwrap(),
+        "--encode",
+        enc,
+    ]);
+    args.extend(CAMERA);
+    skin(&args);
 }
 
 #[test]
