@@ -107,6 +107,8 @@ pub struct Scored {
     pub failures: Vec<&'static str>,
     /// Flags raised.
     pub flags: Vec<&'static str>,
+    /// The frame's phase noise as the pipeline measured it, rad.
+    pub noise_rad: f32,
 }
 
 impl Scored {
@@ -126,7 +128,7 @@ pub struct Refused {
 }
 
 /// Effects [`without`] can switch off, to find which one a failure needs.
-pub const EFFECTS: [&str; 11] = [
+pub const EFFECTS: [&str; 12] = [
     "oblique",
     "glare",
     "vignetting",
@@ -138,6 +140,7 @@ pub const EFFECTS: [&str; 11] = [
     "jpeg",
     "drift",
     "shading",
+    "stripe-edges",
 ];
 
 /// `unit` with the named effects switched off (names from [`EFFECTS`]; `drift` is the
@@ -156,6 +159,7 @@ pub fn without(mut unit: SensorUnit, effects: &[String]) -> SensorUnit {
             "phase-shape" => i.phase_shape = 0.0,
             "jpeg" => i.jpeg_quality = None,
             "shading" => unit.shading_gain = 0.0,
+            "stripe-edges" => unit.edge_sharpness = unit.edge_sharpness.min(0.8),
             _ => {}
         }
     }
@@ -458,6 +462,7 @@ fn score(
         phantom: false,
         failures: Vec::new(),
         flags: m.flags.iter().map(|f| f.name()).collect(),
+        noise_rad: m.noise_rad,
     };
     let pressed = truth.peak_depth_mm > 0.0;
     if pressed {
@@ -515,12 +520,12 @@ pub fn frames_csv(results: &[UnitResult]) -> String {
     let mut s = String::from(
         "unit,kind,indenter,depth_mm,rim_inside_mm,depth_err_mm,force_err_n,force_n,centre_err_mm,\
          contact_temp_err_c,contact_temp_sigma_c,contact_temp_c,skin_temp_c,mean_temp_err_c,max_temp_excess_c,\
-         failures,flags\n",
+         failures,flags,noise_rad\n",
     );
     for f in results.iter().flatten().flatten() {
         let _ = writeln!(
             s,
-            "{},{},{},{:.4},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{:.4},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.4}",
             f.unit,
             f.kind.name(),
             f.indenter,
@@ -538,6 +543,7 @@ pub fn frames_csv(results: &[UnitResult]) -> String {
             opt(f.max_temp_excess_c),
             f.failures.join(" "),
             f.flags.join(" "),
+            f.noise_rad,
         );
     }
     s
@@ -737,4 +743,29 @@ pub fn report(results: &[UnitResult]) -> String {
         }
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every effect but the per-frame drift (switched off in the scenes) changes a unit
+    /// that shows it, and leaves the unit as drawn when it is not named.
+    #[test]
+    fn each_effect_switches_off_what_it_names() {
+        let shows_all = |u: &SensorUnit| {
+            let i = &u.imperfections;
+            !i.glare.is_empty() && i.jpeg_quality.is_some() && u.edge_sharpness > 0.8
+        };
+        let unit = (1..500)
+            .map(SensorUnit::wide)
+            .find(shows_all)
+            .expect("a unit drawn with every effect");
+        assert_eq!(without(unit.clone(), &[]), unit);
+        for e in EFFECTS.iter().filter(|e| **e != "drift") {
+            let off = without(unit.clone(), &[e.to_string()]);
+            assert_ne!(off, unit, "{e} changed nothing");
+            assert_eq!(without(off.clone(), &[e.to_string()]), off, "{e} twice");
+        }
+    }
 }

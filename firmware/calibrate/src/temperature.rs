@@ -276,6 +276,7 @@ fn score_curve(
             cv_rmse: cv,
             cv_se: se,
             in_sample_rmse: ins,
+            refused: None,
         },
     ))
 }
@@ -343,6 +344,7 @@ fn score(d: &Design, samples: &[BlockSample], sp: &[f64], idx: &[usize]) -> Opti
                 cv_rmse: cv,
                 cv_se: se,
                 in_sample_rmse: ins,
+                refused: None,
             },
         ));
     }

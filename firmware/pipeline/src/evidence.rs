@@ -16,6 +16,10 @@ pub struct CandidateScore {
     pub cv_se: f64,
     /// In-sample RMSE.
     pub in_sample_rmse: f64,
+    /// Why the candidate could not be chosen whatever its errors (a depth curve that
+    /// falls within the phases it will meet); absent for an eligible one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub refused: Option<String>,
 }
 
 /// A fitted model with its evidence.

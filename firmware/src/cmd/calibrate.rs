@@ -86,12 +86,17 @@ fn print_candidates(
             cv_rmse,
             cv_se,
             in_sample_rmse,
+            refused,
         } = s;
         let mark = if !marked && *cv_rmse == chosen_cv && *in_sample_rmse == chosen_in {
             marked = true;
             "  ← chosen"
         } else {
             ""
+        };
+        let mark = match refused {
+            Some(why) => format!("  refused: {why}"),
+            None => mark.to_string(),
         };
         println!("  {name:<24} {params:>6} {cv_rmse:>9.4} {unit} {cv_se:>10.4} {in_sample_rmse:>13.4} {unit}{mark}");
     }

@@ -33,7 +33,7 @@ struct Args {
     out: PathBuf,
     /// Effects to switch off, comma-separated (to find which one a failure needs): oblique,
     /// glare, vignetting, white-balance, mottle, wobble, distortion, phase-shape, jpeg, drift,
-    /// shading.
+    /// shading, stripe-edges (the stripes made nearly sinusoidal).
     #[arg(long, value_delimiter = ',')]
     without: Vec<String>,
     /// Write the calibration kit of the first unit here and stop (to calibrate it with

@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 pub use crate::evidence::{CandidateScore, FitRange, Fitted};
 
 mod validate;
-pub use validate::{Invalid, MAX_DEPTH_MM, MAX_FORCE_N};
+pub use validate::{check_depth, Invalid, MAX_DEPTH_MM, MAX_FORCE_N, MAX_POLYNOMIAL_DEGREE};
 
 /// The format tag of calibration files.
 pub const FORMAT: &str = "vistaf-calibration/2";
@@ -45,6 +45,14 @@ pub enum DepthModel {
         /// Rate, 1/rad.
         b_per_rad: f64,
     },
+    /// `d = c₁·x + c₂·x² + …` through the origin: a smooth curve of either bend, or of a
+    /// bend that changes along the range, for a phase response no two-parameter form
+    /// follows (the calibration admits it only where it rises over twice the phases it
+    /// was fitted on).
+    Polynomial {
+        /// `c₁, c₂, …`: mm/rad, mm/rad², ….
+        c_mm: Vec<f64>,
+    },
     /// Monotone piecewise-linear through `(x, d)` knots starting at (0, 0); beyond the last
     /// knot it continues with the last segment's slope.
     Monotone {
@@ -65,6 +73,7 @@ impl DepthModel {
             DepthModel::Growth { a_mm, b_per_rad } => {
                 a_mm * ((b_per_rad * x).min(50.0).exp() - 1.0)
             }
+            DepthModel::Polynomial { c_mm } => c_mm.iter().rev().fold(0.0, |acc, c| (acc + c) * x),
             DepthModel::Monotone { x_rad, d_mm } => {
                 let (mut x0, mut d0) = (0.0, 0.0);
                 for (&x1, &d1) in x_rad.iter().zip(d_mm) {
@@ -98,6 +107,17 @@ impl DepthModel {
             }
             DepthModel::Growth { a_mm, b_per_rad } => {
                 format!("d_mm = {a_mm:.6}·(exp({b_per_rad:.6}·x) − 1)")
+            }
+            DepthModel::Polynomial { c_mm } => {
+                let terms: Vec<String> = c_mm
+                    .iter()
+                    .enumerate()
+                    .map(|(k, c)| match k {
+                        0 => format!("{c:.6}·x"),
+                        _ => format!("{c:.6}·x^{}", k + 1),
+                    })
+                    .collect();
+                format!("d_mm = {}", terms.join(" + "))
             }
             DepthModel::Monotone { x_rad, d_mm } => {
                 let pts: Vec<String> = x_rad
@@ -564,6 +584,9 @@ mod tests {
                 x_rad: vec![0.5, 1.0, 2.0],
                 d_mm: vec![0.3, 0.7, 1.6],
             },
+            DepthModel::Polynomial {
+                c_mm: vec![0.5, -0.02, 0.01],
+            },
         ];
         for m in &models {
             let mut last = -1.0;
@@ -584,6 +607,12 @@ mod tests {
         let m = &models[3];
         assert!((m.depth_mm(0.75) - 0.5).abs() < 1e-12);
         assert!((m.depth_mm(3.0) - 2.5).abs() < 1e-12);
+        // Polynomial: 0.5·2 − 0.02·4 + 0.01·8.
+        assert!((models[4].depth_mm(2.0) - 1.0).abs() < 1e-12);
+        assert_eq!(
+            models[4].equation(),
+            "d_mm = 0.500000·x + -0.020000·x^2 + 0.010000·x^3"
+        );
     }
 
     /// Files that would crash the service or make it lie are refused, naming the key.
@@ -597,7 +626,7 @@ mod tests {
                 .to_string()
         };
         type Edit<'a> = &'a dyn Fn(&mut serde_json::Value);
-        let cases: [(&str, Edit<'_>); 9] = [
+        let cases: [(&str, Edit<'_>); 12] = [
             ("`shape`", &|v| {
                 v["shape"]["area_mm2"] = serde_json::json!([1.0])
             }),
@@ -630,6 +659,24 @@ mod tests {
                 &|v| {
                     v["depth"]["model"] =
                         serde_json::json!({"kind": "monotone", "x_rad": [], "d_mm": []})
+                },
+            ),
+            ("`depth.model.c_mm`", &|v| {
+                v["depth"]["model"] = serde_json::json!({"kind": "polynomial", "c_mm": []})
+            }),
+            (
+                "`depth.model.c_mm`",
+                &|v| {
+                    v["depth"]["model"] =
+                        serde_json::json!({"kind": "polynomial", "c_mm": [0.5, 0.0, 0.0, 0.0, 0.1]})
+                },
+            ),
+            // Turns down within the phases it will meet.
+            (
+                "`depth.model`",
+                &|v| {
+                    v["depth"]["model"] =
+                        serde_json::json!({"kind": "polynomial", "c_mm": [0.8, -0.2]})
                 },
             ),
             ("`unit.grating_period_mm`", &|v| {

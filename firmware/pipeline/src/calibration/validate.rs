@@ -44,6 +44,8 @@ pub const MAX_FORCE_N: f64 = 10_000.0;
 pub const OUTPUT_SLACK: f64 = 0.5;
 /// See [`OUTPUT_SLACK`]: in the label's unit (mm or N).
 pub const OUTPUT_SLACK_ABS: f64 = 1.0;
+/// Most coefficients a polynomial depth model may carry.
+pub const MAX_POLYNOMIAL_DEGREE: usize = 4;
 /// Points a model is evaluated at to check it is finite and monotone.
 const PROBES: usize = 256;
 /// Phases a depth model is checked over without a recorded range, rad (two turns: a
@@ -212,7 +214,10 @@ fn positive(key: &str, v: f64) -> Check {
     }
 }
 
-fn check_depth(m: &DepthModel, range: Option<&FitRange>) -> Check {
+/// Checks a depth model alone over the phases it will meet (twice its fit's largest, or
+/// [`DEFAULT_PHASE_RAD`] without a range): a calibration chooses only among models that
+/// pass.
+pub fn check_depth(m: &DepthModel, range: Option<&FitRange>) -> Check {
     let key = "depth.model";
     let positive = |k: &str, v: f64| positive(&format!("{key}.{k}"), v);
     match m {
@@ -224,6 +229,17 @@ fn check_depth(m: &DepthModel, range: Option<&FitRange>) -> Check {
         DepthModel::Growth { a_mm, b_per_rad } => {
             positive("a_mm", *a_mm)?;
             positive("b_per_rad", *b_per_rad)?;
+        }
+        DepthModel::Polynomial { c_mm } => {
+            if c_mm.is_empty() || c_mm.len() > MAX_POLYNOMIAL_DEGREE {
+                return Err(bad(
+                    &format!("{key}.c_mm"),
+                    format!("needs 1 to {MAX_POLYNOMIAL_DEGREE} coefficients"),
+                ));
+            }
+            if !c_mm.iter().all(|c| c.is_finite()) {
+                return Err(bad(&format!("{key}.c_mm"), "coefficients must be finite"));
+            }
         }
         DepthModel::Monotone { x_rad, d_mm } => {
             let ok = x_rad.len() == d_mm.len()
