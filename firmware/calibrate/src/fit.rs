@@ -290,9 +290,9 @@ fn choose<M: Clone>(
 /// The two-parameter forms bend one way at one rate; a skin whose phase saturates
 /// otherwise (a response between exponential and `tanh`, say) leaves them a few hundredths
 /// of a millimetre off along the range, the same sign at every depth, while the isotonic
-/// fit follows each setpoint's noise. The cubic follows any smooth monotone response of
-/// this range to a few micrometres; the parsimony rule admits it only where the data ask
-/// for it. A candidate that does not pass the file's own check over the phases it will
+/// fit follows each setpoint's noise. Over a kit's range the cubic follows the inverses of
+/// saturating responses from exponential to `tanh` to a few micrometres; the parsimony
+/// rule admits it only where the data ask for it. A candidate that does not pass the file's own check over the phases it will
 /// meet (a polynomial turning down past its last setpoint) is not chosen.
 pub fn fit_depth(
     samples: &[Sample],

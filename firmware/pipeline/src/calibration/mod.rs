@@ -109,15 +109,22 @@ impl DepthModel {
                 format!("d_mm = {a_mm:.6}·(exp({b_per_rad:.6}·x) − 1)")
             }
             DepthModel::Polynomial { c_mm } => {
-                let terms: Vec<String> = c_mm
-                    .iter()
-                    .enumerate()
-                    .map(|(k, c)| match k {
-                        0 => format!("{c:.6}·x"),
-                        _ => format!("{c:.6}·x^{}", k + 1),
-                    })
-                    .collect();
-                format!("d_mm = {}", terms.join(" + "))
+                let mut eq = String::from("d_mm =");
+                for (k, c) in c_mm.iter().enumerate() {
+                    let sign = match (k, c.is_sign_negative()) {
+                        (0, false) => " ",
+                        (0, true) => " −",
+                        (_, false) => " + ",
+                        (_, true) => " − ",
+                    };
+                    let power = if k == 0 {
+                        String::new()
+                    } else {
+                        format!("^{}", k + 1)
+                    };
+                    eq += &format!("{sign}{:.6}·x{power}", c.abs());
+                }
+                eq
             }
             DepthModel::Monotone { x_rad, d_mm } => {
                 let pts: Vec<String> = x_rad
@@ -611,7 +618,7 @@ mod tests {
         assert!((models[4].depth_mm(2.0) - 1.0).abs() < 1e-12);
         assert_eq!(
             models[4].equation(),
-            "d_mm = 0.500000·x + -0.020000·x^2 + 0.010000·x^3"
+            "d_mm = 0.500000·x − 0.020000·x^2 + 0.010000·x^3"
         );
     }
 
