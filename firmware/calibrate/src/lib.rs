@@ -15,12 +15,14 @@
 //!
 //! * [`procedure`]: which frames feed which fit, in which order, and what is left out.
 //! * [`fit`]: the depth and force candidates, cross-validation and the parsimony rule.
+//! * [`linear`]: the small linear systems the least-squares fits solve.
 //! * [`temperature`]: the colour → temperature polynomials per stripe population.
 //! * [`paper`]: the paper's Table II refitted from its own per-image data.
 //! * [`verdict`]: each fitted model's held-out error against the product's target.
 #![deny(missing_docs)]
 
 pub mod fit;
+pub mod linear;
 pub mod paper;
 pub mod procedure;
 pub mod temperature;

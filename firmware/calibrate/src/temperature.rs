@@ -12,6 +12,7 @@
 //! least a tenth of its fastest rate (in units of its block-to-block noise). Outside that
 //! span it has nothing to say, and its variance table shows it.
 
+use crate::linear::solve;
 use vistaf_pipeline::evidence::CandidateScore;
 use vistaf_pipeline::thermal::lab::Invariants;
 use vistaf_pipeline::thermal::model::{
@@ -48,43 +49,6 @@ fn groups(samples: &[BlockSample]) -> (Vec<f64>, Vec<usize>) {
         .map(|s| sp.partition_point(|&t| t < key(s.t_c)))
         .collect();
     (sp, idx)
-}
-
-/// Solves `a·x = b` (n × n, row-major) by Gaussian elimination with partial pivoting and a
-/// tiny ridge; `None` when singular.
-fn solve(mut a: Vec<f64>, mut b: Vec<f64>) -> Option<Vec<f64>> {
-    let n = b.len();
-    let trace: f64 = (0..n).map(|i| a[i * n + i]).sum();
-    for i in 0..n {
-        a[i * n + i] += 1e-10 * trace / n as f64 + 1e-12;
-    }
-    for c in 0..n {
-        let p = (c..n).max_by(|&i, &j| a[i * n + c].abs().total_cmp(&a[j * n + c].abs()))?;
-        if a[p * n + c].abs() < 1e-300 {
-            return None;
-        }
-        if p != c {
-            for k in 0..n {
-                a.swap(c * n + k, p * n + k);
-            }
-            b.swap(c, p);
-        }
-        for r in c + 1..n {
-            let f = a[r * n + c] / a[c * n + c];
-            if f != 0.0 {
-                for k in c..n {
-                    a[r * n + k] -= f * a[c * n + k];
-                }
-                b[r] -= f * b[c];
-            }
-        }
-    }
-    let mut x = vec![0.0; n];
-    for c in (0..n).rev() {
-        let s: f64 = (c + 1..n).map(|k| a[c * n + k] * x[k]).sum();
-        x[c] = (b[c] - s) / a[c * n + c];
-    }
-    x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
 /// A population's design: standardised polynomial terms (up to [`MAX_DEGREE`]) of every
@@ -697,12 +661,6 @@ fn colour_domain(samples: &[BlockSample]) -> Domain {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn solve_recovers_a_known_system() {
-        let x = solve(vec![4.0, 1.0, 1.0, 3.0], vec![1.0, 2.0]).unwrap();
-        assert!((x[0] - 1.0 / 11.0).abs() < 1e-9 && (x[1] - 7.0 / 11.0).abs() < 1e-9);
-    }
 
     /// A synthetic pigment: chromaticity turns through the 24–32 °C transition, the black
     /// ratio rises everywhere. The fit must recover the temperature of held-out setpoints.

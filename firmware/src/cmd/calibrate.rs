@@ -88,15 +88,13 @@ fn print_candidates(
             in_sample_rmse,
             refused,
         } = s;
-        let mark = if !marked && *cv_rmse == chosen_cv && *in_sample_rmse == chosen_in {
+        let mark = if let Some(why) = refused {
+            format!("  refused: {why}")
+        } else if !marked && *cv_rmse == chosen_cv && *in_sample_rmse == chosen_in {
             marked = true;
-            "  ← chosen"
+            "  ← chosen".to_string()
         } else {
-            ""
-        };
-        let mark = match refused {
-            Some(why) => format!("  refused: {why}"),
-            None => mark.to_string(),
+            String::new()
         };
         println!("  {name:<24} {params:>6} {cv_rmse:>9.4} {unit} {cv_se:>10.4} {in_sample_rmse:>13.4} {unit}{mark}");
     }

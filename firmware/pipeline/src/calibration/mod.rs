@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 pub use crate::evidence::{CandidateScore, FitRange, Fitted};
 
 mod validate;
-pub use validate::{check_depth, Invalid, MAX_DEPTH_MM, MAX_FORCE_N, MAX_POLYNOMIAL_DEGREE};
+pub use validate::{check_depth, Invalid, MAX_DEPTH_MM, MAX_FORCE_N};
 
 /// The format tag of calibration files.
 pub const FORMAT: &str = "vistaf-calibration/2";

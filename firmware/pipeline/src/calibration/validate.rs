@@ -45,7 +45,7 @@ pub const OUTPUT_SLACK: f64 = 0.5;
 /// See [`OUTPUT_SLACK`]: in the label's unit (mm or N).
 pub const OUTPUT_SLACK_ABS: f64 = 1.0;
 /// Most coefficients a polynomial depth model may carry.
-pub const MAX_POLYNOMIAL_DEGREE: usize = 4;
+const MAX_POLYNOMIAL_DEGREE: usize = 4;
 /// Points a model is evaluated at to check it is finite and monotone.
 const PROBES: usize = 256;
 /// Phases a depth model is checked over without a recorded range, rad (two turns: a
