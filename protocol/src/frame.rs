@@ -32,8 +32,14 @@ pub const CRC_LEN: usize = 4;
 
 /// Largest framed size, in bytes on the wire, of a message whose postcard encoding is at
 /// most `payload_max` bytes: two delimiters plus the COBS encoding of payload and CRC.
+///
+/// The COBS bound is the streaming encoder's, one byte above `cobs::max_encoding_length`
+/// when the data is a whole number of 254-byte runs without a zero: postcard's encoder
+/// closes each full run with a code byte and then writes one more for the empty run after
+/// it. (A decoder reads the frame the same with or without that last byte.)
 pub const fn frame_len_max(payload_max: usize) -> usize {
-    cobs::max_encoding_length(payload_max + CRC_LEN) + 2
+    let data = payload_max + CRC_LEN;
+    data + data / 254 + 1 + 2
 }
 
 /// Largest framed [`DeviceMsg`], bytes (a full [`crate::Map`] tile).
@@ -365,6 +371,46 @@ mod tests {
             Err(BufferTooSmall)
         );
         assert_eq!(encode(&HostMsg::GetInfo, &mut []), Err(BufferTooSmall));
+    }
+
+    #[test]
+    fn frame_len_max_holds_whole_runs_without_zeros() {
+        // A 502-byte slice: a two-byte length, then the bytes, then the CRC: 508 bytes of
+        // data, two full COBS runs when none of them is zero.
+        const PAYLOAD: usize = 504;
+        let mut fill = 1u8;
+        let data = loop {
+            let data = [fill; PAYLOAD - 2];
+            let mut crc_input = [0u8; PAYLOAD];
+            crc_input[..2].copy_from_slice(&[0xf6, 0x03]);
+            crc_input[2..].copy_from_slice(&data);
+            if CRC32
+                .checksum(&crc_input)
+                .to_le_bytes()
+                .iter()
+                .all(|&b| b != 0)
+            {
+                break data;
+            }
+            fill += 1;
+        };
+        let mut buf = [0u8; frame_len_max(PAYLOAD)];
+        let n = encode(data.as_slice(), &mut buf).unwrap();
+        assert_eq!(n, buf.len(), "the bound is reached, and not exceeded");
+        let mut dec = Decoder::<Bytes, { frame_len_max(PAYLOAD) }>::new();
+        let mut got = None;
+        dec.push(&buf, |r| got = Some(r));
+        assert_eq!(got.unwrap().unwrap().0.as_slice(), data.as_slice());
+    }
+
+    /// A bare byte string, to frame payloads of a chosen length.
+    #[derive(serde::Deserialize)]
+    struct Bytes(heapless::Vec<u8, 502>);
+
+    impl WireMessage for Bytes {
+        fn is_valid(&self) -> bool {
+            true
+        }
     }
 
     #[test]

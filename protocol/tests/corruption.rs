@@ -56,6 +56,14 @@ fn apply(frame: &[u8], damage: &Damage) -> (Vec<u8>, bool) {
     }
 }
 
+/// The COBS-decoded bytes of a frame body, if it is valid COBS.
+fn unstuffed(body: &[u8]) -> Option<Vec<u8>> {
+    let mut data = body.to_vec();
+    let n = cobs::decode_in_place(&mut data).ok()?;
+    data.truncate(n);
+    Some(data)
+}
+
 fn non_empty_segments(stream: &[u8]) -> usize {
     stream.split(|&b| b == 0).filter(|s| !s.is_empty()).count()
 }
@@ -75,20 +83,24 @@ proptest! {
         let mut bodies: Vec<(Vec<u8>, DeviceMsg)> = Vec::new();
         for (msg, damage) in &plan {
             let f = common::frame(msg);
-            bodies.push((f[1..f.len() - 1].to_vec(), msg.clone()));
+            bodies.push((unstuffed(&f[1..f.len() - 1]).unwrap(), msg.clone()));
             let (bytes, ok) = apply(&f, damage);
             stream.extend_from_slice(&bytes);
             if ok {
                 intact.push(msg.clone());
             }
         }
-        // What the line holds: every fragment that is byte for byte the body of a frame.
-        // That is each intact frame, and also a damaged frame's head spliced onto a later
-        // frame's tail when together they spell a whole valid frame (identical messages
-        // cut at the same byte): a frame on the line, not corruption.
+        // What the line holds: every fragment that unstuffs to the bytes of a frame. That is
+        // each intact frame; a frame cut only by its redundant last code byte (see
+        // `frame_len_max`); and a damaged frame's head spliced onto a later frame's tail when
+        // together they spell a whole valid frame (identical messages cut at the same byte):
+        // frames on the line, not corruption.
         let on_line: Vec<DeviceMsg> = stream
             .split(|&b| b == 0)
-            .filter_map(|seg| bodies.iter().find(|(b, _)| b.as_slice() == seg).map(|(_, m)| m.clone()))
+            .filter_map(|seg| {
+                let data = unstuffed(seg)?;
+                bodies.iter().find(|(b, _)| *b == data).map(|(_, m)| m.clone())
+            })
             .collect();
         let mut dec = DeviceDecoder::new();
         let mut got = Vec::new();
