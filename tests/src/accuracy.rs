@@ -128,7 +128,7 @@ pub struct Refused {
 }
 
 /// Effects [`without`] can switch off, to find which one a failure needs.
-pub const EFFECTS: [&str; 12] = [
+pub const EFFECTS: [&str; 13] = [
     "oblique",
     "glare",
     "vignetting",
@@ -141,6 +141,7 @@ pub const EFFECTS: [&str; 12] = [
     "drift",
     "shading",
     "stripe-edges",
+    "layer",
 ];
 
 /// `unit` with the named effects switched off (names from [`EFFECTS`]; `drift` is the
@@ -160,6 +161,7 @@ pub fn without(mut unit: SensorUnit, effects: &[String]) -> SensorUnit {
             "jpeg" => i.jpeg_quality = None,
             "shading" => unit.shading_gain = 0.0,
             "stripe-edges" => unit.edge_sharpness = unit.edge_sharpness.min(0.8),
+            "layer" => unit.layer_decay_mm = f32::INFINITY,
             _ => {}
         }
     }
@@ -231,7 +233,6 @@ pub fn run_unit(
     camera: Camera,
 ) -> Result<Vec<Scored>, Refused> {
     let unit = camera.unit(without(SensorUnit::wide(seed), off));
-    let drifts = !off.iter().any(|e| e == "drift");
     let refused = |why: String| Refused { unit: seed, why };
     let dir = work.join(format!("unit-{seed}"));
     let opts = SetOptions {
@@ -263,14 +264,8 @@ pub fn run_unit(
         AnalyzerOptions::default(),
     )
     .map_err(|e| refused(format!("reference: {e}")))?;
-    let mut rng = Rng::derive(seed, "accuracy scenes");
     let mut out = Vec::new();
-    for (k, (kind, mut state)) in scenes(&unit, &mut rng).into_iter().enumerate() {
-        // Drawn either way, so an ablation sees the same scenes.
-        if !drifts {
-            state.exposure_scale = 1.0;
-            state.white_balance = [1.0; 3];
-        }
+    for (k, (kind, state)) in unit_scenes(seed, &unit, off).into_iter().enumerate() {
         let (img, truth) = r.render(&state, seed.wrapping_mul(1000) + k as u64);
         decode(&img, &mut frame).map_err(|e| refused(format!("frame {k}: {e}")))?;
         match a.analyze(&frame) {
@@ -285,6 +280,22 @@ pub fn run_unit(
         }
     }
     Ok(out)
+}
+
+/// The scenes unit `seed` (drawn as `unit`) is scored on, with the named effects switched
+/// off: the battery's, for a closer look at one unit's frames.
+pub fn unit_scenes(seed: u64, unit: &SensorUnit, off: &[String]) -> Vec<(Kind, SkinState)> {
+    let drifts = !off.iter().any(|e| e == "drift");
+    let mut rng = Rng::derive(seed, "accuracy scenes");
+    let mut v = scenes(unit, &mut rng);
+    // Drawn either way, so an ablation sees the same scenes.
+    if !drifts {
+        for (_, state) in &mut v {
+            state.exposure_scale = 1.0;
+            state.white_balance = [1.0; 3];
+        }
+    }
+    v
 }
 
 /// The scenes of one unit.

@@ -12,9 +12,11 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use clap::Parser;
-use vistaf_sim::sets::{write_calibration_kit, SetOptions};
-use vistaf_sim::SensorUnit;
-use vistaf_tests::accuracy::{frames_csv, report, run_units, without, Camera, EFFECTS};
+use vistaf_sim::sets::{write_calibration_kit, write_states, SetOptions};
+use vistaf_sim::{SensorUnit, SkinState};
+use vistaf_tests::accuracy::{
+    frames_csv, report, run_units, unit_scenes, without, Camera, EFFECTS,
+};
 
 /// First held-out unit seed.
 const HELD_OUT: u64 = 900_000;
@@ -33,13 +35,18 @@ struct Args {
     out: PathBuf,
     /// Effects to switch off, comma-separated (to find which one a failure needs): oblique,
     /// glare, vignetting, white-balance, mottle, wobble, distortion, phase-shape, jpeg, drift,
-    /// shading, stripe-edges (the stripes made nearly sinusoidal).
+    /// shading, stripe-edges (the stripes made nearly sinusoidal), layer (the skin a
+    /// half-space: its surface does not return to rest faster than `1/r` around a contact).
     #[arg(long, value_delimiter = ',')]
     without: Vec<String>,
     /// Write the calibration kit of the first unit here and stop (to calibrate it with
     /// `vistaf-skin calibrate` and look closer).
     #[arg(long)]
     write_kit: Option<PathBuf>,
+    /// With `--write-kit`: also write the first unit's scored scenes there, as the frame set
+    /// `scenes` (in the battery's order; its own noise draws), for `vistaf-skin analyze`.
+    #[arg(long, requires = "write_kit")]
+    write_scenes: bool,
     /// Also write every scored frame here as CSV (indenter, truth, errors, flags).
     #[arg(long)]
     frames: Option<PathBuf>,
@@ -73,6 +80,15 @@ fn main() -> Result<()> {
         };
         write_calibration_kit(dir, &unit, &opts, |_, _, _| {})
             .with_context(|| format!("writing the kit into {}", dir.display()))?;
+        if args.write_scenes {
+            let states: Vec<SkinState> = unit_scenes(args.first, &unit, &args.without)
+                .into_iter()
+                .map(|(_, state)| state)
+                .collect();
+            let scenes = dir.join("scenes");
+            write_states(&scenes, "accuracy scenes", &unit, &states, &opts, |_, _| {})
+                .with_context(|| format!("writing the scenes into {}", scenes.display()))?;
+        }
         println!("{unit:#?}");
         return Ok(());
     }
