@@ -760,6 +760,24 @@ pub fn report(results: &[UnitResult]) -> String {
 mod tests {
     use super::*;
 
+    /// The scenes a unit is scored on are drawn from its seed alone, and without `drift`
+    /// they are the same scenes with the light held still.
+    #[test]
+    fn scenes_are_the_unit_s_own_and_drift_only_moves_the_light() {
+        let unit = SensorUnit::wide(7);
+        let drawn = unit_scenes(7, &unit, &[]);
+        assert_eq!(drawn, unit_scenes(7, &unit, &[]));
+        assert_ne!(drawn, unit_scenes(8, &unit, &[]));
+        assert!(drawn.iter().any(|(_, s)| s.exposure_scale != 1.0));
+        let still = unit_scenes(7, &unit, &["drift".to_string()]);
+        assert_eq!(still.len(), drawn.len());
+        for ((k0, s0), (k1, s1)) in drawn.iter().zip(&still) {
+            assert_eq!(k0, k1);
+            assert_eq!((s1.exposure_scale, s1.white_balance), (1.0, [1.0; 3]));
+            assert_eq!(s0.contacts, s1.contacts);
+        }
+    }
+
     /// Every effect but the per-frame drift (switched off in the scenes) changes a unit
     /// that shows it, and leaves the unit as drawn when it is not named.
     #[test]
