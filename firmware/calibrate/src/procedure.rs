@@ -22,8 +22,8 @@ use sha2::{Digest, Sha256};
 use vistaf_hardware::decode::Decoded;
 use vistaf_hardware::frameset::FrameSet;
 use vistaf_pipeline::calibration::{
-    Calibration, DepthModel, FitRange, Fitted, ForceFeature, ForceModel, SetRecord, ShapeSignature,
-    UnitGeometry, FORMAT,
+    Calibration, DepthModel, FitRange, Fitted, ForceFeature, ForceModel, LoadSignature, SetRecord,
+    ShapeSignature, UnitGeometry, FORMAT,
 };
 use vistaf_pipeline::ftp::carrier;
 use vistaf_pipeline::image_ops::gray_down_f32;
@@ -519,24 +519,37 @@ fn depth_model<O: Observer>(
     })
 }
 
-/// The calibrated indenter's contact area against its measured depth, averaged per
-/// setpoint and made monotone; `None` with fewer than three setpoints.
+/// The calibrated indenter's contact area and reciprocal load against its measured depth,
+/// each averaged per setpoint and made monotone; `None` with fewer than three setpoints
+/// (the load's alone left out with fewer than three).
 fn shape_signature<O: Observer>(
     run: &mut Run<'_, O>,
     calib: &Calibration,
 ) -> Result<Option<ShapeSignature>, CalibrateError> {
     let shaped = run.analyze(calib, Label::Shape, "indenter shape", &|_| true)?;
-    let shape_samples: Vec<Sample> = shaped
-        .iter()
-        .filter(|(_, d)| d.contact)
-        .map(|(y, d)| Sample {
-            u: f64::from(d.peak_depth_mm),
-            y: f64::from(d.contact_area_mm2),
-            group: setpoint(*y),
-        })
-        .collect();
-    let (depth_mm, area_mm2) = crate::fit::monotone_knots(&shape_samples);
-    Ok((depth_mm.len() >= 3).then_some(ShapeSignature { depth_mm, area_mm2 }))
+    let knots = |of: &dyn Fn(&Measurement) -> f32| {
+        let samples: Vec<Sample> = shaped
+            .iter()
+            .filter(|(_, d)| d.contact)
+            .map(|(y, d)| Sample {
+                u: f64::from(d.peak_depth_mm),
+                y: f64::from(of(d)),
+                group: setpoint(*y),
+            })
+            .collect();
+        crate::fit::monotone_knots(&samples)
+    };
+    let (depth_mm, area_mm2) = knots(&|d| d.contact_area_mm2);
+    let (load_depth_mm, load_mm2) = knots(&|d| d.reciprocal_load_mm2);
+    let load = (load_depth_mm.len() >= 3).then_some(LoadSignature {
+        depth_mm: load_depth_mm,
+        load_mm2,
+    });
+    Ok((depth_mm.len() >= 3).then_some(ShapeSignature {
+        depth_mm,
+        area_mm2,
+        load,
+    }))
 }
 
 /// Deformation → force: frames labelled `force_n > 0`, analysed with the fitted depth

@@ -329,14 +329,42 @@ impl UnitGeometry {
 }
 
 /// How the calibrated indenter looks: its contact area (depth ≥ half the peak) at each
-/// measured depth. The calibration is exact for contacts of this shape; a contact much
-/// sharper than it is flagged.
+/// measured depth, and the load its map carries there. The calibration is exact for
+/// contacts of this shape; a contact much sharper or blunter than it is flagged.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ShapeSignature {
     /// Measured peak depths, mm, increasing.
     pub depth_mm: Vec<f64>,
     /// Contact area at each, mm².
     pub area_mm2: Vec<f64>,
+    /// The reciprocal load at each measured depth (absent from files written before it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub load: Option<LoadSignature>,
+}
+
+/// The calibrated indenter's reciprocal load (`measure::load`, mm²) against its measured
+/// peak depth: how much the skin pushes back for that depth. An indenter of another shape
+/// pressed to the same depth carries another load (a flat punch more, a sharper sphere
+/// less), and so does a contact whose depth was misread.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LoadSignature {
+    /// Measured peak depths, mm, increasing.
+    pub depth_mm: Vec<f64>,
+    /// Reciprocal load at each, mm².
+    pub load_mm2: Vec<f64>,
+}
+
+impl LoadSignature {
+    /// The load at `depth_mm` (linear between knots), mm²; `None` outside the knots, where
+    /// the kit says nothing.
+    pub fn load_mm2_at(&self, depth_mm: f64) -> Option<f64> {
+        let (d, l) = (&self.depth_mm, &self.load_mm2);
+        if d.first().is_some_and(|&d0| depth_mm < d0) {
+            return None;
+        }
+        let k = d.iter().position(|&x| x >= depth_mm)?;
+        Some(between_knots(d, l, k, depth_mm))
+    }
 }
 
 impl ShapeSignature {
@@ -345,11 +373,24 @@ impl ShapeSignature {
         let (d, a) = (&self.depth_mm, &self.area_mm2);
         match d.iter().position(|&x| x >= depth_mm) {
             None => a.last().copied().unwrap_or(0.0),
-            Some(0) => a.first().copied().unwrap_or(0.0),
-            Some(k) => {
-                a[k - 1] + (a[k] - a[k - 1]) * (depth_mm - d[k - 1]) / (d[k] - d[k - 1]).max(1e-12)
-            }
+            Some(k) => between_knots(d, a, k, depth_mm),
         }
+    }
+}
+
+/// `y` at `x`, linear between knots `k − 1` and `k` (the first knot at or beyond `x`; knot
+/// `k`'s value when `k` is 0). Knots the validation would refuse (unequal lengths) give the
+/// last value, or 0, instead of a panic.
+fn between_knots(xs: &[f64], ys: &[f64], k: usize, x: f64) -> f64 {
+    let (Some(&x1), Some(&y1)) = (xs.get(k), ys.get(k)) else {
+        return ys.last().copied().unwrap_or(0.0);
+    };
+    let before = k
+        .checked_sub(1)
+        .and_then(|j| Some((*xs.get(j)?, *ys.get(j)?)));
+    match before {
+        None => y1,
+        Some((x0, y0)) => y0 + (y1 - y0) * (x - x0) / (x1 - x0).max(1e-12),
     }
 }
 
@@ -622,6 +663,29 @@ mod tests {
         );
     }
 
+    /// The load signature answers between its knots only, linearly; a file written
+    /// before it (no `load`) still loads, without one.
+    #[test]
+    fn the_load_signature_speaks_only_within_its_knots() {
+        let l = LoadSignature {
+            depth_mm: vec![0.5, 1.0, 2.0],
+            load_mm2: vec![1.0, 3.0, 8.0],
+        };
+        assert_eq!(l.load_mm2_at(0.4), None);
+        assert_eq!(l.load_mm2_at(0.5), Some(1.0));
+        assert!((l.load_mm2_at(0.75).unwrap() - 2.0).abs() < 1e-12);
+        assert_eq!(l.load_mm2_at(2.0), Some(8.0));
+        assert_eq!(l.load_mm2_at(2.1), None);
+        let mut v: serde_json::Value = serde_json::from_str(DEFAULT_JSON).unwrap();
+        assert!(
+            v["shape"]["load"].is_object(),
+            "the default calibration has one"
+        );
+        v["shape"].as_object_mut().unwrap().remove("load");
+        let c = Calibration::from_json(&v.to_string(), "old.json").unwrap();
+        assert_eq!(c.shape.unwrap().load, None);
+    }
+
     /// Files that would crash the service or make it lie are refused, naming the key.
     #[test]
     fn hostile_values_are_refused_naming_the_key() {
@@ -633,10 +697,17 @@ mod tests {
                 .to_string()
         };
         type Edit<'a> = &'a dyn Fn(&mut serde_json::Value);
-        let cases: [(&str, Edit<'_>); 12] = [
+        let cases: [(&str, Edit<'_>); 13] = [
             ("`shape`", &|v| {
                 v["shape"]["area_mm2"] = serde_json::json!([1.0])
             }),
+            (
+                "`shape.load`",
+                &|v| {
+                    v["shape"]["load"] =
+                        serde_json::json!({"depth_mm": [0.5, 0.4], "load_mm2": [1.0, 2.0]})
+                },
+            ),
             (
                 "`force.model.form.",
                 &|v| {

@@ -305,20 +305,28 @@ fn check_force(m: &ForceModel, range: Option<&FitRange>) -> Check {
 }
 
 fn check_shape(s: &ShapeSignature) -> Check {
-    let ok = s.depth_mm.len() == s.area_mm2.len()
-        && !s.depth_mm.is_empty()
-        && s.depth_mm.windows(2).all(|p| p[1] > p[0])
-        && s.depth_mm
-            .iter()
-            .chain(&s.area_mm2)
-            .all(|v| v.is_finite() && *v >= 0.0);
-    if ok {
-        Ok(())
-    } else {
-        Err(bad(
+    if !knots_ok(&s.depth_mm, &s.area_mm2) {
+        return Err(bad(
             "shape",
             "depth_mm and area_mm2 must be equally long (one or more), finite, non-negative, \
              with depths increasing",
-        ))
+        ));
     }
+    match &s.load {
+        Some(l) if !knots_ok(&l.depth_mm, &l.load_mm2) => Err(bad(
+            "shape.load",
+            "depth_mm and load_mm2 must be equally long (one or more), finite, non-negative, \
+             with depths increasing",
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// Knots `(x, y)` of a signature: equally long, one or more, finite, non-negative, `x`
+/// increasing.
+fn knots_ok(x: &[f64], y: &[f64]) -> bool {
+    x.len() == y.len()
+        && !x.is_empty()
+        && x.windows(2).all(|p| p[1] > p[0])
+        && x.iter().chain(y).all(|v| v.is_finite() && *v >= 0.0)
 }

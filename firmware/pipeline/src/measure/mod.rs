@@ -101,6 +101,15 @@ pub const SHARPNESS_RATIO: f64 = 0.7;
 /// are caught, at the cost of flagging spheres over 1.3 times the calibrated radius
 /// (a sphere's area at a given depth grows with its radius; `docs/pipeline.md`).
 pub const BLUNTNESS_RATIO: f64 = 1.3;
+/// Phase-slope flag: a reciprocal load (the depth map weighted by a flat punch's pressure,
+/// [`load`]) beyond this multiple, or below its inverse, of the calibrated indenter's at
+/// the same depth. Force and depth are read from the map by different routes (the load
+/// integrates it, the apex reads its deepest point through the blur correction), and for
+/// the calibrated indenter they agree as the kit showed; where they do not, the contact is
+/// of another shape than the calibration's (a punch whose area at half depth passes for a
+/// sphere's still carries more load for its depth) or its depth was misread (a glare spot
+/// at the apex). `docs/pipeline.md` gives the measured trade.
+pub const LOAD_RATIO: f64 = 1.2;
 /// Misregistration flag: a global offset beyond this, rad (0.4 of a period: up to there the
 /// offset is removed exactly; towards half a period it becomes ambiguous).
 pub const MISREGISTRATION_RAD: f32 = 0.8 * std::f32::consts::PI;
@@ -554,7 +563,7 @@ impl<M: PhaseMap> Found<'_, M> {
             unwrap: (unreached, residues),
             resolved: apex.resolved,
         };
-        let mut flags = limits.flags(&feats, carrier, ctx);
+        let mut flags = limits.flags((&feats, inputs.reciprocal_load_mm2), carrier, ctx);
         // Half the contact's depth reaching where the kernel averages padding: the contact
         // may run on past the image, and nothing beyond it is seen.
         if !window_inside && !contact.iter().all(kernel_inside) {
