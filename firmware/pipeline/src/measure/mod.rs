@@ -106,9 +106,10 @@ pub const BLUNTNESS_RATIO: f64 = 1.3;
 /// the same depth. Force and depth are read from the map by different routes (the load
 /// integrates it, the apex reads its deepest point through the blur correction), and for
 /// the calibrated indenter they agree as the kit showed; where they do not, the contact is
-/// of another shape than the calibration's (a punch whose area at half depth passes for a
-/// sphere's still carries more load for its depth) or its depth was misread (a glare spot
-/// at the apex). `docs/pipeline.md` gives the measured trade.
+/// of another shape than the calibration's (a small punch whose area at half depth passes
+/// for a sphere's carries more load than the sphere when shallow, less when deep) or its
+/// depth was misread (a glare spot at the apex). `docs/pipeline.md` gives the measured
+/// trade.
 pub const LOAD_RATIO: f64 = 1.2;
 /// Misregistration flag: a global offset beyond this, rad (0.4 of a period: up to there the
 /// offset is removed exactly; towards half a period it becomes ambiguous).
