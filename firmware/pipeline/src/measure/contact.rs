@@ -8,11 +8,11 @@ use super::coarse::{samples_in, Coarse, Margin};
 use super::features::slope_p98_exceeds;
 use super::window::upsample2;
 use super::{
-    Context, Features, Grid, Unwrap, BAND_LOSS_FRACTION, BAND_LOSS_MIN, BLUNTNESS_RATIO,
-    DEPTH_RANGE_SLACK, DIPOLE_RATIO, LOAD_RATIO, MAX_RESIDUES, SHARPNESS_RATIO, SLOPE_LIMIT,
-    TILE_PX, UNWRAP_TRIGGER_RAD,
+    Context, Grid, Unwrap, BAND_LOSS_FRACTION, BAND_LOSS_MIN, BLUNTNESS_RATIO, DEPTH_RANGE_SLACK,
+    DIPOLE_RATIO, LOAD_RATIO, MAX_RESIDUES, SHARPNESS_RATIO, SLOPE_LIMIT, TILE_PX,
+    UNWRAP_TRIGGER_RAD,
 };
-use crate::calibration::LoadSignature;
+use crate::calibration::{ForceInputs, LoadSignature};
 use crate::ftp::band::BAND_HALF_WIDTH;
 use crate::ftp::carrier::Carrier;
 use crate::phase::{PhaseMap, PhaseNum, GRID};
@@ -249,22 +249,22 @@ pub(super) struct Limits<'a, P> {
     pub(super) resolved: bool,
 }
 
-/// Whether a contact read `peak_mm` deep carries a reciprocal load `load_mm2` (mm²) unlike
-/// the calibrated indenter's at that depth: beyond [`LOAD_RATIO`] either way. Within the
-/// kit's depths only, and never without a load signature (a file written before it).
-fn unlike_load(signature: Option<&LoadSignature>, peak_mm: f64, load_mm2: f32) -> bool {
-    let Some(calibrated) = signature.and_then(|l| l.load_mm2_at(peak_mm)) else {
+/// Whether a contact's reciprocal load is unlike the calibrated indenter's at the depth it
+/// reads: beyond [`LOAD_RATIO`] either way. Within the kit's depths only, and never without
+/// a load signature (a file written before it).
+fn unlike_load(signature: Option<&LoadSignature>, read: &ForceInputs) -> bool {
+    let Some(calibrated) = signature.and_then(|l| l.load_mm2_at(f64::from(read.peak_mm))) else {
         return false;
     };
-    let load = f64::from(load_mm2);
+    let load = f64::from(read.reciprocal_load_mm2);
     calibrated > 0.0 && (load > LOAD_RATIO * calibrated || load * LOAD_RATIO < calibrated)
 }
 
 impl<P> Limits<'_, P> {
-    /// The flags the contact earns.
+    /// The flags the contact earns, from what it reads (`read`: depth, area, load).
     pub(super) fn flags(
         &self,
-        (feats, load_mm2): (&Features, f32),
+        read: &ForceInputs,
         carrier: Carrier,
         ctx: &Context<'_>,
     ) -> QualityFlags {
@@ -278,15 +278,15 @@ impl<P> Limits<'_, P> {
         let beyond = ctx
             .calib
             .calibrated_depth_mm()
-            .is_some_and(|d| f64::from(feats.peak_mm) > DEPTH_RANGE_SLACK * d);
+            .is_some_and(|d| f64::from(read.peak_mm) > DEPTH_RANGE_SLACK * d);
         let comparable = self.resolved && !beyond;
         let unlike = comparable
             && ctx.calib.shape.as_ref().is_some_and(|s| {
-                let calibrated = s.area_mm2_at(f64::from(feats.peak_mm));
-                let area = f64::from(feats.area_mm2);
+                let calibrated = s.area_mm2_at(f64::from(read.peak_mm));
+                let area = f64::from(read.area_mm2);
                 area < SHARPNESS_RATIO * calibrated
                     || area > BLUNTNESS_RATIO * calibrated
-                    || unlike_load(s.load.as_ref(), f64::from(feats.peak_mm), load_mm2)
+                    || unlike_load(s.load.as_ref(), read)
             });
         let slope_limit = SLOPE_LIMIT * 65_536.0 * BAND_HALF_WIDTH * carrier.freq();
         let ((_, (bw, bh)), deformed) = (self.win.pixels(), &self.pass.deformed);
@@ -370,7 +370,14 @@ mod tests {
             depth_mm: vec![0.5, 1.0, 2.0],
             load_mm2: vec![1.0, 3.0, 8.0],
         };
-        let at = |d: f64, load: f64| unlike_load(Some(&l), d, load as f32);
+        let at = |d: f64, load: f64| {
+            let read = ForceInputs {
+                peak_mm: d as f32,
+                reciprocal_load_mm2: load as f32,
+                ..ForceInputs::default()
+            };
+            unlike_load(Some(&l), &read)
+        };
         assert!(!at(1.0, 3.0));
         assert!(!at(1.0, 3.0 * (LOAD_RATIO - 0.01)));
         assert!(!at(1.0, 3.0 / (LOAD_RATIO - 0.01)));
@@ -378,6 +385,6 @@ mod tests {
         assert!(at(1.0, 3.0 / (LOAD_RATIO + 0.01)));
         assert!(!at(0.3, 100.0), "shallower than the kit");
         assert!(!at(2.5, 0.1), "deeper than the kit");
-        assert!(!unlike_load(None, 1.0, 100.0));
+        assert!(!unlike_load(None, &ForceInputs::default()));
     }
 }

@@ -564,7 +564,7 @@ impl<M: PhaseMap> Found<'_, M> {
             unwrap: (unreached, residues),
             resolved: apex.resolved,
         };
-        let mut flags = limits.flags((&feats, inputs.reciprocal_load_mm2), carrier, ctx);
+        let mut flags = limits.flags(&inputs, carrier, ctx);
         // Half the contact's depth reaching where the kernel averages padding: the contact
         // may run on past the image, and nothing beyond it is seen.
         if !window_inside && !contact.iter().all(kernel_inside) {
