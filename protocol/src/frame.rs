@@ -375,28 +375,23 @@ mod tests {
 
     #[test]
     fn frame_len_max_holds_whole_runs_without_zeros() {
-        // A 502-byte slice: a two-byte length, then the bytes, then the CRC: 508 bytes of
-        // data, two full COBS runs when none of them is zero.
+        // A 502-byte slice encodes as a two-byte length and its bytes: with the CRC, 508
+        // bytes of data, two full COBS runs when no byte of the CRC is zero either, framed
+        // as two delimiters, two run codes, the data and the empty run's code. Fills are
+        // tried until one gives that longest frame.
         const PAYLOAD: usize = 504;
-        let mut fill = 1u8;
-        let data = loop {
-            let data = [fill; PAYLOAD - 2];
-            let mut crc_input = [0u8; PAYLOAD];
-            crc_input[..2].copy_from_slice(&[0xf6, 0x03]);
-            crc_input[2..].copy_from_slice(&data);
-            if CRC32
-                .checksum(&crc_input)
-                .to_le_bytes()
-                .iter()
-                .all(|&b| b != 0)
-            {
-                break data;
-            }
-            fill += 1;
-        };
+        const LONGEST: usize = 2 + 2 + 508 + 1;
+        let mut roomy = [0u8; LONGEST + 8];
+        let data = (1..=u8::MAX)
+            .map(|fill| [fill; PAYLOAD - 2])
+            .find(|data| encode(data.as_slice(), &mut roomy) == Ok(LONGEST))
+            .unwrap();
         let mut buf = [0u8; frame_len_max(PAYLOAD)];
-        let n = encode(data.as_slice(), &mut buf).unwrap();
-        assert_eq!(n, buf.len(), "the bound is reached, and not exceeded");
+        assert_eq!(
+            encode(data.as_slice(), &mut buf),
+            Ok(buf.len()),
+            "the bound fits"
+        );
         let mut dec = Decoder::<Bytes, { frame_len_max(PAYLOAD) }>::new();
         let mut got = None;
         dec.push(&buf, |r| got = Some(r));
