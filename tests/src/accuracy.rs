@@ -109,6 +109,8 @@ pub struct Scored {
     pub flags: Vec<&'static str>,
     /// The frame's phase noise as the pipeline measured it, rad.
     pub noise_rad: f32,
+    /// The contact's shape as the pipeline read it (`unknown` without a contact).
+    pub shape: &'static str,
 }
 
 impl Scored {
@@ -474,6 +476,7 @@ fn score(
         failures: Vec::new(),
         flags: m.flags.iter().map(|f| f.name()).collect(),
         noise_rad: m.noise_rad,
+        shape: m.shape.name(),
     };
     let pressed = truth.peak_depth_mm > 0.0;
     if pressed {
@@ -531,12 +534,12 @@ pub fn frames_csv(results: &[UnitResult]) -> String {
     let mut s = String::from(
         "unit,kind,indenter,depth_mm,rim_inside_mm,depth_err_mm,force_err_n,force_n,centre_err_mm,\
          contact_temp_err_c,contact_temp_sigma_c,contact_temp_c,skin_temp_c,mean_temp_err_c,max_temp_excess_c,\
-         failures,flags,noise_rad\n",
+         failures,flags,noise_rad,shape\n",
     );
     for f in results.iter().flatten().flatten() {
         let _ = writeln!(
             s,
-            "{},{},{},{:.4},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.4}",
+            "{},{},{},{:.4},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.4},{}",
             f.unit,
             f.kind.name(),
             f.indenter,
@@ -555,6 +558,7 @@ pub fn frames_csv(results: &[UnitResult]) -> String {
             f.failures.join(" "),
             f.flags.join(" "),
             f.noise_rad,
+            f.shape,
         );
     }
     s

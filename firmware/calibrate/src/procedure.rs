@@ -28,6 +28,7 @@ use vistaf_pipeline::calibration::{
 use vistaf_pipeline::ftp::carrier;
 use vistaf_pipeline::image_ops::gray_down_f32;
 use vistaf_pipeline::input::decode_scale;
+use vistaf_pipeline::measure::profile::Shape;
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement};
 use vistaf_protocol::Flag;
 
@@ -167,7 +168,14 @@ impl<O: Observer> Run<'_, O> {
                         set: set.clone(),
                         cause,
                     })?;
-                if d.flags.iter().all(|f| label.tolerates(f)) {
+                if d.shape == Shape::Flat {
+                    // The kit's indenter is a sphere: a press whose profile reads as a
+                    // plateau was read with a punch's depth, not the sphere's apex.
+                    self.obs.note(format!(
+                        "{set}: {} left out of the fit (its profile reads as a flat punch's)",
+                        f.file
+                    ));
+                } else if d.flags.iter().all(|f| label.tolerates(f)) {
                     out.push((y, d));
                 } else {
                     let names: Vec<&str> = d.flags.iter().map(|f| f.name()).collect();

@@ -4,6 +4,7 @@
 use vistaf_protocol::QualityFlags;
 
 use crate::calibration::ForceInputs;
+use crate::measure::profile::Shape;
 use crate::thermal::Temperature;
 
 /// The result of analysing one frame.
@@ -37,6 +38,9 @@ pub struct Measurement {
     pub integrated_phase_rad_mm2: f32,
     /// Normal force from the calibration's force model, N.
     pub force_n: f32,
+    /// The contact's shape as its profile shows it (`crate::measure::profile`): a flat
+    /// punch's depth is its plateau's.
+    pub shape: Shape,
     /// What may be wrong.
     pub flags: QualityFlags,
     /// Measured phase noise floor (1σ), rad.
@@ -81,6 +85,7 @@ impl std::fmt::Debug for Measurement {
             .field("centroid_px", &self.centroid_px)
             .field("reciprocal_load_mm2", &self.reciprocal_load_mm2)
             .field("force_n", &self.force_n)
+            .field("shape", &self.shape)
             .field(
                 "flags",
                 &self.flags.iter().map(|f| f.name()).collect::<Vec<_>>(),

@@ -23,7 +23,9 @@ use crate::ftp::carrier::{self, Carrier};
 use crate::ftp::fixed::FixedFtp;
 use crate::ftp::float::FloatFtp;
 use crate::image_ops;
-use crate::measure::{self, apex::BlurLoss, Context, Unwrap};
+use crate::measure::apex::{BlurLoss, LAYER_DECAY_MM};
+use crate::measure::profile::Shapes;
+use crate::measure::{self, Context, Unwrap};
 use crate::phase::WrappedPhase;
 use crate::thermal::stripes::{region, Geometry, Regions, Sums};
 use crate::thermal::Thermometer;
@@ -227,6 +229,8 @@ pub struct Analyzer {
     unwrap: Unwrap,
     thermo: Thermometer,
     blur_loss: BlurLoss,
+    /// The shape templates of the same kernel.
+    shapes: Shapes,
     calib: Calibration,
     size: (u32, u32),
     mm_per_px: f32,
@@ -286,8 +290,14 @@ impl Analyzer {
             mm_per_px,
         );
         let blur_loss = BlurLoss::new(path.blur_box_lengths(), mm_per_px * factor as f32);
+        let shapes = Shapes::new(
+            path.blur_box_lengths(),
+            mm_per_px * factor as f32,
+            LAYER_DECAY_MM,
+        );
         let mut an = Analyzer {
             blur_loss,
+            shapes,
             path,
             unwrap: opts.unwrap,
             thermo,
@@ -399,6 +409,7 @@ impl Analyzer {
         Context {
             calib: &self.calib,
             blur_loss: &self.blur_loss,
+            shapes: &self.shapes,
             mm_per_px: self.mm_per_px,
             ref_saturated_fraction: self.ref_saturation,
             unwrap: self.unwrap,

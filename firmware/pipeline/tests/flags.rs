@@ -186,3 +186,40 @@ fn out_of_tolerance_sharp_contacts_are_flagged_and_the_calibrated_indenter_is_no
         }
     }
 }
+
+/// Spheres of another radius than the calibrated one and flat punches wide enough for their
+/// profile to tell are read as what they are, within tolerance; the spheres without the
+/// phase-slope flag that an unknown shape of their area earns.
+#[test]
+fn wide_spheres_and_punches_are_read_as_what_they_are() {
+    use vistaf_pipeline::measure::profile::Shape;
+    let disc = |r_mm, depth_mm| {
+        let mut s = SkinState::idle(ROOM_C);
+        s.contacts.push(Contact {
+            indenter: Indenter::Punch(Footprint::Disc { r_mm }),
+            center_mm: center_mm(&unit()),
+            depth_mm,
+        });
+        s
+    };
+    for (state, d, shape) in [
+        (sphere(15.0, 2.0), 2.0, Shape::Sphere),
+        (sphere(20.0, 1.6), 1.6, Shape::Sphere),
+        (disc(5.0, 0.6), 0.6, Shape::Flat),
+        (disc(5.0, 0.9), 0.9, Shape::Flat),
+        (disc(7.0, 0.9), 0.9, Shape::Flat),
+    ] {
+        for imp in [Implementation::Fixed, Implementation::Float] {
+            let x = analyze(&state, imp);
+            let err = (x.peak_depth_mm - d).abs();
+            assert_eq!(x.shape, shape, "{imp:?} d {d}: {x:?}");
+            assert!(
+                err <= 0.03 * d + 0.02,
+                "{imp:?} d {d}: error {err} mm: {x:?}"
+            );
+            if shape == Shape::Sphere {
+                assert!(!x.flags.contains(Flag::PhaseSlope), "{imp:?} d {d}: {x:?}");
+            }
+        }
+    }
+}

@@ -59,6 +59,7 @@ pub fn result_json(file: &str, d: &Measurement, latency_us: u128, scale: u32) ->
         "contact_y_px": d.centroid_px.map(|c| px(c.1)),
         "integrated_phase_rad_mm2": d.integrated_phase_rad_mm2,
         "reciprocal_load_mm2": d.reciprocal_load_mm2,
+        "shape": d.contact.then(|| d.shape.name()),
         "temperature_c": t.and_then(|t| t.contact_c.or(finite(t.mean_c))),
         "temp_mean_c": t.and_then(|t| finite(t.mean_c)),
         "temp_min_c": t.and_then(|t| finite(t.min_c)),

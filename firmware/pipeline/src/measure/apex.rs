@@ -137,7 +137,7 @@ impl BlurLoss {
 
 /// The unit-depth surface of a sphere's contact of radius `a` at radius `r` (Hertz, the
 /// surround decaying over `decay` beyond the contact's edge), both in pixels.
-fn hertz(r: f64, a: f64, decay: f64) -> f64 {
+pub(super) fn hertz(r: f64, a: f64, decay: f64) -> f64 {
     if r <= a {
         return 1.0 - r * r / (2.0 * a * a);
     }
@@ -277,7 +277,7 @@ fn deep_box(
 
 /// `z` (`w` wide) blurred by the separable triangle of box lengths `(lx, ly)`, weights
 /// renormalised over the part of the kernel inside the window.
-fn blur(z: &[i32], w: usize, (lx, ly): (usize, usize)) -> Vec<i32> {
+pub(super) fn blur(z: &[i32], w: usize, (lx, ly): (usize, usize)) -> Vec<i32> {
     let h = z.len() / w;
     let mut scratch = Scratch::default();
     let mut rows = vec![0i64; w * h];

@@ -6,6 +6,7 @@ use vistaf_protocol::{Flag, QualityFlags};
 
 use super::coarse::{samples_in, Coarse, Margin};
 use super::features::slope_p98_exceeds;
+use super::profile::Shape;
 use super::window::upsample2;
 use super::{
     Context, Grid, Unwrap, BAND_LOSS_FRACTION, BAND_LOSS_MIN, BLUNTNESS_RATIO, DEPTH_RANGE_SLACK,
@@ -245,17 +246,20 @@ pub(super) struct Limits<'a, P> {
     pub(super) amp_medians: (u32, u32),
     /// Unreached samples and residues of the unwrapping.
     pub(super) unwrap: (usize, usize),
-    /// Whether the apex is as wide as the blur correction resolves.
+    /// Whether the apex is as wide as the blur correction resolves (a plateau always is).
     pub(super) resolved: bool,
+    /// The contact's shape as its profile shows it.
+    pub(super) shape: Shape,
 }
 
 /// Whether a contact's reciprocal load is unlike the calibrated indenter's at the depth it
-/// reads: beyond [`LOAD_RATIO`] either way. Within the kit's depths only, and never without
-/// a load signature (a file written before it).
-fn unlike_load(signature: Option<&LoadSignature>, read: &ForceInputs) -> bool {
+/// reads, times `scale`: beyond [`LOAD_RATIO`] either way. Within the kit's depths only,
+/// and never without a load signature (a file written before it).
+fn unlike_load(signature: Option<&LoadSignature>, read: &ForceInputs, scale: f64) -> bool {
     let Some(calibrated) = signature.and_then(|l| l.load_mm2_at(f64::from(read.peak_mm))) else {
         return false;
     };
+    let calibrated = calibrated * scale;
     let load = f64::from(read.reciprocal_load_mm2);
     calibrated > 0.0 && (load > LOAD_RATIO * calibrated || load * LOAD_RATIO < calibrated)
 }
@@ -280,13 +284,32 @@ impl<P> Limits<'_, P> {
             .calibrated_depth_mm()
             .is_some_and(|d| f64::from(read.peak_mm) > DEPTH_RANGE_SLACK * d);
         let comparable = self.resolved && !beyond;
+        // A contact whose profile is clearly a sphere's is read as one whatever its radius
+        // (its area against the calibrated sphere's is its radius against the calibrated
+        // one), and its load is a sphere's of that radius: Hertz's load at a given depth
+        // grows as the square root of the radius. A plateau's depth is its own, but it keeps
+        // the tests of an unknown shape: a punch wide enough to read as one also leaves
+        // little background to register the frame on, and the calibrated sphere's load is
+        // the only check left on its depth.
         let unlike = comparable
             && ctx.calib.shape.as_ref().is_some_and(|s| {
                 let calibrated = s.area_mm2_at(f64::from(read.peak_mm));
                 let area = f64::from(read.area_mm2);
-                area < SHARPNESS_RATIO * calibrated
-                    || area > BLUNTNESS_RATIO * calibrated
-                    || unlike_load(s.load.as_ref(), read)
+                let radius_ratio = area / calibrated.max(f64::MIN_POSITIVE);
+                let like_calibrated = (SHARPNESS_RATIO..=BLUNTNESS_RATIO).contains(&radius_ratio);
+                match self.shape {
+                    Shape::Sphere => {
+                        let scale = if like_calibrated {
+                            1.0
+                        } else {
+                            radius_ratio.sqrt()
+                        };
+                        unlike_load(s.load.as_ref(), read, scale)
+                    }
+                    Shape::Flat | Shape::Unknown => {
+                        !like_calibrated || unlike_load(s.load.as_ref(), read, 1.0)
+                    }
+                }
             });
         let slope_limit = SLOPE_LIMIT * 65_536.0 * BAND_HALF_WIDTH * carrier.freq();
         let ((_, (bw, bh)), deformed) = (self.win.pixels(), &self.pass.deformed);
@@ -376,7 +399,7 @@ mod tests {
                 reciprocal_load_mm2: load as f32,
                 ..ForceInputs::default()
             };
-            unlike_load(Some(&l), &read)
+            unlike_load(Some(&l), &read, 1.0)
         };
         assert!(!at(1.0, 3.0));
         assert!(!at(1.0, 3.0 * (LOAD_RATIO - 0.01)));
@@ -385,6 +408,6 @@ mod tests {
         assert!(at(1.0, 3.0 / (LOAD_RATIO + 0.01)));
         assert!(!at(0.3, 100.0), "shallower than the kit");
         assert!(!at(2.5, 0.1), "deeper than the kit");
-        assert!(!unlike_load(None, &ForceInputs::default()));
+        assert!(!unlike_load(None, &ForceInputs::default(), 1.0));
     }
 }

@@ -38,25 +38,11 @@ pub fn reciprocal_load_mm2(
     if b_px <= 0.0 {
         return 0.0;
     }
-    let rings = b_px.ceil() as usize;
-    let (mut sum_um, mut count) = (vec![0i64; rings], vec![0u32; rings]);
-    let h = depth_um.len() / w.max(1);
-    let (x0, x1) = span(centre.0, b_px, w);
-    let (y0, y1) = span(centre.1, b_px, h);
-    for y in y0..y1 {
-        let dy = y as f32 + 0.5 - centre.1;
-        for x in x0..x1 {
-            let dx = x as f32 + 0.5 - centre.0;
-            let k = dx.hypot(dy) as usize;
-            if k < rings {
-                sum_um[k] += i64::from(depth_um[y * w + x]);
-                count[k] += 1;
-            }
-        }
-    }
+    let ring = rings(depth_um, w, centre, b_px);
+    let (sum_um, count) = (&ring.sum, &ring.count);
     let b = f64::from(b_px);
     let rim = |r: f64| (b * b - r * r).max(0.0).sqrt();
-    let load_um_px: f64 = (0..rings)
+    let load_um_px: f64 = (0..count.len())
         .filter(|&k| count[k] > 0)
         .map(|k| {
             let mean = sum_um[k] as f64 / f64::from(count[k]);
@@ -67,9 +53,49 @@ pub fn reciprocal_load_mm2(
     (2.0 * load_um_px / 1000.0) as f32 * px_mm
 }
 
+/// A map's values summed over rings one pixel wide about a centre: ring `k` holds the
+/// pixels whose centres lie `k` to `k + 1` pixels from it.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Rings {
+    /// Σ value per ring.
+    pub sum: Vec<i64>,
+    /// Σ value² per ring.
+    pub sum_sq: Vec<i64>,
+    /// Pixels per ring.
+    pub count: Vec<u32>,
+}
+
+/// The rings of `depth_um` (a map `w` pixels wide) about `centre` (pixels), over the pixels
+/// within `reach_px` of it along each axis (rings up to `⌈reach_px⌉`).
+pub(super) fn rings(depth_um: &[i32], w: usize, centre: (f32, f32), reach_px: f32) -> Rings {
+    let n = reach_px.max(0.0).ceil() as usize;
+    let mut r = Rings {
+        sum: vec![0; n],
+        sum_sq: vec![0; n],
+        count: vec![0; n],
+    };
+    let h = depth_um.len() / w.max(1);
+    let (x0, x1) = span(centre.0, reach_px, w);
+    let (y0, y1) = span(centre.1, reach_px, h);
+    for y in y0..y1 {
+        let dy = y as f32 + 0.5 - centre.1;
+        for x in x0..x1 {
+            let dx = x as f32 + 0.5 - centre.0;
+            let k = dx.hypot(dy) as usize;
+            if k < n {
+                let v = i64::from(depth_um[y * w + x]);
+                r.sum[k] += v;
+                r.sum_sq[k] += v * v;
+                r.count[k] += 1;
+            }
+        }
+    }
+    r
+}
+
 /// The distance from `centre` to the farthest of the `contact` pixels, plus half a pixel, px
 /// (0 without any).
-fn enclosing_radius_px(contact: &[usize], w: usize, centre: (f32, f32)) -> f32 {
+pub(super) fn enclosing_radius_px(contact: &[usize], w: usize, centre: (f32, f32)) -> f32 {
     if contact.is_empty() || w == 0 {
         return 0.0;
     }

@@ -17,6 +17,7 @@ mod coarse;
 mod contact;
 mod features;
 pub mod load;
+pub mod profile;
 mod register;
 mod window;
 
@@ -30,6 +31,7 @@ use coarse::{median, read_coarse, Coarse, Margin, NOISE_STEP};
 use contact::{
     indentation_phase, region_pixels, region_samples, upsampled, DepthPass, Limits, Window,
 };
+use profile::Shape;
 use register::Background;
 
 use crate::calibration::{Calibration, ForceInputs};
@@ -99,7 +101,9 @@ pub const SHARPNESS_RATIO: f64 = 0.7;
 /// punch's rim also raises its plateau where the demodulator is not a linear blur, and
 /// its area then stays near a sphere's: the margin is narrow so that most such presses
 /// are caught, at the cost of flagging spheres over 1.3 times the calibrated radius
-/// (a sphere's area at a given depth grows with its radius; `docs/pipeline.md`).
+/// (a sphere's area at a given depth grows with its radius; `docs/pipeline.md`), except
+/// where the contact's profile shows a sphere wide enough that no punch passes for one
+/// ([`profile`]): there the load alone is compared, with a sphere's of its radius.
 pub const BLUNTNESS_RATIO: f64 = 1.3;
 /// Phase-slope flag: a reciprocal load (the depth map weighted by a flat punch's pressure,
 /// [`load`]) beyond this multiple, or below its inverse, of the calibrated indenter's at
@@ -126,6 +130,8 @@ pub struct Context<'a> {
     pub calib: &'a Calibration,
     /// The blur correction of the plan's demodulator ([`apex`]).
     pub blur_loss: &'a apex::BlurLoss,
+    /// The shape templates of the plan's demodulator ([`profile`]).
+    pub shapes: &'a profile::Shapes,
     /// Input scale, mm per pixel.
     pub mm_per_px: f32,
     /// Fraction of the reference's pixels with a saturated channel.
@@ -353,6 +359,7 @@ struct ContactResult {
     inputs: ForceInputs,
     flags: QualityFlags,
     force_n: f32,
+    shape: Shape,
     threshold_um: i32,
     /// The window's depth, and its pixels: origin and size.
     depth_um: Vec<i32>,
@@ -383,6 +390,7 @@ impl FrameResult {
             integrated_phase_rad_mm2: 0.0,
             reciprocal_load_mm2: 0.0,
             force_n: 0.0,
+            shape: Shape::Unknown,
             flags: self.flags,
             noise_rad: self.noise_rad,
             offset_rad: self.offset_rad,
@@ -414,6 +422,7 @@ impl FrameResult {
             integrated_phase_rad_mm2: c.inputs.integrated_phase_rad_mm2,
             reciprocal_load_mm2: c.inputs.reciprocal_load_mm2,
             force_n: c.force_n,
+            shape: c.shape,
             tiles,
             floor_um: c.threshold_um,
             window_px: Some([x0, y0, x0 + cols, y0 + bh.min(h - y0)]),
@@ -421,6 +430,24 @@ impl FrameResult {
             ..self.measurement(reliable, depth_um)
         }
     }
+}
+
+/// How far the profile's rings reach, in multiples of the contact's enclosing radius: a
+/// punch's profile falls to [`profile::PROFILE_CUT`] of its plateau within about 1.6 of
+/// its half-depth radius, blur included.
+const PROFILE_REACH: f32 = 2.5;
+
+/// The shape of the contact `contact` (its half-depth component in the window's depth map
+/// `depth_um`, `w` wide) about `centre` (window pixels).
+fn profile_shape(
+    depth_um: &[i32],
+    w: usize,
+    contact: &[usize],
+    centre: (f32, f32),
+    shapes: &profile::Shapes,
+) -> profile::ShapeFit {
+    let reach = PROFILE_REACH * load::enclosing_radius_px(contact, w, centre);
+    shapes.fit(&load::rings(depth_um, w, centre, reach))
 }
 
 /// A frame with contact tiles, and what its contact stage reads.
@@ -436,23 +463,26 @@ struct Found<'a, M: PhaseMap> {
 }
 
 impl<M: PhaseMap> Found<'_, M> {
+    /// The contact's centre in window pixels (`x0, y0` the window's origin), from its
+    /// features' centre in input pixels.
+    fn window_centre(&self, feats: &Features, (x0, y0): (usize, usize)) -> (f32, f32) {
+        feats.centroid_px.map_or((0.0, 0.0), |(x, y)| {
+            let f = self.factor as f32;
+            (x / f - x0 as f32, y / f - y0 as f32)
+        })
+    }
+
     /// What the force model reads of a contact: its features, the phase integrated over
-    /// its deformed pixels and its reciprocal load about its centre, enclosing its peak's
-    /// component `contact` (`x0, y0` the window's origin, `bw` its width; working pixels
-    /// `px_mm` wide).
+    /// its deformed pixels and its reciprocal load about its centre `centre` (window
+    /// pixels), enclosing its peak's component `contact` (`bw` the window's width; working
+    /// pixels `px_mm` wide).
     fn force_inputs(
-        &self,
         feats: &Features,
         pass: &DepthPass,
         contact: &[usize],
-        (x0, y0, bw): (usize, usize, usize),
+        (centre, bw): ((f32, f32), usize),
         px_mm: f32,
     ) -> ForceInputs {
-        // The centre in window pixels, from input pixels.
-        let centre = feats.centroid_px.map_or((0.0, 0.0), |(x, y)| {
-            let f = self.factor as f32;
-            (x / f - x0 as f32, y / f - y0 as f32)
-        });
         ForceInputs {
             area_mm2: feats.area_mm2,
             peak_mm: feats.peak_mm,
@@ -552,8 +582,16 @@ impl<M: PhaseMap> Found<'_, M> {
         }
         feats.peak_mm =
             self.map.depth_um(<M::P as PhaseNum>::from_units(apex.peak)) as f32 / 1000.0;
+        let centre = self.window_centre(&feats, (x0, y0));
+        let shape = profile_shape(&pass.depth_um, bw, &contact, centre, ctx.shapes);
+        let mut resolved = apex.resolved;
+        if shape.shape == Shape::Flat {
+            // A plateau's level, not a dome's blurred apex.
+            feats.peak_mm = (shape.depth / 1000.0) as f32;
+            resolved = true;
+        }
         let px_mm = ctx.mm_per_px * self.factor as f32;
-        let inputs = self.force_inputs(&feats, &pass, &contact, (x0, y0, bw), px_mm);
+        let inputs = Self::force_inputs(&feats, &pass, &contact, (centre, bw), px_mm);
         let limits = Limits {
             coarse: self.coarse,
             margin: self.margin,
@@ -562,7 +600,8 @@ impl<M: PhaseMap> Found<'_, M> {
             up: &up,
             amp_medians: self.amp_medians,
             unwrap: (unreached, residues),
-            resolved: apex.resolved,
+            resolved,
+            shape: shape.shape,
         };
         let mut flags = limits.flags(&inputs, carrier, ctx);
         // Half the contact's depth reaching where the kernel averages padding: the contact
@@ -580,6 +619,7 @@ impl<M: PhaseMap> Found<'_, M> {
             inputs,
             flags,
             force_n,
+            shape: shape.shape,
             threshold_um,
             depth_um: pass.depth_um,
             origin: (x0, y0),

@@ -1,0 +1,486 @@
+//! The contact's shape, a sphere's dome or a flat punch's plateau, from its radial profile.
+//!
+//! The apex correction ([`super::apex`]) takes a sphere's blur loss out of the peak. A flat
+//! punch loses less, and its steep rim makes the demodulator overshoot just inside it, so
+//! a punch read as a sphere reads deep. A contact's area against the calibrated sphere's
+//! at the same depth cannot tell the two apart: a sphere of twice the radius has twice the
+//! area, like a punch, so the area test flags both. The profile's shape can, once the
+//! contact is several kernel σ wide.
+//!
+//! **How.** The depth map is the surface blurred once by the demodulator's kernel. Both
+//! families of unit surfaces, Hertz's sphere ([`super::apex::hertz`]) and Boussinesq's
+//! punch, each for a ladder of contact radii `a`, are blurred by a Gaussian of the kernel's
+//! variance and averaged over rings one pixel wide: templates built once per plan. The
+//! contact's ring means about its centre, out to where they fall below [`PROFILE_CUT`] of
+//! their deepest, are fitted by each template (least squares, each ring weighted by its
+//! pixels; the depth is the only free value), and each family keeps its best radius. The
+//! data choose: a family is the contact's shape when its fit leaves at most [`FIT_LIMIT`]
+//! of the map unexplained (over the pixels, so what varies around a ring, a letter's
+//! strokes, counts against it), the other family's fit of the ring means leaves
+//! [`CLEAR_RATIO`] times as much as its own, and the contact is wide enough for the choice
+//! to hold ([`SPHERE_MIN_SIGMAS`], [`FLAT_MIN_SIGMAS`]). Otherwise (a small contact whose
+//! blurred profiles the two families share, a letter that neither describes) the shape is
+//! unknown, and the contact is judged as before by its area and load against the
+//! calibrated indenter's.
+//!
+//! A sphere is then read as one whatever its radius: no area test, and its load against a
+//! sphere's of its radius. A flat punch's depth is its plateau's level: the mean of the
+//! rings that lie wholly inside its fitted rim by the kernel's reach, where the blur has
+//! left the plateau as it is and a rim's overshoot does not reach (or, for a plateau too
+//! narrow for such a core, the fit's depth). A plateau keeps the tests of an unknown shape
+//! (`docs/pipeline.md` gives the measured trade).
+
+use super::apex::{hertz, RESOLVED_SIGMAS};
+use super::load::Rings;
+use crate::ftp::band::box2_variance_px2;
+
+/// Rings whose mean falls below this fraction of the deepest ring's end the profile: the
+/// part of the surround both families describe, above the noise floor's cut.
+pub const PROFILE_CUT: f64 = 0.25;
+/// A family's best fit explains the profile when its residual is at most this fraction of
+/// the profile (root of the weighted sums of squares).
+pub const FIT_LIMIT: f64 = 0.08;
+/// …and is the contact's shape only when the other family's residual is this many times
+/// its own.
+pub const CLEAR_RATIO: f64 = 3.0;
+/// A plateau is chosen only for a contact at least this many kernel σ in radius (its
+/// fit's): it keeps its level in the blurred map only where the kernel, which reaches about
+/// 2.5 σ, lies wholly on it, and below that size the two families' blurred profiles differ
+/// by little more than a real skin's departures from either.
+pub const FLAT_MIN_SIGMAS: f64 = 3.0;
+/// A dome is chosen only for a contact at least this many kernel σ in radius (its fit's):
+/// a small punch, blurred, passes for a wider sphere (a 3 mm punch pressed 0.4 mm fits a
+/// sphere of over 5 σ better than any punch), and a punch read as a sphere reads deep.
+pub const SPHERE_MIN_SIGMAS: f64 = 6.0;
+/// A plateau's level is read this many kernel σ inside its fitted rim: the kernel reaches
+/// `√6 σ` (a two-box triangle of length `l` has `σ² = (l² − 1)/6`), and the fitted radius
+/// is a ladder's step from the true one.
+pub const CORE_MARGIN_SIGMAS: f64 = 3.0;
+/// Successive template radii grow by this factor.
+const RADIUS_STEP: f64 = 1.03;
+/// Templates run up to contacts of this radius, mm (beyond any indenter a palm's skin
+/// meets)…
+const LARGEST_RADIUS_MM: f64 = 15.0;
+/// …and out to where they fall below this fraction of their centre.
+const TEMPLATE_END: f64 = 0.02;
+/// Rings a template holds at most.
+const MAX_RINGS: usize = 256;
+
+/// What a contact's profile says it is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Shape {
+    /// Neither family clearly: too small to tell, or of another shape.
+    #[default]
+    Unknown,
+    /// A sphere's dome (Hertz).
+    Sphere,
+    /// A flat punch's plateau (Boussinesq).
+    Flat,
+}
+
+impl Shape {
+    /// The shape's name in reports: `unknown`, `sphere`, `flat`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Shape::Unknown => "unknown",
+            Shape::Sphere => "sphere",
+            Shape::Flat => "flat",
+        }
+    }
+}
+
+/// A contact's shape and what its fit reads.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ShapeFit {
+    /// The family the data choose.
+    pub shape: Shape,
+    /// The chosen family's depth, in the map's units (for [`Shape::Unknown`], 0).
+    pub depth: f64,
+    /// The chosen family's contact radius, pixels (for [`Shape::Unknown`], 0).
+    pub radius_px: f64,
+}
+
+/// One blurred unit surface averaged over rings.
+#[derive(Debug, Clone, PartialEq)]
+struct Template {
+    flat: bool,
+    a_px: f64,
+    rings: Vec<f64>,
+}
+
+/// Both families' templates for one demodulator kernel, built once per plan.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Shapes {
+    templates: Vec<Template>,
+    /// The kernel's σ, pixels.
+    sigma_px: f64,
+}
+
+/// A contact's ring means and what its pixels hold beside them.
+#[derive(Debug, Clone)]
+struct Profile {
+    /// Mean and pixel count per ring, from the centre out.
+    rings: Vec<(f64, f64)>,
+    /// Σ value² over the rings' pixels.
+    total: f64,
+    /// Σ squared deviation of each pixel from its ring's mean.
+    spread: f64,
+}
+
+/// A family's best fit: its residual fractions over the ring means (`shape_err`: how
+/// well the family's profile matches) and over the pixels (`err`: how much of the map it
+/// leaves unexplained, a ring's spread included), depth and radius.
+#[derive(Debug, Clone, Copy)]
+struct Best {
+    shape_err: f64,
+    err: f64,
+    depth: f64,
+    a_px: f64,
+}
+
+impl Shapes {
+    /// The templates for the kernel of two-box lengths `lengths`, on a map of working
+    /// pixels `px_mm` wide, the surround decaying over `decay_mm` beyond the contact's edge.
+    pub fn new(lengths: (usize, usize), px_mm: f32, decay_mm: f64) -> Shapes {
+        let (lx, ly) = lengths;
+        let sigma = (0.5 * (box2_variance_px2(lx) + box2_variance_px2(ly)))
+            .sqrt()
+            .max(0.5);
+        let px_mm = f64::from(px_mm).max(1e-6);
+        let decay = decay_mm / px_mm;
+        let largest = (LARGEST_RADIUS_MM / px_mm).max(4.0 * sigma);
+        let mut templates = Vec::new();
+        let mut a = RESOLVED_SIGMAS * sigma;
+        while a <= largest {
+            for flat in [false, true] {
+                let surface = |r: f64| {
+                    if flat {
+                        punch(r, a, decay)
+                    } else {
+                        hertz(r, a, decay)
+                    }
+                };
+                let rings = blurred_rings(surface, sigma);
+                templates.push(Template {
+                    flat,
+                    a_px: a,
+                    rings,
+                });
+            }
+            a *= RADIUS_STEP;
+        }
+        Shapes {
+            templates,
+            sigma_px: sigma,
+        }
+    }
+
+    /// The shape of the contact whose map about its centre is summed over `rings` (map
+    /// units, [`super::load::rings`]). A family's residual is over the pixels: what varies
+    /// around a ring (a letter's strokes, a second blob) counts against both.
+    pub fn fit(&self, rings: &Rings) -> ShapeFit {
+        let Some(profile) = cut_profile(rings) else {
+            return ShapeFit::default();
+        };
+        let (sphere, flat) = (self.best(&profile, false), self.best(&profile, true));
+        let (Some(sphere), Some(flat)) = (sphere, flat) else {
+            return ShapeFit::default();
+        };
+        let chosen = |b: Best, shape| {
+            let min_sigmas = match shape {
+                Shape::Sphere => SPHERE_MIN_SIGMAS,
+                _ => FLAT_MIN_SIGMAS,
+            };
+            if b.a_px < min_sigmas * self.sigma_px {
+                return ShapeFit::default();
+            }
+            ShapeFit {
+                shape,
+                depth: b.depth,
+                radius_px: b.a_px,
+            }
+        };
+        if sphere.err <= FIT_LIMIT && flat.shape_err >= CLEAR_RATIO * sphere.shape_err {
+            chosen(sphere, Shape::Sphere)
+        } else if flat.err <= FIT_LIMIT && sphere.shape_err >= CLEAR_RATIO * flat.shape_err {
+            let core = self.plateau_core(&profile.rings, flat.a_px);
+            ShapeFit {
+                depth: core.unwrap_or(flat.depth),
+                ..chosen(flat, Shape::Flat)
+            }
+        } else {
+            ShapeFit::default()
+        }
+    }
+
+    /// The plateau's level where the blur has left it untouched: the mean of the rings lying
+    /// wholly within [`CORE_MARGIN_SIGMAS`] kernel σ inside the fitted radius `a_px` (none
+    /// for a plateau too narrow). There the map is the plateau itself, whatever the
+    /// templates' approximation of the kernel and the ladder's step in radius.
+    fn plateau_core(&self, profile: &[(f64, f64)], a_px: f64) -> Option<f64> {
+        let inside = a_px - CORE_MARGIN_SIGMAS * self.sigma_px;
+        let core = profile
+            .iter()
+            .enumerate()
+            .take_while(|&(k, _)| (k + 1) as f64 <= inside);
+        let (sum, n) = core.fold((0.0, 0.0), |(s, c), (_, &(p, n))| (s + p * n, c + n));
+        (n > 0.0).then(|| sum / n)
+    }
+
+    /// The family's template that fits `profile` best.
+    fn best(&self, profile: &Profile, flat: bool) -> Option<Best> {
+        let Profile {
+            rings: profile,
+            total,
+            spread,
+        } = profile;
+        let (total, spread) = (*total, *spread);
+        if total <= 0.0 {
+            return None;
+        }
+        let means_sq: f64 = profile.iter().map(|&(p, n)| n * p * p).sum();
+        self.templates
+            .iter()
+            .filter(|t| t.flat == flat)
+            .filter_map(|t| {
+                let (mut pt, mut tt) = (0.0, 0.0);
+                for (k, &(p, n)) in profile.iter().enumerate() {
+                    let v = t.rings.get(k).copied().unwrap_or(0.0);
+                    pt += n * p * v;
+                    tt += n * v * v;
+                }
+                (tt > 0.0).then(|| {
+                    let depth = pt / tt;
+                    let sse = (means_sq - depth * pt).max(0.0);
+                    Best {
+                        shape_err: (sse / means_sq).sqrt(),
+                        err: ((spread + sse) / total).sqrt(),
+                        depth,
+                        a_px: t.a_px,
+                    }
+                })
+            })
+            .min_by(|a, b| a.shape_err.total_cmp(&b.shape_err))
+    }
+}
+
+/// The ring means with their pixel counts, up to the first ring below [`PROFILE_CUT`] of the
+/// deepest, and over those rings' pixels the Σ value² and the Σ squared deviation from
+/// their ring's mean (`None` when fewer than three rings remain, a ring inside is empty,
+/// or the rings end before the cut).
+fn cut_profile(rings: &Rings) -> Option<Profile> {
+    let mean =
+        |k: usize| (rings.count[k] > 0).then(|| rings.sum[k] as f64 / f64::from(rings.count[k]));
+    let deepest = (0..rings.count.len()).filter_map(mean).fold(0.0, f64::max);
+    if deepest <= 0.0 {
+        return None;
+    }
+    let (mut profile, mut total, mut spread) = (Vec::new(), 0.0, 0.0);
+    for k in 0..rings.count.len() {
+        let m = mean(k)?;
+        if m < PROFILE_CUT * deepest {
+            return (profile.len() >= 3).then_some(Profile {
+                rings: profile,
+                total,
+                spread,
+            });
+        }
+        let (n, sq) = (f64::from(rings.count[k]), rings.sum_sq[k] as f64);
+        profile.push((m, n));
+        total += sq;
+        spread += (sq - n * m * m).max(0.0);
+    }
+    None
+}
+
+/// The unit-depth surface of a flat punch of radius `a` at radius `r` (Boussinesq, the
+/// surround decaying over `decay` beyond the edge), both in pixels.
+fn punch(r: f64, a: f64, decay: f64) -> f64 {
+    if r <= a {
+        return 1.0;
+    }
+    2.0 / std::f64::consts::PI * (a / r).asin() * (-(r - a) / decay).exp()
+}
+
+/// The radially symmetric `surface` blurred by an isotropic Gaussian of `sigma` pixels,
+/// averaged over rings one pixel wide (ring `k` read at its pixels' mean radius), out to
+/// where it falls below [`TEMPLATE_END`] of its centre.
+///
+/// For a radial function the 2-D blur is a 1-D integral with the Rician kernel:
+/// `B(r) = ∫ s(ρ)·(ρ/σ²)·e^(−(r−ρ)²/2σ²)·Ĩ₀(rρ/σ²) dρ`, `Ĩ₀(x) = e^(−x)·I₀(x)`, taken over
+/// ρ within five σ of `r` by the midpoint rule.
+fn blurred_rings(surface: impl Fn(f64) -> f64, sigma: f64) -> Vec<f64> {
+    let h = sigma / 6.0;
+    let s2 = sigma * sigma;
+    let blurred = |r: f64| {
+        let lo = (r - 5.0 * sigma).max(0.0);
+        let steps = ((r + 5.0 * sigma - lo) / h).ceil() as usize;
+        (0..steps)
+            .map(|i| {
+                let rho = lo + (i as f64 + 0.5) * h;
+                let g = (-(r - rho) * (r - rho) / (2.0 * s2)).exp();
+                surface(rho) * rho / s2 * g * i0_scaled(r * rho / s2) * h
+            })
+            .sum::<f64>()
+    };
+    let mut rings = Vec::new();
+    let mut centre = None;
+    for k in 0..MAX_RINGS {
+        let (r0, r1) = (k as f64, k as f64 + 1.0);
+        let mean_r = 2.0 / 3.0 * (r1.powi(3) - r0.powi(3)) / (r1 * r1 - r0 * r0);
+        let v = blurred(mean_r);
+        let c = *centre.get_or_insert(v);
+        rings.push(v);
+        if v < TEMPLATE_END * c {
+            break;
+        }
+    }
+    rings
+}
+
+/// `e^(−x)·I₀(x)` for `x ≥ 0`: the power series below 15, the asymptotic series above.
+fn i0_scaled(x: f64) -> f64 {
+    if x < 15.0 {
+        let q = 0.25 * x * x;
+        let (mut term, mut sum) = (1.0, 1.0);
+        for k in 1..60 {
+            term *= q / (k * k) as f64;
+            sum += term;
+            if term < 1e-16 * sum {
+                break;
+            }
+        }
+        sum * (-x).exp()
+    } else {
+        let y = 1.0 / (8.0 * x);
+        (1.0 + y * (1.0 + y * (9.0 / 2.0 + y * 75.0 / 2.0)))
+            / (2.0 * std::f64::consts::PI * x).sqrt()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::apex::blur;
+    use super::super::load::rings;
+    use super::*;
+
+    /// Working pixels of the test maps, mm, and the demodulator's two-box length there.
+    const PX_MM: f32 = 0.25;
+    const L: usize = 8;
+
+    /// The map of `surface(r)` (µm, r in pixels from a centre between pixels) on a window
+    /// `w` wide, blurred by the demodulator's kernel, with `noise_um` of uniform noise; and
+    /// its rings about the centre.
+    fn blurred_map(w: usize, noise_um: i32, surface: impl Fn(f64) -> f64) -> Rings {
+        let c = (w as f32 / 2.0 + 0.3, w as f32 / 2.0 - 0.2);
+        let mut rng = crate::test_rng::XorShift(0x2545_f491_4f6c_dd1d);
+        let z: Vec<i32> = (0..w * w)
+            .map(|i| {
+                let (x, y) = ((i % w) as f32 + 0.5 - c.0, (i / w) as f32 + 0.5 - c.1);
+                surface(f64::from(x.hypot(y))).round() as i32
+            })
+            .collect();
+        let mut b = blur(&z, w, (L, L));
+        if noise_um > 0 {
+            for v in &mut b {
+                *v += (rng.next() % (2 * noise_um as u64 + 1)) as i32 - noise_um;
+            }
+        }
+        rings(&b, w, c, 0.45 * w as f32)
+    }
+
+    fn shapes() -> Shapes {
+        Shapes::new((L, L), PX_MM, 3.0)
+    }
+
+    #[test]
+    fn i0_scaled_matches_its_values() {
+        // e^(−x)·I₀(x) at 0, 1, 10 and 20.
+        for (x, want) in [
+            (0.0, 1.0),
+            (1.0, 0.465_759_607),
+            (10.0, 0.127_833_371),
+            (20.0, 0.089_780_311),
+        ] {
+            let got = i0_scaled(x);
+            assert!((got - want).abs() < 1e-5 * want, "{x}: {got}");
+        }
+    }
+
+    /// A blurred constant is the constant: the Rician kernel integrates to one.
+    #[test]
+    fn a_flat_surface_stays_flat() {
+        let rings = blurred_rings(|_| 1.0, 2.0);
+        assert!(rings.iter().all(|v| (v - 1.0).abs() < 2e-3), "{rings:?}");
+    }
+
+    /// Spheres of several radii, blurred by the demodulator's own kernel (not the templates'
+    /// Gaussian), noise included, read as spheres of about their contact radius once wide
+    /// enough that no punch passes for them; a narrower one is not told.
+    #[test]
+    fn wide_spheres_of_any_radius_read_as_spheres() {
+        let decay = 3.0 / f64::from(PX_MM);
+        for (a_mm, d_um, wide) in [
+            (3.5, 1200.0, false),
+            (5.5, 800.0, true),
+            (7.0, 1500.0, true),
+        ] {
+            let a = a_mm / f64::from(PX_MM);
+            let fit = shapes().fit(&blurred_map(161, 10, |r| d_um * hertz(r, a, decay)));
+            if !wide {
+                assert_eq!(fit.shape, Shape::Unknown, "a {a_mm} mm: {fit:?}");
+                continue;
+            }
+            assert_eq!(fit.shape, Shape::Sphere, "a {a_mm} mm: {fit:?}");
+            assert!(
+                (fit.radius_px / a - 1.0).abs() < 0.15,
+                "a {a_mm} mm: {fit:?}"
+            );
+        }
+    }
+
+    /// Flat punches of 5 to 7 mm read as plateaus, at their depth within 3 %.
+    #[test]
+    fn punches_read_as_plateaus_at_their_depth() {
+        let decay = 3.0 / f64::from(PX_MM);
+        for (a_mm, d_um) in [(5.0, 500.0), (6.0, 600.0), (7.0, 900.0)] {
+            let a = a_mm / f64::from(PX_MM);
+            let m = blurred_map(161, 10, |r| d_um * punch(r, a, decay));
+            let fit = shapes().fit(&m);
+            assert_eq!(fit.shape, Shape::Flat, "a {a_mm} mm: {fit:?}");
+            assert!(
+                (fit.depth / d_um - 1.0).abs() < 0.03,
+                "a {a_mm} mm: {fit:?}"
+            );
+        }
+    }
+
+    /// What neither family describes is neither: a bar (a letter's stroke), and a press
+    /// narrower than the kernel.
+    #[test]
+    fn other_shapes_are_unknown() {
+        let (w, c) = (161usize, 80.3f32);
+        let bar: Vec<i32> = (0..w * w)
+            .map(|i| {
+                let (x, y) = ((i % w) as f32 + 0.5 - c, (i / w) as f32 + 0.5 - c);
+                if x.abs() < 24.0 && y.abs() < 5.0 {
+                    600
+                } else {
+                    0
+                }
+            })
+            .collect();
+        let b = blur(&bar, w, (L, L));
+        let fit = shapes().fit(&rings(&b, w, (c, c), 70.0));
+        assert_eq!(fit.shape, Shape::Unknown, "bar: {fit:?}");
+        let narrow = blurred_map(161, 0, |r| 500.0 * punch(r, 2.0, 12.0));
+        assert_eq!(shapes().fit(&narrow).shape, Shape::Unknown);
+    }
+
+    #[test]
+    fn no_profile_is_unknown() {
+        assert_eq!(shapes().fit(&Rings::default()).shape, Shape::Unknown);
+        let flat_everywhere = rings(&[300; 400], 20, (10.0, 10.0), 8.0);
+        assert_eq!(shapes().fit(&flat_everywhere).shape, Shape::Unknown);
+    }
+}
