@@ -37,11 +37,12 @@ use crate::ftp::band::box2_variance_px2;
 /// Rings whose mean falls below this fraction of the deepest ring's end the profile: the
 /// part of the surround both families describe, above the noise floor's cut.
 pub const PROFILE_CUT: f64 = 0.25;
-/// A family's best fit explains the profile when its residual is at most this fraction of
-/// the profile (root of the weighted sums of squares).
+/// A family's best fit explains the contact when what it leaves of the map over the
+/// profile's pixels (a ring's spread included) is at most this fraction of the map (roots
+/// of the sums of squares)…
 pub const FIT_LIMIT: f64 = 0.08;
-/// …and is the contact's shape only when the other family's residual is this many times
-/// its own.
+/// …and is the contact's shape only when the other family's fit of the ring means leaves
+/// this many times as much as its own.
 pub const CLEAR_RATIO: f64 = 3.0;
 /// A plateau is chosen only for a contact at least this many kernel σ in radius (its
 /// fit's): it keeps its level in the blurred map only where the kernel, which reaches about
@@ -49,8 +50,8 @@ pub const CLEAR_RATIO: f64 = 3.0;
 /// by little more than a real skin's departures from either.
 pub const FLAT_MIN_SIGMAS: f64 = 3.0;
 /// A dome is chosen only for a contact at least this many kernel σ in radius (its fit's):
-/// a small punch, blurred, passes for a wider sphere (a 3 mm punch pressed 0.4 mm fits a
-/// sphere of over 5 σ better than any punch), and a punch read as a sphere reads deep.
+/// a small punch, blurred, can fit a wider sphere better than any punch, and a punch read
+/// as a sphere reads deep (`docs/pipeline.md`).
 pub const SPHERE_MIN_SIGMAS: f64 = 6.0;
 /// A plateau's level is read this many kernel σ inside its fitted rim: the kernel reaches
 /// `√6 σ` (a two-box triangle of length `l` has `σ² = (l² − 1)/6`), and the fitted radius
@@ -203,11 +204,13 @@ impl Shapes {
         if sphere.err <= FIT_LIMIT && flat.shape_err >= CLEAR_RATIO * sphere.shape_err {
             chosen(sphere, Shape::Sphere)
         } else if flat.err <= FIT_LIMIT && sphere.shape_err >= CLEAR_RATIO * flat.shape_err {
-            let core = self.plateau_core(&profile.rings, flat.a_px);
-            ShapeFit {
-                depth: core.unwrap_or(flat.depth),
-                ..chosen(flat, Shape::Flat)
+            let mut fit = chosen(flat, Shape::Flat);
+            if fit.shape == Shape::Flat {
+                fit.depth = self
+                    .plateau_core(&profile.rings, flat.a_px)
+                    .unwrap_or(flat.depth);
             }
+            fit
         } else {
             ShapeFit::default()
         }
