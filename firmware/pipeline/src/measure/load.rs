@@ -23,26 +23,18 @@
 //! skin is a finite layer whose surface returns to rest faster than a half-space's: the
 //! smallest disc relies least on the far field.
 
-/// The reciprocal load of a window's depth map (`w` pixels wide, µm), mm², about `centre`
-/// (window pixels), enclosing the contact's pixels `contact` (indices into `depth_um`: the
-/// peak's half-depth component, [`super::features::peak_component`]), with working pixels
-/// `px_mm` wide. 0 without a contact.
-pub fn reciprocal_load_mm2(
-    depth_um: &[i32],
-    w: usize,
-    contact: &[usize],
-    centre: (f32, f32),
-    px_mm: f32,
-) -> f32 {
-    let b_px = enclosing_radius_px(contact, w, centre);
+/// The reciprocal load, mm², of a map summed over rings about the contact's centre
+/// (`rings`, µm, [`rings`] out to at least `b_px`), over the disc of radius `b_px` that
+/// encloses the contact ([`enclosing_radius_px`]), with working pixels `px_mm` wide. 0
+/// without a contact.
+pub fn reciprocal_load_mm2(rings: &Rings, b_px: f32, px_mm: f32) -> f32 {
     if b_px <= 0.0 {
         return 0.0;
     }
-    let ring = rings(depth_um, w, centre, b_px);
-    let (sum_um, count) = (&ring.sum, &ring.count);
+    let (sum_um, count) = (&rings.sum, &rings.count);
     let b = f64::from(b_px);
     let rim = |r: f64| (b * b - r * r).max(0.0).sqrt();
-    let load_um_px: f64 = (0..count.len())
+    let load_um_px: f64 = (0..count.len().min(b_px.ceil() as usize))
         .filter(|&k| count[k] > 0)
         .map(|k| {
             let mean = sum_um[k] as f64 / f64::from(count[k]);
@@ -67,7 +59,7 @@ pub struct Rings {
 
 /// The rings of `depth_um` (a map `w` pixels wide) about `centre` (pixels), over the pixels
 /// within `reach_px` of it along each axis (rings up to `⌈reach_px⌉`).
-pub(super) fn rings(depth_um: &[i32], w: usize, centre: (f32, f32), reach_px: f32) -> Rings {
+pub fn rings(depth_um: &[i32], w: usize, centre: (f32, f32), reach_px: f32) -> Rings {
     let n = reach_px.max(0.0).ceil() as usize;
     let mut r = Rings {
         sum: vec![0; n],
@@ -95,7 +87,7 @@ pub(super) fn rings(depth_um: &[i32], w: usize, centre: (f32, f32), reach_px: f3
 
 /// The distance from `centre` to the farthest of the `contact` pixels, plus half a pixel, px
 /// (0 without any).
-pub(super) fn enclosing_radius_px(contact: &[usize], w: usize, centre: (f32, f32)) -> f32 {
+pub fn enclosing_radius_px(contact: &[usize], w: usize, centre: (f32, f32)) -> f32 {
     if contact.is_empty() || w == 0 {
         return 0.0;
     }
@@ -121,6 +113,12 @@ fn span(c: f32, r: f32, n: usize) -> (usize, usize) {
 mod tests {
     use super::super::features::peak_component;
     use super::*;
+
+    /// The reciprocal load of map `z` (`w` wide) about `c`, enclosing `contact`.
+    fn load_of(z: &[i32], w: usize, contact: &[usize], c: (f32, f32), px_mm: f32) -> f32 {
+        let b = enclosing_radius_px(contact, w, c);
+        reciprocal_load_mm2(&rings(z, w, c, b), b, px_mm)
+    }
 
     /// The deepest pixel's half-depth component of `z` (`w` wide).
     fn component(z: &[i32], w: usize) -> Vec<usize> {
@@ -152,7 +150,7 @@ mod tests {
                 2.0 * d / std::f32::consts::PI * (a / r).asin()
             }
         });
-        let got = reciprocal_load_mm2(&z, 161, &component(&z, 161), c, 0.1);
+        let got = load_of(&z, 161, &component(&z, 161), c, 0.1);
         let want = 2.0 * (a * 0.1) * (d / 1000.0);
         assert!((got - want).abs() < 0.03 * want, "{got} vs {want}");
     }
@@ -174,7 +172,7 @@ mod tests {
             };
             w * um_per_px
         });
-        let got = reciprocal_load_mm2(&z, 201, &component(&z, 201), c, 0.1);
+        let got = load_of(&z, 201, &component(&z, 201), c, 0.1);
         let want = 4.0 / 3.0 * (a * 0.1) * (d_px * 0.1);
         assert!((got - want).abs() < 0.03 * want, "{got} vs {want}");
     }
@@ -185,22 +183,19 @@ mod tests {
     fn another_blob_does_not_widen_the_disc() {
         let (a, d) = (10.0f32, 400.0f32);
         let (mut z, c) = radial(121, |r| if r <= a { d } else { 0.0 });
-        let alone = reciprocal_load_mm2(&z, 121, &component(&z, 121), c, 0.1);
+        let alone = load_of(&z, 121, &component(&z, 121), c, 0.1);
         for y in 2..6 {
             for x in 2..6 {
                 z[y * 121 + x] = 390;
             }
         }
-        let with = reciprocal_load_mm2(&z, 121, &component(&z, 121), c, 0.1);
+        let with = load_of(&z, 121, &component(&z, 121), c, 0.1);
         assert_eq!(alone, with);
     }
 
     #[test]
     fn no_depth_is_no_load() {
-        assert_eq!(
-            reciprocal_load_mm2(&[0; 100], 10, &[], (5.0, 5.0), 0.1),
-            0.0
-        );
-        assert_eq!(reciprocal_load_mm2(&[], 10, &[], (5.0, 5.0), 0.1), 0.0);
+        assert_eq!(load_of(&[0; 100], 10, &[], (5.0, 5.0), 0.1), 0.0);
+        assert_eq!(load_of(&[], 10, &[], (5.0, 5.0), 0.1), 0.0);
     }
 }

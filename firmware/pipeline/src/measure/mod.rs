@@ -432,23 +432,11 @@ impl FrameResult {
     }
 }
 
-/// How far the profile's rings reach, in multiples of the contact's enclosing radius: a
-/// punch's profile falls to [`profile::PROFILE_CUT`] of its plateau within about 1.6 of
-/// its half-depth radius, blur included.
+/// How far the contact's rings reach, in multiples of its enclosing radius: the load needs
+/// them out to that radius, the profile to where they fall to [`profile::PROFILE_CUT`] of
+/// the deepest (Boussinesq's surround does at 2.6 contact radii, 1.8 times the half-depth
+/// radius `√2 a`, and a layer's sooner).
 const PROFILE_REACH: f32 = 2.5;
-
-/// The shape of the contact `contact` (its half-depth component in the window's depth map
-/// `depth_um`, `w` wide) about `centre` (window pixels).
-fn profile_shape(
-    depth_um: &[i32],
-    w: usize,
-    contact: &[usize],
-    centre: (f32, f32),
-    shapes: &profile::Shapes,
-) -> profile::ShapeFit {
-    let reach = PROFILE_REACH * load::enclosing_radius_px(contact, w, centre);
-    shapes.fit(&load::rings(depth_um, w, centre, reach))
-}
 
 /// A frame with contact tiles, and what its contact stage reads.
 struct Found<'a, M: PhaseMap> {
@@ -473,28 +461,14 @@ impl<M: PhaseMap> Found<'_, M> {
     }
 
     /// What the force model reads of a contact: its features, the phase integrated over
-    /// its deformed pixels and its reciprocal load about its centre `centre` (window
-    /// pixels), enclosing its peak's component `contact` (`bw` the window's width; working
-    /// pixels `px_mm` wide).
-    fn force_inputs(
-        feats: &Features,
-        pass: &DepthPass,
-        contact: &[usize],
-        (centre, bw): ((f32, f32), usize),
-        px_mm: f32,
-    ) -> ForceInputs {
+    /// its deformed pixels and its reciprocal load `load_mm2`, working pixels `px_mm` wide.
+    fn force_inputs(feats: &Features, pass: &DepthPass, load_mm2: f32, px_mm: f32) -> ForceInputs {
         ForceInputs {
             area_mm2: feats.area_mm2,
             peak_mm: feats.peak_mm,
             volume_mm3: feats.volume_mm3,
             integrated_phase_rad_mm2: pass.integrated_units as f32 / UNITS_PER_RAD * px_mm * px_mm,
-            reciprocal_load_mm2: load::reciprocal_load_mm2(
-                &pass.depth_um,
-                bw,
-                contact,
-                centre,
-                px_mm,
-            ),
+            reciprocal_load_mm2: load_mm2,
         }
     }
 
@@ -582,8 +556,12 @@ impl<M: PhaseMap> Found<'_, M> {
         }
         feats.peak_mm =
             self.map.depth_um(<M::P as PhaseNum>::from_units(apex.peak)) as f32 / 1000.0;
+        // One pass of rings about the centre serves the load (out to the enclosing radius)
+        // and the profile (beyond it).
         let centre = self.window_centre(&feats, (x0, y0));
-        let shape = profile_shape(&pass.depth_um, bw, &contact, centre, ctx.shapes);
+        let b_px = load::enclosing_radius_px(&contact, bw, centre);
+        let rings = load::rings(&pass.depth_um, bw, centre, PROFILE_REACH * b_px);
+        let shape = ctx.shapes.fit(&rings);
         let mut resolved = apex.resolved;
         if shape.shape == Shape::Flat {
             // A plateau's level, not a dome's blurred apex.
@@ -591,7 +569,8 @@ impl<M: PhaseMap> Found<'_, M> {
             resolved = true;
         }
         let px_mm = ctx.mm_per_px * self.factor as f32;
-        let inputs = Self::force_inputs(&feats, &pass, &contact, (centre, bw), px_mm);
+        let load_mm2 = load::reciprocal_load_mm2(&rings, b_px, px_mm);
+        let inputs = Self::force_inputs(&feats, &pass, load_mm2, px_mm);
         let limits = Limits {
             coarse: self.coarse,
             margin: self.margin,
