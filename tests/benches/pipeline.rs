@@ -8,7 +8,7 @@ use std::hint::black_box;
 use vistaf_pipeline::calibration::Calibration;
 use vistaf_pipeline::ftp::fixed::{FixedFtp, Scratch as FixedScratch};
 use vistaf_pipeline::image_ops::{gray_down_f32, gray_down_q8};
-use vistaf_pipeline::measure::apex::{BlurLoss, LAYER_DECAY_MM};
+use vistaf_pipeline::measure::apex::BlurLoss;
 use vistaf_pipeline::measure::profile::Shapes;
 use vistaf_pipeline::measure::{measure, Context};
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Scratch};
@@ -42,11 +42,7 @@ fn pipeline(c: &mut Criterion) {
     let field = fixed.phase(&frame, &mut scratch);
     let (_, _, factor) = fixed.geometry();
     let blur_loss = BlurLoss::new(fixed.blur_box_lengths(), 0.125 * factor as f32);
-    let shapes = Shapes::new(
-        fixed.blur_box_lengths(),
-        0.125 * factor as f32,
-        LAYER_DECAY_MM,
-    );
+    let shapes = Shapes::new(fixed.blur_box_lengths(), 0.125 * factor as f32);
     let ctx = Context {
         calib: &calib,
         blur_loss: &blur_loss,

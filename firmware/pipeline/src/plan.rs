@@ -23,7 +23,7 @@ use crate::ftp::carrier::{self, Carrier};
 use crate::ftp::fixed::FixedFtp;
 use crate::ftp::float::FloatFtp;
 use crate::image_ops;
-use crate::measure::apex::{BlurLoss, LAYER_DECAY_MM};
+use crate::measure::apex::BlurLoss;
 use crate::measure::profile::Shapes;
 use crate::measure::{self, Context, Unwrap};
 use crate::phase::WrappedPhase;
@@ -290,11 +290,7 @@ impl Analyzer {
             mm_per_px,
         );
         let blur_loss = BlurLoss::new(path.blur_box_lengths(), mm_per_px * factor as f32);
-        let shapes = Shapes::new(
-            path.blur_box_lengths(),
-            mm_per_px * factor as f32,
-            LAYER_DECAY_MM,
-        );
+        let shapes = Shapes::new(path.blur_box_lengths(), mm_per_px * factor as f32);
         let mut an = Analyzer {
             blur_loss,
             shapes,

@@ -33,6 +33,14 @@ pub fn box2_variance_px2(l: usize) -> f64 {
     (l * l - 1.0) / 6.0
 }
 
+/// The σ of the two-box kernel of lengths `(lx, ly)`, px: the root of the two axes' mean
+/// variance, at least half a pixel (what the blur corrections model it by).
+pub fn box2_sigma_px((lx, ly): (usize, usize)) -> f64 {
+    (0.5 * (box2_variance_px2(lx) + box2_variance_px2(ly)))
+        .sqrt()
+        .max(0.5)
+}
+
 /// The box length whose two passes (the triangle of length `2l − 1`) have variance `v`
 /// px²: each pass is uniform over `l` pixels, of variance `(l² − 1)/12`.
 pub fn box2_length_of_variance(v: f32) -> usize {

@@ -42,7 +42,7 @@
 //! the map cannot tell them. Contacts much blunter or sharper than the calibrated
 //! indenter are flagged ([`super::BLUNTNESS_RATIO`], [`super::SHARPNESS_RATIO`]).
 
-use crate::ftp::band::box2_variance_px2;
+use crate::ftp::band::box2_sigma_px;
 
 /// Decay length of the skin's surface displacement beyond a contact's edge, mm: a finite
 /// layer's surround, of the order of the clear buffer's thickness.
@@ -84,9 +84,7 @@ impl BlurLoss {
         let k1 = (unit_triangle(lx), unit_triangle(ly));
         let k2 = (convolve(&k1.0, &k1.0), convolve(&k1.1, &k1.1));
         let k3 = (convolve(&k2.0, &k1.0), convolve(&k2.1, &k1.1));
-        let sigma_px = (0.5 * (box2_variance_px2(lx) + box2_variance_px2(ly)))
-            .sqrt()
-            .max(0.5);
+        let sigma_px = box2_sigma_px(lengths);
         let decay_px = LAYER_DECAY_MM / f64::from(px_mm).max(1e-6);
         let mut rows: Vec<(f64, f64)> = Vec::new();
         let mut a = RESOLVED_SIGMAS * sigma_px;
@@ -440,7 +438,7 @@ mod tests {
 
     /// The kernel σ of two boxes of length `l`, px.
     fn sigma(l: usize) -> f64 {
-        box2_variance_px2(l).sqrt()
+        box2_sigma_px((l, l))
     }
 
     /// Spheres of every size the table resolves read their depth, centred on a pixel or

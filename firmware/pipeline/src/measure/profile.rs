@@ -30,9 +30,9 @@
 //! narrow for such a core, the fit's depth). A plateau keeps the tests of an unknown shape
 //! (`docs/pipeline.md` gives the measured trade).
 
-use super::apex::{hertz, RESOLVED_SIGMAS};
+use super::apex::{hertz, LAYER_DECAY_MM, RESOLVED_SIGMAS};
 use super::load::Rings;
-use crate::ftp::band::box2_variance_px2;
+use crate::ftp::band::box2_sigma_px;
 
 /// Rings whose mean falls below this fraction of the deepest ring's end the profile: the
 /// part of the surround both families describe, above the noise floor's cut.
@@ -122,6 +122,9 @@ pub struct Shapes {
 struct Profile {
     /// Mean and pixel count per ring, from the centre out.
     rings: Vec<(f64, f64)>,
+    /// Σ over the rings of pixel count × mean² (what a fit of the ring means explains
+    /// against).
+    means_sq: f64,
     /// Σ value² over the rings' pixels.
     total: f64,
     /// Σ squared deviation of each pixel from its ring's mean.
@@ -141,14 +144,12 @@ struct Best {
 
 impl Shapes {
     /// The templates for the kernel of two-box lengths `lengths`, on a map of working
-    /// pixels `px_mm` wide, the surround decaying over `decay_mm` beyond the contact's edge.
-    pub fn new(lengths: (usize, usize), px_mm: f32, decay_mm: f64) -> Shapes {
-        let (lx, ly) = lengths;
-        let sigma = (0.5 * (box2_variance_px2(lx) + box2_variance_px2(ly)))
-            .sqrt()
-            .max(0.5);
+    /// pixels `px_mm` wide, the surround decaying over [`LAYER_DECAY_MM`] beyond the
+    /// contact's edge (as the apex correction's).
+    pub fn new(lengths: (usize, usize), px_mm: f32) -> Shapes {
+        let sigma = box2_sigma_px(lengths);
         let px_mm = f64::from(px_mm).max(1e-6);
-        let decay = decay_mm / px_mm;
+        let decay = LAYER_DECAY_MM / px_mm;
         let largest = (LARGEST_RADIUS_MM / px_mm).max(4.0 * sigma);
         let mut templates = Vec::new();
         let mut a = RESOLVED_SIGMAS * sigma;
@@ -232,22 +233,16 @@ impl Shapes {
 
     /// The family's template that fits `profile` best.
     fn best(&self, profile: &Profile, flat: bool) -> Option<Best> {
-        let Profile {
-            rings: profile,
-            total,
-            spread,
-        } = profile;
-        let (total, spread) = (*total, *spread);
+        let (means_sq, total) = (profile.means_sq, profile.total);
         if total <= 0.0 {
             return None;
         }
-        let means_sq: f64 = profile.iter().map(|&(p, n)| n * p * p).sum();
         self.templates
             .iter()
             .filter(|t| t.flat == flat)
             .filter_map(|t| {
                 let (mut pt, mut tt) = (0.0, 0.0);
-                for (k, &(p, n)) in profile.iter().enumerate() {
+                for (k, &(p, n)) in profile.rings.iter().enumerate() {
                     let v = t.rings.get(k).copied().unwrap_or(0.0);
                     pt += n * p * v;
                     tt += n * v * v;
@@ -257,7 +252,7 @@ impl Shapes {
                     let sse = (means_sq - depth * pt).max(0.0);
                     Best {
                         shape_err: (sse / means_sq).sqrt(),
-                        err: ((spread + sse) / total).sqrt(),
+                        err: ((profile.spread + sse) / total).sqrt(),
                         depth,
                         a_px: t.a_px,
                     }
@@ -278,18 +273,20 @@ fn cut_profile(rings: &Rings) -> Option<Profile> {
     if deepest <= 0.0 {
         return None;
     }
-    let (mut profile, mut total, mut spread) = (Vec::new(), 0.0, 0.0);
+    let (mut profile, mut means_sq, mut total, mut spread) = (Vec::new(), 0.0, 0.0, 0.0);
     for k in 0..rings.count.len() {
         let m = mean(k)?;
         if m < PROFILE_CUT * deepest {
             return (profile.len() >= 3).then_some(Profile {
                 rings: profile,
+                means_sq,
                 total,
                 spread,
             });
         }
         let (n, sq) = (f64::from(rings.count[k]), rings.sum_sq[k] as f64);
         profile.push((m, n));
+        means_sq += n * m * m;
         total += sq;
         spread += (sq - n * m * m).max(0.0);
     }
@@ -393,7 +390,7 @@ mod tests {
     }
 
     fn shapes() -> Shapes {
-        Shapes::new((L, L), PX_MM, 3.0)
+        Shapes::new((L, L), PX_MM)
     }
 
     #[test]
@@ -422,7 +419,7 @@ mod tests {
     /// enough that no punch passes for them; a narrower one is not told.
     #[test]
     fn wide_spheres_of_any_radius_read_as_spheres() {
-        let decay = 3.0 / f64::from(PX_MM);
+        let decay = LAYER_DECAY_MM / f64::from(PX_MM);
         for (a_mm, d_um, wide) in [
             (3.5, 1200.0, false),
             (5.5, 800.0, true),
@@ -445,7 +442,7 @@ mod tests {
     /// Flat punches of 5 to 7 mm read as plateaus, at their depth within 3 %.
     #[test]
     fn punches_read_as_plateaus_at_their_depth() {
-        let decay = 3.0 / f64::from(PX_MM);
+        let decay = LAYER_DECAY_MM / f64::from(PX_MM);
         for (a_mm, d_um) in [(5.0, 500.0), (6.0, 600.0), (7.0, 900.0)] {
             let a = a_mm / f64::from(PX_MM);
             let m = blurred_map(161, 10, |r| d_um * punch(r, a, decay));
