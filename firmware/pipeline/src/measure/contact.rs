@@ -87,7 +87,10 @@ impl Window {
 /// background it would unwrap the press a turn low, until it read as no contact. An
 /// untrusted sample whose phase stands beyond the contact threshold `thr` (units) is
 /// therefore unwrapped with the region instead of seeding it; what the unwrapping meets
-/// outside the region is not counted against the contact.
+/// outside the region is not counted against the contact. A press whose surround stands
+/// above the threshold over the whole window (a deep press on a small view) leaves no
+/// background at all: its shallowest trusted sample, far out on the surround where the
+/// phase cannot have wrapped, seeds the unwrapping instead ([`seed_when_none`]).
 pub(super) fn indentation_phase<P: PhaseNum>(
     coarse: &Coarse<'_, P>,
     (region, thr): (&[bool], i32),
@@ -116,12 +119,14 @@ pub(super) fn indentation_phase<P: PhaseNum>(
         Unwrap::Never => false,
     };
     let (u, unreached, residues) = if unwrap {
-        let not_seeds: Vec<bool> = in_region
+        let trusted = win.of(&coarse.rel_contact, cw);
+        let mut not_seeds: Vec<bool> = in_region
             .iter()
             .zip(&local)
-            .zip(win.of(&coarse.rel_contact, cw))
-            .map(|((&r, p), ok)| r || (!ok && p.units().abs() > thr))
+            .zip(&trusted)
+            .map(|((&r, p), &ok)| r || (!ok && p.units().abs() > thr))
             .collect();
+        seed_when_none(&mut not_seeds, &local, &trusted);
         unwrap_window(&local, (&not_seeds, &in_region), cbw, cbh, || {
             let (a, r) = (win.of(&coarse.amp, cw), win.of(&coarse.amp_r, cw));
             a.iter().zip(&r).map(|(a, r)| *a.min(r)).collect()
@@ -131,6 +136,24 @@ pub(super) fn indentation_phase<P: PhaseNum>(
     };
     let signed = u.iter().map(|p| p.signed(sign).units()).collect();
     (signed, unreached, residues)
+}
+
+/// When every sample of the window is to be unwrapped (`not_seeds` all set), frees the
+/// trusted sample of least |phase| to seed it: the contact's far surround, whose phase is
+/// its own (untrusted ones only when none is trusted). Without a seed nothing is reached,
+/// and a deep press's wrapped core would read as the other sign.
+fn seed_when_none<P: PhaseNum>(not_seeds: &mut [bool], local: &[P], trusted: &[bool]) {
+    if not_seeds.iter().any(|&n| !n) {
+        return;
+    }
+    let least = |only_trusted: bool| {
+        (0..local.len())
+            .filter(|&i| !only_trusted || trusted[i])
+            .min_by_key(|&i| local[i].units().abs())
+    };
+    if let Some(i) = least(true).or_else(|| least(false)) {
+        not_seeds[i] = false;
+    }
 }
 
 /// Per working pixel of the window (`bw × bh` from `origin`), whether its tile is in the
@@ -383,6 +406,49 @@ pub(super) fn upsampled(signed: &[i32], win: &Window) -> Vec<i32> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::unwrap::{unwrap_window, Phase};
+
+    /// A dome of 5 rad over a whole window, wrapped, with no sample outside the region:
+    /// unseeded, the unwrapping reaches nothing and the core stays of the other sign; seeded
+    /// at its shallowest trusted sample, it is read whole.
+    #[test]
+    fn a_press_over_the_whole_window_is_unwrapped_from_its_surround() {
+        let (w, h) = (14usize, 11usize);
+        let truth: Vec<f32> = (0..w * h)
+            .map(|i| {
+                let (x, y) = ((i % w) as f32 - 6.5, (i / w) as f32 - 5.0);
+                5.0 * (-(x * x + y * y) / 30.0).exp()
+            })
+            .collect();
+        let wrapped: Vec<f32> = truth.iter().map(|&t| f32::wrapped_diff(t, 0.0)).collect();
+        let quality = || vec![1u32; w * h];
+        let mut trusted = vec![true; w * h];
+        trusted[0] = false; // the least |phase|, untrusted: not the seed
+        let all = vec![true; w * h];
+        let (_, unreached, _) = unwrap_window(&wrapped, (&all, &all), w, h, quality);
+        assert_eq!(unreached, w * h);
+
+        let mut not_seeds = all.clone();
+        seed_when_none(&mut not_seeds, &wrapped, &trusted);
+        let seeds: Vec<usize> = (0..w * h).filter(|&i| !not_seeds[i]).collect();
+        assert_eq!(seeds.len(), 1);
+        let least = (0..w * h)
+            .filter(|&i| trusted[i])
+            .map(|i| truth[i])
+            .fold(f32::INFINITY, f32::min);
+        assert!(trusted[seeds[0]] && truth[seeds[0]] == least, "{seeds:?}");
+        let (u, unreached, _) = unwrap_window(&wrapped, (&not_seeds, &all), w, h, quality);
+        assert_eq!(unreached, 0);
+        for (got, want) in u.iter().zip(&truth) {
+            assert!((got - want).abs() < 1e-4, "{got} vs {want}");
+        }
+        // A window with background keeps its own seeds.
+        let mut with_background = all.clone();
+        with_background[3] = false;
+        let before = with_background.clone();
+        seed_when_none(&mut with_background, &wrapped, &trusted);
+        assert_eq!(with_background, before);
+    }
 
     /// A contact carrying the calibrated indenter's load for its depth, or within the
     /// ratio of it, is alike; beyond the ratio either way it is not; outside the kit's

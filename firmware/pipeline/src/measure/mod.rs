@@ -514,7 +514,10 @@ impl<M: PhaseMap> Found<'_, M> {
             (grid.w, x0, y0, bw),
             (self.bg.threshold, threshold_um),
         );
-        if pass.is_dipole() {
+        // The sign of the phase is trusted only where the unwrapping reached: a wrapped
+        // core left over reads as the other sign, and a press is never dropped for it (it
+        // is measured, and flagged as an unwrapping failure).
+        if unreached == 0 && pass.is_dipole() {
             return None;
         }
         // The contact: the region holding the most indentation, its apex (the blurred map's
