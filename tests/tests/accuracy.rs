@@ -66,6 +66,32 @@ fn a_phantom_whose_window_spans_the_view_keeps_its_frame_in_the_fit() {
     skins_read_within_a_degree(&frames);
 }
 
+/// On these units a block's colours hardly move in the low thirties (the coloured stripes'
+/// model has ended, the black stripes' path doubles back), and the mean of the blocks'
+/// readings there, each within its variance, read a uniform skin 0.5–1.1 °C off with no
+/// flag. The skin's mean is turned back through what the kit's own uniform frames read
+/// (`TemperatureModel::mean_read`), and every uniform skin reads within 0.4 °C.
+#[test]
+fn a_warm_skin_reads_its_mean_where_the_colours_hardly_move() {
+    let work = std::env::temp_dir().join(format!("vistaf-warm-mean-{}", std::process::id()));
+    let results = run_units(&[44, 53], &work, 2, &[], Default::default(), |_| {});
+    let _ = std::fs::remove_dir_all(&work);
+    let mut read = 0;
+    for r in results {
+        let frames = r.unwrap_or_else(|e| panic!("unit {}: {}", e.unit, e.why));
+        for f in frames.iter().filter(|f| f.kind == Kind::Uniform) {
+            let e = f.mean_temp_err_c.unwrap();
+            read += 1;
+            assert!(
+                e.abs() <= 0.4,
+                "unit {}: uniform skin {e:+.2} °C off",
+                f.unit
+            );
+        }
+    }
+    assert!(read >= 6, "{read} uniform skins read");
+}
+
 /// Temperatures a unit's own calibration says it cannot read are flagged, never reported
 /// as if they could: unit 99's camera clips every warm kit frame (the cleared pigment and
 /// the lamps' reflections reach full scale), so a hot contact reads as the warmest skin

@@ -29,6 +29,9 @@ use vistaf_pipeline::ftp::carrier;
 use vistaf_pipeline::image_ops::gray_down_f32;
 use vistaf_pipeline::input::decode_scale;
 use vistaf_pipeline::measure::profile::Shape;
+use vistaf_pipeline::thermal::model::{
+    mean_read_rises, MeanRead, TemperatureModel, MEAN_READ_MIN_SLOPE,
+};
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement};
 use vistaf_protocol::Flag;
 
@@ -229,8 +232,10 @@ fn temperature_model<O: Observer>(
         ..Default::default()
     };
     let (mut samples, mut labelled, mut clipped) = (Vec::new(), Vec::new(), Vec::new());
+    // (set, frame, label) of every frame in the fit.
+    let mut kept = Vec::new();
     let mut done = 0;
-    for s in run.sets {
+    for (si, s) in run.sets.iter().enumerate() {
         if !s.manifest.frames.iter().any(no_contact) {
             continue;
         }
@@ -295,6 +300,7 @@ fn temperature_model<O: Observer>(
                 .collect();
             let step = good.len().div_ceil(BLOCKS_PER_FRAME).max(1);
             samples.extend(good.into_iter().step_by(step));
+            kept.push((si, i, t));
         }
     }
     if samples.is_empty() {
@@ -329,6 +335,7 @@ fn temperature_model<O: Observer>(
     match fit_temperature(&samples) {
         Ok(mut m) => {
             m.blind_above_c = blind_above_c;
+            m.mean_read = mean_read(run, calib, &m, &kept)?;
             Ok(Some(m))
         }
         Err(e) => {
@@ -336,6 +343,135 @@ fn temperature_model<O: Observer>(
             Ok(None)
         }
     }
+}
+
+/// The skin's mean as the service reads it with `model` at each setpoint of the frames
+/// `kept` (set, frame, label) ([`TemperatureModel::mean_read`]), over the longest stretch of
+/// setpoints where it rises, with a note of what it mends; empty (with a note) where it
+/// rises nowhere.
+fn mean_read<O: Observer>(
+    run: &mut Run<'_, O>,
+    calib: &Calibration,
+    model: &TemperatureModel,
+    kept: &[(usize, usize, f64)],
+) -> Result<Vec<MeanRead>, CalibrateError> {
+    let calib = Calibration {
+        temperature: Some(model.clone()),
+        ..calib.clone()
+    };
+    let points = kit_means(run, &calib, kept)?;
+    let rising = longest_rising(&points);
+    if rising.len() < 2 {
+        run.obs.note(format!(
+            "the skin's mean, as read on the kit's uniform frames, rises by less than \
+             {MEAN_READ_MIN_SLOPE} °C per °C between every two setpoints: reported as read"
+        ));
+        return Ok(Vec::new());
+    }
+    if rising.len() < points.len() {
+        run.obs.note(format!(
+            "the skin's mean, as read on the kit's uniform frames, rises by less than \
+             {MEAN_READ_MIN_SLOPE} °C per °C outside {}–{} °C: beyond, the offset at that \
+             end fades out over one setpoint step and the mean is reported as read",
+            rising[0].setpoint_c,
+            rising[rising.len() - 1].setpoint_c,
+        ));
+    }
+    run.obs.note(mean_read_note(rising));
+    Ok(rising.to_vec())
+}
+
+/// The mean of the skin's mean over the frames `kept` (set, frame, label) at each setpoint,
+/// in setpoint order, each frame read with `calib` as the service reads it.
+fn kit_means<O: Observer>(
+    run: &mut Run<'_, O>,
+    calib: &Calibration,
+    kept: &[(usize, usize, f64)],
+) -> Result<Vec<MeanRead>, CalibrateError> {
+    let opts = AnalyzerOptions {
+        force_calibration: true,
+        ..Default::default()
+    };
+    // (setpoint key, label, summed mean read, frames)
+    let mut sums: Vec<(f64, f64, f64, f64)> = Vec::new();
+    let mut frame = Decoded::default();
+    for (si, s) in run.sets.iter().enumerate() {
+        let frames: Vec<&(usize, usize, f64)> = kept.iter().filter(|k| k.0 == si).collect();
+        if frames.is_empty() {
+            continue;
+        }
+        let pipe = |cause| CalibrateError::Pipeline {
+            set: s.dir().display().to_string(),
+            cause,
+        };
+        let reference = s.decoded_reference(run.scale)?;
+        let an = Analyzer::new(&reference, calib.clone(), run.imp, opts).map_err(pipe)?;
+        for (done, &&(_, i, t)) in frames.iter().enumerate() {
+            run.obs.progress("the skin's mean", done + 1, frames.len());
+            s.decoded_frame(i, run.scale, &mut frame)?;
+            let d = an.analyze(&frame).map_err(pipe)?;
+            let Some(read) = d
+                .temperature
+                .map(|m| f64::from(m.mean_c))
+                .filter(|r| r.is_finite())
+            else {
+                continue;
+            };
+            let key = setpoint(t);
+            match sums.iter_mut().find(|x| x.0 == key) {
+                Some(x) => (x.2, x.3) = (x.2 + read, x.3 + 1.0),
+                None => sums.push((key, t, read, 1.0)),
+            }
+        }
+    }
+    sums.sort_by(|a, b| a.0.total_cmp(&b.0));
+    Ok(sums
+        .iter()
+        .map(|x| MeanRead {
+            setpoint_c: x.1,
+            read_c: x.2 / x.3,
+        })
+        .collect())
+}
+
+/// The longest run of successive `points` (in setpoint order) that rises throughout
+/// ([`mean_read_rises`]): where the mean stands still over a step (a population's colour
+/// that stops moving at the kit's end, flagged there), it cannot be turned back.
+fn longest_rising(points: &[MeanRead]) -> &[MeanRead] {
+    let mut best = &points[..0];
+    let mut start = 0;
+    for end in 1..=points.len() {
+        let breaks = end == points.len() || !mean_read_rises(&points[end - 1..=end]);
+        if breaks {
+            if end - start > best.len() {
+                best = &points[start..end];
+            }
+            start = end;
+        }
+    }
+    best
+}
+
+/// What the mean's table mends: the kit's uniform frames as read, and through the table
+/// with each inner setpoint left out (read between its neighbours), RMSE °C.
+fn mean_read_note(points: &[MeanRead]) -> String {
+    let rms = |e: &[f64]| (e.iter().map(|x| x * x).sum::<f64>() / e.len().max(1) as f64).sqrt();
+    let as_read: Vec<f64> = points.iter().map(|p| p.read_c - p.setpoint_c).collect();
+    let held_out: Vec<f64> = points
+        .windows(3)
+        .map(|w| {
+            let (a, b, c) = (w[0], w[1], w[2]);
+            let t = a.setpoint_c
+                + (c.setpoint_c - a.setpoint_c) * (b.read_c - a.read_c) / (c.read_c - a.read_c);
+            t - b.setpoint_c
+        })
+        .collect();
+    format!(
+        "the skin's mean on the kit's uniform frames: {:.3} °C RMSE as read, {:.3} °C through \
+         its table with each inner setpoint left out",
+        rms(&as_read),
+        rms(&held_out)
+    )
 }
 
 /// The span of the `fitted` temperatures (°C), and the `labelled` setpoints beyond it,
@@ -604,6 +740,32 @@ fn force_model<O: Observer>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The mean's table keeps the longest stretch of setpoints over which the kit's mean
+    /// rises, and none where it never does.
+    #[test]
+    fn the_means_table_keeps_the_longest_rising_stretch() {
+        let pts = |v: &[(f64, f64)]| -> Vec<MeanRead> {
+            v.iter()
+                .map(|&(setpoint_c, read_c)| MeanRead { setpoint_c, read_c })
+                .collect()
+        };
+        let setpoints = |m: &[MeanRead]| -> Vec<f64> { m.iter().map(|p| p.setpoint_c).collect() };
+        // A cold end where the mean stands still (its model flagged there), then a rise.
+        let p = pts(&[
+            (15.0, 18.8),
+            (17.5, 22.5),
+            (20.0, 22.6),
+            (22.0, 22.8),
+            (25.0, 25.0),
+            (30.0, 30.0),
+            (35.0, 33.7),
+        ]);
+        assert_eq!(setpoints(longest_rising(&p)), [22.0, 25.0, 30.0, 35.0]);
+        assert_eq!(longest_rising(&p[..3]).len(), 2);
+        assert!(longest_rising(&pts(&[(20.0, 21.0), (22.0, 20.0)])).len() < 2);
+        assert!(longest_rising(&[]).is_empty());
+    }
 
     #[test]
     fn setpoints_beyond_the_fitted_span_are_named_once_each() {

@@ -518,6 +518,7 @@ pub fn fit_temperature(samples: &[BlockSample]) -> Result<TemperatureModel, Ther
         cv_rmse_c: rms(&errs),
         held_out,
         n: samples.len(),
+        mean_read: Vec::new(),
     })
 }
 

@@ -697,7 +697,7 @@ mod tests {
                 .to_string()
         };
         type Edit<'a> = &'a dyn Fn(&mut serde_json::Value);
-        let cases: [(&str, Edit<'_>); 13] = [
+        let cases: [(&str, Edit<'_>); 14] = [
             ("`shape`", &|v| {
                 v["shape"]["area_mm2"] = serde_json::json!([1.0])
             }),
@@ -765,6 +765,13 @@ mod tests {
             }),
             ("`temperature`", &|v| {
                 v["temperature"]["black"]["variance"]["var_c2"][0] = 1e300.into()
+            }),
+            // A mean that falls as the skin warms cannot be turned back.
+            ("`temperature.mean_read`", &|v| {
+                v["temperature"]["mean_read"] = serde_json::json!([
+                    {"setpoint_c": 20.0, "read_c": 21.0},
+                    {"setpoint_c": 22.0, "read_c": 20.5}
+                ])
             }),
         ];
         for (key, edit) in cases {

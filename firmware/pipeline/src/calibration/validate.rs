@@ -5,6 +5,7 @@
 //! file can neither crash the service nor make it report absurd numbers.
 
 use super::{Calibration, DepthModel, FitRange, ForceForm, ForceModel, ShapeSignature};
+use crate::thermal::model::{mean_read_rises, MEAN_READ_MIN_SLOPE};
 
 /// A broken rule: the key's path and why.
 #[derive(Debug, Clone, PartialEq)]
@@ -72,6 +73,15 @@ pub fn check(c: &Calibration) -> Check {
     }
     if let Some(t) = &c.temperature {
         let r = t.range_c;
+        if !mean_read_rises(&t.mean_read) {
+            return Err(bad(
+                "temperature.mean_read",
+                format!(
+                    "must hold finite temperatures in setpoint order, each mean read at least \
+                     {MEAN_READ_MIN_SLOPE} °C per °C above the one before"
+                ),
+            ));
+        }
         if !t.is_consistent() {
             return Err(bad(
                 "temperature",

@@ -318,10 +318,11 @@ impl Thermometer {
             let f = g.factor as f32;
             (max_c, hottest_px) = (t_c, Some((x * f, y * f)));
         }
-        let mean_c = if n == 0 {
-            f32::NAN
-        } else {
-            (map.sum_c / n as f64) as f32
+        // The map's mean as the kit's uniform frames showed it read at each setpoint.
+        let mean_c = match (n, &self.model) {
+            (0, _) => f32::NAN,
+            (_, Some(m)) => m.skin_mean_c(map.sum_c / n as f64) as f32,
+            (_, None) => (map.sum_c / n as f64) as f32,
         };
         let reported = [
             mean_c,

@@ -445,6 +445,16 @@ pub struct SetpointError {
     pub estimate_c: f64,
 }
 
+/// What the skin's mean read at one setpoint of the kit.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct MeanRead {
+    /// Setpoint, °C.
+    pub setpoint_c: f64,
+    /// The mean over the skin's blocks of their fused readings, averaged over the
+    /// setpoint's frames, °C.
+    pub read_c: f64,
+}
+
 /// Colour → temperature: both populations, fused.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TemperatureModel {
@@ -472,7 +482,17 @@ pub struct TemperatureModel {
     pub cv_rmse_c: f64,
     /// Calibration blocks used.
     pub n: usize,
+    /// The skin's mean as the service reads it at each setpoint, in order, each rising
+    /// from the one before by at least [`MEAN_READ_MIN_SLOPE`] per °C
+    /// ([`TemperatureModel::skin_mean_c`]). Empty in files written before it.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub mean_read: Vec<MeanRead>,
 }
+
+/// Least rise of the skin's mean read per °C of setpoint for [`TemperatureModel::mean_read`]
+/// to stand: where it rises less, turning it back would magnify the mean's noise by more
+/// than four.
+pub const MEAN_READ_MIN_SLOPE: f64 = 0.25;
 
 /// One block's reading.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -504,6 +524,17 @@ pub fn blend(
 ) -> (f64, f64) {
     let (t, _) = fuse(tc, coloured.at(guess), tb, black.at(guess));
     fuse(tc, coloured.at(t), tb, black.at(t))
+}
+
+/// Whether `m` holds finite temperatures, each point rising from the one before by at least
+/// [`MEAN_READ_MIN_SLOPE`] per °C.
+pub fn mean_read_rises(m: &[MeanRead]) -> bool {
+    m.iter()
+        .all(|p| within(p.setpoint_c, TEMPERATURE_LIMIT_C) && within(p.read_c, TEMPERATURE_LIMIT_C))
+        && m.windows(2).all(|w| {
+            let step = w[1].setpoint_c - w[0].setpoint_c;
+            step > 0.0 && w[1].read_c - w[0].read_c >= MEAN_READ_MIN_SLOPE * step
+        })
 }
 
 /// Inverse-variance blend of two estimates.
@@ -567,6 +598,40 @@ impl TemperatureModel {
             || self.blind_above_c.is_some_and(|b| t + two_sigma >= b - 0.5)
     }
 
+    /// The skin temperature a mean of the map's blocks `read_c` stands for (°C), through
+    /// [`TemperatureModel::mean_read`]: linear between its setpoints; beyond them shifted
+    /// by the nearest end's offset, faded out over the end step's width; `read_c` itself
+    /// without a table.
+    ///
+    /// A block's reading is unbiased block by block only in the colours' own noise: where
+    /// a population's colour hardly moves (the coloured stripes past their transition, the
+    /// black stripes where their path doubles back), a block's noise moves its estimate
+    /// along the temperature more one way than the other, and the blend leans on the
+    /// coloured stripes wherever a block's black estimate falls inside their transition.
+    /// Each block's error is within its variance, but a mean over hundreds of blocks keeps
+    /// what they share. The kit's uniform frames show it at each setpoint, as read.
+    pub fn skin_mean_c(&self, read_c: f64) -> f64 {
+        let m = &self.mean_read;
+        let (Some(first), Some(last)) = (m.first(), m.last()) else {
+            return read_c;
+        };
+        let k = m.partition_point(|p| p.read_c <= read_c);
+        if k == 0 || k == m.len() {
+            // Beyond the table the mean did not rise (or the kit ended): its end's offset
+            // fades out over the end step's width, and the mean is reported as read.
+            let (end, inner) = if k == 0 {
+                (first, m.get(1))
+            } else {
+                (last, m.len().checked_sub(2).and_then(|i| m.get(i)))
+            };
+            let width = inner.map_or(1.0, |p| (p.setpoint_c - end.setpoint_c).abs());
+            let fade = (1.0 - (read_c - end.read_c).abs() / width.max(1e-9)).max(0.0);
+            return read_c + fade * (end.setpoint_c - end.read_c);
+        }
+        let (a, b) = (m[k - 1], m[k]);
+        a.setpoint_c + (b.setpoint_c - a.setpoint_c) * (read_c - a.read_c) / (b.read_c - a.read_c)
+    }
+
     /// How far the calibration's own held-out test missed near `t` (°C): the absolute
     /// error of the per-setpoint means with that setpoint left out of both fits
     /// ([`TemperatureModel::held_out`]), linear between setpoints and the end setpoint's
@@ -594,6 +659,7 @@ impl TemperatureModel {
             && self.black.model.features().len() == 3
             && self.range_c[0] < self.range_c[1]
             && self.blind_above_c.is_none_or(|b| b.is_finite())
+            && mean_read_rises(&self.mean_read)
             && [self.domain.r, self.domain.g, self.domain.q]
                 .iter()
                 .all(|r| within(r[0], FEATURE_LIMIT) && within(r[1], FEATURE_LIMIT) && r[0] < r[1])
@@ -623,6 +689,59 @@ mod tests {
         assert!(close(m.held_out_error_c(50.0), 0.5));
         m.held_out.clear();
         assert_eq!(m.held_out_error_c(30.0), 0.0);
+    }
+
+    /// The skin's mean is turned back through what the kit's uniform frames read: between
+    /// setpoints linearly, beyond them by the nearest end's offset, as read without a table.
+    #[test]
+    fn the_skins_mean_is_read_back_through_the_kits_means() {
+        let mut m = crate::calibration::Calibration::default_sim()
+            .temperature
+            .unwrap_or_else(|| unreachable!("the default calibration has a temperature model"));
+        let at = |t: f64, read: f64| MeanRead {
+            setpoint_c: t,
+            read_c: read,
+        };
+        // A warm skin read low where a population's colour hardly moves.
+        m.mean_read = vec![at(30.0, 30.1), at(35.0, 34.0), at(40.0, 39.6)];
+        assert!(m.is_consistent());
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-9;
+        assert!(close(m.skin_mean_c(34.0), 35.0));
+        assert!(close(m.skin_mean_c(32.05), 32.5));
+        assert!(close(m.skin_mean_c(30.1), 30.0));
+        assert!(
+            close(m.skin_mean_c(29.6), 29.51),
+            "below: the first offset…"
+        );
+        assert!(
+            close(m.skin_mean_c(27.6), 27.55),
+            "…fading out over the end step…"
+        );
+        assert!(close(m.skin_mean_c(25.0), 25.0), "…to the mean as read");
+        assert!(close(m.skin_mean_c(42.1), 42.3), "above, the same");
+        assert!(close(m.skin_mean_c(46.0), 46.0));
+        m.mean_read.clear();
+        assert!(close(m.skin_mean_c(34.0), 34.0));
+    }
+
+    /// A table of the mean stands only where the mean rises steadily with the setpoint:
+    /// turned back, a flat step would magnify the mean's noise without bound.
+    #[test]
+    fn a_mean_that_does_not_rise_makes_no_table() {
+        let at = |t: f64, read: f64| MeanRead {
+            setpoint_c: t,
+            read_c: read,
+        };
+        assert!(mean_read_rises(&[]));
+        assert!(mean_read_rises(&[at(20.0, 20.3), at(22.0, 21.0)]));
+        assert!(!mean_read_rises(&[at(20.0, 20.3), at(22.0, 20.4)]));
+        assert!(!mean_read_rises(&[at(20.0, 20.3), at(20.0, 21.0)]));
+        assert!(!mean_read_rises(&[at(20.0, f64::NAN)]));
+        let mut m = crate::calibration::Calibration::default_sim()
+            .temperature
+            .unwrap_or_else(|| unreachable!("the default calibration has a temperature model"));
+        m.mean_read = vec![at(20.0, 21.0), at(22.0, 20.0)];
+        assert!(!m.is_consistent());
     }
 
     /// Out of range: beyond the calibrated setpoints by two (capped) deviations and half a
