@@ -324,16 +324,11 @@ impl Thermometer {
             (_, Some(m)) => m.skin_mean_c(map.sum_c / n as f64) as f32,
             (_, None) => (map.sum_c / n as f64) as f32,
         };
-        let reported = [
-            mean_c,
-            ext.min_c,
-            max_c,
-            contact.map_or(f32::NAN, |r| r.t_c),
-        ];
+        let others = [ext.min_c, max_c, contact.map_or(f32::NAN, |r| r.t_c)];
         let calibration_misses = self
             .model
             .as_ref()
-            .is_some_and(|m| misses_near(m, &reported));
+            .is_some_and(|m| misses_near(m, mean_c, &others));
         Some(Temperature {
             bw: g.bw,
             bh: g.bh,
@@ -353,12 +348,21 @@ impl Thermometer {
 }
 
 /// Whether the calibration's held-out test missed by more than [`HELD_OUT_MISS_LIMIT_C`]
-/// near any of the finite `readings` (°C).
-fn misses_near(model: &TemperatureModel, readings: &[f32]) -> bool {
-    readings
-        .iter()
-        .filter(|t| t.is_finite())
-        .any(|&t| model.held_out_error_c(f64::from(t)) > f64::from(HELD_OUT_MISS_LIMIT_C))
+/// near the skin's mean `mean_c` (by the mean's table's test where it was read through one)
+/// or any of the `others` (°C, by the blocks' test); NaN readings are not judged.
+fn misses_near(model: &TemperatureModel, mean_c: f32, others: &[f32]) -> bool {
+    let limit = f64::from(HELD_OUT_MISS_LIMIT_C);
+    let blocks = |t: f64| model.held_out_error_c(t) > limit;
+    let mean = f64::from(mean_c);
+    let mean_misses = mean.is_finite()
+        && model
+            .mean_held_out_error_c(mean)
+            .map_or_else(|| blocks(mean), |e| e > limit);
+    mean_misses
+        || others
+            .iter()
+            .map(|&t| f64::from(t))
+            .any(|t| t.is_finite() && blocks(t))
 }
 
 /// Empties the blocks the camera clipped ([`Sums::is_clipped`]): what is left of their
