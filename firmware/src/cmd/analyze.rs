@@ -1,8 +1,9 @@
 //! `vistaf-skin analyze`: run the pipeline on a reference and frames; JSON lines out.
 //!
 //! `temperature_c` is the contact temperature when there is contact, else the skin's mean;
-//! `temp_min_c`, `temp_mean_c`, `temp_max_c` span the measured blocks. All are `null` when
-//! the calibration has no temperature model.
+//! `temp_min_c`, `temp_mean_c`, `temp_max_c` are the skin's coldest place, mean and hottest
+//! place (`vistaf_pipeline::thermal::Temperature`). All are `null` when the calibration has
+//! no temperature model.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};

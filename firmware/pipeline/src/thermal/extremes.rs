@@ -53,6 +53,8 @@ pub struct Extremes {
     pub max_c: f32,
     /// The block whose neighbourhood is hottest, when one stands out.
     pub hottest: Option<usize>,
+    /// The skin: the map's median, °C (NaN when nothing was measured).
+    pub skin_c: f32,
 }
 
 /// Standard deviation of the median of `n` readings of variance `var_c2` each, °C, with
@@ -80,12 +82,14 @@ pub fn extremes(map_c: &[f32], var_c2: &[f32], bw: usize, bh: usize) -> Extremes
         min_c: f32::INFINITY,
         max_c: f32::NEG_INFINITY,
         hottest: None,
+        skin_c: f32::NAN,
     };
     let n = map_c.len().min(bw * bh);
     let mut measured: Vec<f32> = map_c[..n].iter().copied().filter(|t| !t.is_nan()).collect();
     let Some(skin) = median(&mut measured) else {
         return e;
     };
+    e.skin_c = skin;
     let mut near = [(0f32, 0f32); (2 * REACH + 1) * (2 * REACH + 1)];
     let mut confirmed = false;
     for b in 0..n {

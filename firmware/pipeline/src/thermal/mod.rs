@@ -53,7 +53,10 @@ pub struct Temperature {
     pub map_c: Vec<f32>,
     /// Coldest place, mean and hottest place, °C (NaN when no block was measured); the
     /// extremes are read over each block's neighbourhood, and are the skin's median where
-    /// no place stands out of the noise ([`extremes`]).
+    /// no place stands out of the noise ([`extremes`]). The mean, and the skin's median
+    /// where it stands for an extreme, are read through the calibration's table of the
+    /// skin's mean ([`TemperatureModel::skin_mean_c`]); a place that stands out, and the
+    /// map's blocks, are as read.
     pub min_c: f32,
     /// See `min_c`.
     pub mean_c: f32,
@@ -169,6 +172,15 @@ impl Thermometer {
             misread: Vec::new(),
             ratio: RatioField::default(),
         }
+    }
+
+    /// A reading over many blocks of the skin (`read_c`, °C) as the skin temperature it
+    /// stands for, through the calibration's table of the skin's mean
+    /// ([`TemperatureModel::skin_mean_c`]); as read without a model.
+    fn as_skin(&self, read_c: f64) -> f32 {
+        self.model
+            .as_ref()
+            .map_or(read_c, |m| m.skin_mean_c(read_c)) as f32
     }
 
     /// Learns what the reference shows of the light and the skin from its colour sums per
@@ -318,22 +330,36 @@ impl Thermometer {
             let f = g.factor as f32;
             (max_c, hottest_px) = (t_c, Some((x * f, y * f)));
         }
-        // The map's mean as the kit's uniform frames showed it read at each setpoint.
-        let mean_c = match (n, &self.model) {
-            (0, _) => f32::NAN,
-            (_, Some(m)) => m.skin_mean_c(map.sum_c / n as f64) as f32,
-            (_, None) => (map.sum_c / n as f64) as f32,
+        // Where no place stands out, an extreme is the skin's median: an aggregate of the
+        // whole map, read through the table of the skin's mean as the mean is.
+        let skin_c = self.as_skin(f64::from(ext.skin_c));
+        let extreme = |extreme_c: f32, stands_out: bool| {
+            if stands_out || extreme_c.is_nan() {
+                extreme_c
+            } else {
+                skin_c
+            }
         };
-        let others = [ext.min_c, max_c, contact.map_or(f32::NAN, |r| r.t_c)];
+        let (hot, cold) = (
+            at.is_some() || ext.hottest.is_some(),
+            ext.min_c != ext.skin_c,
+        );
+        let (max_c, min_c) = (extreme(max_c, hot), extreme(ext.min_c, cold));
+        let mean_c = if n == 0 {
+            f32::NAN
+        } else {
+            self.as_skin(map.sum_c / n as f64)
+        };
+        let reported = [mean_c, min_c, max_c, contact.map_or(f32::NAN, |r| r.t_c)];
         let calibration_misses = self
             .model
             .as_ref()
-            .is_some_and(|m| misses_near(m, mean_c, &others));
+            .is_some_and(|m| misses_near(m, &reported));
         Some(Temperature {
             bw: g.bw,
             bh: g.bh,
             block_mm: (g.block_px * g.factor) as f32 * self.mm_per_px,
-            min_c: nan(ext.min_c),
+            min_c: nan(min_c),
             mean_c,
             max_c,
             hottest_px,
@@ -348,21 +374,14 @@ impl Thermometer {
 }
 
 /// Whether the calibration's held-out test missed by more than [`HELD_OUT_MISS_LIMIT_C`]
-/// near the skin's mean `mean_c` (by the mean's table's test where it was read through one)
-/// or any of the `others` (°C, by the blocks' test); NaN readings are not judged.
-fn misses_near(model: &TemperatureModel, mean_c: f32, others: &[f32]) -> bool {
-    let limit = f64::from(HELD_OUT_MISS_LIMIT_C);
-    let blocks = |t: f64| model.held_out_error_c(t) > limit;
-    let mean = f64::from(mean_c);
-    let mean_misses = mean.is_finite()
-        && model
-            .mean_held_out_error_c(mean)
-            .map_or_else(|| blocks(mean), |e| e > limit);
-    mean_misses
-        || others
-            .iter()
-            .map(|&t| f64::from(t))
-            .any(|t| t.is_finite() && blocks(t))
+/// near any of the finite `readings` (°C). The readings the table of the skin's mean moved
+/// are judged here too: the blocks' test says where the models could not follow the
+/// colours, which no table of the kit's means mends between its setpoints.
+fn misses_near(model: &TemperatureModel, readings: &[f32]) -> bool {
+    readings
+        .iter()
+        .filter(|t| t.is_finite())
+        .any(|&t| model.held_out_error_c(f64::from(t)) > f64::from(HELD_OUT_MISS_LIMIT_C))
 }
 
 /// Empties the blocks the camera clipped ([`Sums::is_clipped`]): what is left of their

@@ -526,20 +526,6 @@ pub fn blend(
     fuse(tc, coloured.at(t), tb, black.at(t))
 }
 
-/// The absolute miss of the setpoints `h` (in order) at `t`: linear between setpoints, the
-/// end setpoint's beyond them; 0 without any.
-fn interpolated_miss(h: &[SetpointError], t: f64) -> f64 {
-    let miss = |e: &SetpointError| (e.estimate_c - e.setpoint_c).abs();
-    let Some(k) = h.iter().position(|e| e.setpoint_c >= t) else {
-        return h.last().map_or(0.0, miss);
-    };
-    if k == 0 || h[k].setpoint_c <= h[k - 1].setpoint_c {
-        return miss(&h[k]);
-    }
-    let f = (t - h[k - 1].setpoint_c) / (h[k].setpoint_c - h[k - 1].setpoint_c);
-    miss(&h[k - 1]) + f * (miss(&h[k]) - miss(&h[k - 1]))
-}
-
 /// Whether `m` holds finite temperatures, each point rising from the one before by at least
 /// [`MEAN_READ_MIN_SLOPE`] per °C.
 pub fn mean_read_rises(m: &[MeanRead]) -> bool {
@@ -646,38 +632,22 @@ impl TemperatureModel {
         a.setpoint_c + (b.setpoint_c - a.setpoint_c) * (read_c - a.read_c) / (b.read_c - a.read_c)
     }
 
-    /// How far the mean's table missed near the skin temperature `t` (°C), each inner
-    /// setpoint of [`TemperatureModel::mean_read`] read between its neighbours: linear
-    /// between inner setpoints, the nearest one's beyond them. `None` outside the table or
-    /// when it has no inner setpoint: there the mean is read as the blocks are, and the
-    /// blocks' held-out test ([`TemperatureModel::held_out_error_c`]) speaks for it.
-    pub fn mean_held_out_error_c(&self, t: f64) -> Option<f64> {
-        let m = &self.mean_read;
-        let (first, last) = (m.first()?, m.last()?);
-        if !(first.setpoint_c..=last.setpoint_c).contains(&t) {
-            return None;
-        }
-        let misses: Vec<SetpointError> = m
-            .windows(3)
-            .map(|w| {
-                let (a, b, c) = (w[0], w[1], w[2]);
-                let f = (b.read_c - a.read_c) / (c.read_c - a.read_c);
-                SetpointError {
-                    setpoint_c: b.setpoint_c,
-                    estimate_c: a.setpoint_c + f * (c.setpoint_c - a.setpoint_c),
-                }
-            })
-            .collect();
-        (!misses.is_empty()).then(|| interpolated_miss(&misses, t))
-    }
-
     /// How far the calibration's own held-out test missed near `t` (°C): the absolute
     /// error of the per-setpoint means with that setpoint left out of both fits
     /// ([`TemperatureModel::held_out`]), linear between setpoints and the end setpoint's
     /// beyond them; 0 without any. A systematic miss no block's scatter shows: a colour
     /// path the models could not follow there, a setpoint the kit's frames misread.
     pub fn held_out_error_c(&self, t: f64) -> f64 {
-        interpolated_miss(&self.held_out, t)
+        let h = &self.held_out;
+        let miss = |e: &SetpointError| (e.estimate_c - e.setpoint_c).abs();
+        let Some(k) = h.iter().position(|e| e.setpoint_c >= t) else {
+            return h.last().map_or(0.0, miss);
+        };
+        if k == 0 || h[k].setpoint_c <= h[k - 1].setpoint_c {
+            return miss(&h[k]);
+        }
+        let f = (t - h[k - 1].setpoint_c) / (h[k].setpoint_c - h[k - 1].setpoint_c);
+        miss(&h[k - 1]) + f * (miss(&h[k]) - miss(&h[k - 1]))
     }
 
     /// Whether the stored shapes agree with each other.
@@ -752,40 +722,6 @@ mod tests {
         assert!(close(m.skin_mean_c(46.0), 46.0));
         m.mean_read.clear();
         assert!(close(m.skin_mean_c(34.0), 34.0));
-    }
-
-    /// The mean's own held-out test: each inner setpoint of the table read between its
-    /// neighbours; none outside the table, nor without an inner setpoint.
-    #[test]
-    fn the_means_table_says_how_far_it_misses_between_setpoints() {
-        let mut m = crate::calibration::Calibration::default_sim()
-            .temperature
-            .unwrap_or_else(|| unreachable!("the default calibration has a temperature model"));
-        let at = |t: f64, read: f64| MeanRead {
-            setpoint_c: t,
-            read_c: read,
-        };
-        m.mean_read = vec![
-            at(30.0, 30.1),
-            at(35.0, 34.0),
-            at(40.0, 39.6),
-            at(45.0, 45.1),
-        ];
-        let miss = |t: f64| m.mean_held_out_error_c(t).unwrap_or(f64::NAN);
-        // 35 °C read between 30 and 40 °C: 30 + 10·(34.0 − 30.1)/(39.6 − 30.1).
-        let at_35 = 35.0 - (30.0 + 10.0 * 3.9 / 9.5);
-        let at_40 = (35.0 + 10.0 * 5.6 / 11.1) - 40.0;
-        assert!((miss(35.0) - at_35).abs() < 1e-9);
-        assert!(
-            (miss(31.0) - at_35).abs() < 1e-9,
-            "the nearest inner setpoint's"
-        );
-        assert!((miss(37.5) - (at_35 + at_40) / 2.0).abs() < 1e-9);
-        assert!((miss(44.0) - at_40).abs() < 1e-9);
-        assert_eq!(m.mean_held_out_error_c(29.0), None);
-        assert_eq!(m.mean_held_out_error_c(46.0), None);
-        m.mean_read.truncate(2);
-        assert_eq!(m.mean_held_out_error_c(32.0), None);
     }
 
     /// A table of the mean stands only where the mean rises steadily with the setpoint:
