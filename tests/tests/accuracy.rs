@@ -11,18 +11,10 @@ use vistaf_tests::accuracy::{run_units, Kind, Scored};
 
 #[test]
 fn wide_units_calibrate_and_report_every_press_where_it_is() {
-    let work = std::env::temp_dir().join(format!("vistaf-accuracy-test-{}", std::process::id()));
-    let results = run_units(&[2, 5, 11], &work, 2, &[], Default::default(), |_| {});
-    let _ = std::fs::remove_dir_all(&work);
-    for r in &results {
-        let frames = r
-            .as_ref()
-            .unwrap_or_else(|e| panic!("unit {}: {}", e.unit, e.why));
-        for f in frames {
-            assert!(!f.missed, "unit {}: {:?} missed", f.unit, f);
-            if f.kind == Kind::CalibrationSphere && f.flags.is_empty() {
-                assert!(!f.phantom, "unit {}: {:?}", f.unit, f);
-            }
+    for f in units_frames(&[2, 5, 11], "accuracy-test") {
+        assert!(!f.missed, "unit {}: {:?} missed", f.unit, f);
+        if f.kind == Kind::CalibrationSphere && f.flags.is_empty() {
+            assert!(!f.phantom, "unit {}: {:?}", f.unit, f);
         }
     }
 }
@@ -68,28 +60,23 @@ fn a_phantom_whose_window_spans_the_view_keeps_its_frame_in_the_fit() {
 
 /// On these units a block's colours hardly move in the low thirties (the coloured stripes'
 /// model has ended, the black stripes' path doubles back), and the mean of the blocks'
-/// readings there, each within its variance, read a uniform skin 0.5–1.1 °C off with no
-/// flag. The skin's mean is turned back through what the kit's own uniform frames read
+/// readings there, each within its variance, read a uniform skin off by more than the
+/// bound below with no flag (`docs/temperature.md`, *The skin's mean*). The skin's mean is
+/// turned back through what the kit's own uniform frames read
 /// (`TemperatureModel::mean_read`), and every uniform skin reads within 0.4 °C.
 #[test]
 fn a_warm_skin_reads_its_mean_where_the_colours_hardly_move() {
-    let work = std::env::temp_dir().join(format!("vistaf-warm-mean-{}", std::process::id()));
-    let results = run_units(&[44, 53], &work, 2, &[], Default::default(), |_| {});
-    let _ = std::fs::remove_dir_all(&work);
-    let mut read = 0;
-    for r in results {
-        let frames = r.unwrap_or_else(|e| panic!("unit {}: {}", e.unit, e.why));
-        for f in frames.iter().filter(|f| f.kind == Kind::Uniform) {
-            let e = f.mean_temp_err_c.unwrap();
-            read += 1;
-            assert!(
-                e.abs() <= 0.4,
-                "unit {}: uniform skin {e:+.2} °C off",
-                f.unit
-            );
-        }
+    let frames = units_frames(&[44, 53], "warm-mean");
+    let uniform: Vec<&Scored> = frames.iter().filter(|f| f.kind == Kind::Uniform).collect();
+    assert!(uniform.len() >= 6, "{} uniform skins read", uniform.len());
+    for f in uniform {
+        let e = f.mean_temp_err_c.unwrap();
+        assert!(
+            e.abs() <= 0.4,
+            "unit {}: uniform skin {e:+.2} °C off",
+            f.unit
+        );
     }
-    assert!(read >= 6, "{read} uniform skins read");
 }
 
 /// Temperatures a unit's own calibration says it cannot read are flagged, never reported
@@ -99,22 +86,16 @@ fn a_warm_skin_reads_its_mean_where_the_colours_hardly_move() {
 /// degrees, and a uniform skin reads degrees off.
 #[test]
 fn temperatures_a_calibration_cannot_read_are_flagged() {
-    let work = std::env::temp_dir().join(format!("vistaf-blind-kit-{}", std::process::id()));
-    let results = run_units(&[99, 112], &work, 2, &[], Default::default(), |_| {});
-    let _ = std::fs::remove_dir_all(&work);
     let mut checked = 0;
-    for r in results {
-        let frames = r.unwrap_or_else(|e| panic!("unit {}: {}", e.unit, e.why));
-        for f in frames {
-            let temperature = f
-                .failures
-                .iter()
-                .any(|q| matches!(*q, "contact temperature" | "mean temperature"));
-            if temperature {
-                checked += 1;
-                let flagged = f.flags.iter().any(|n| n.starts_with("temperature_"));
-                assert!(flagged, "unit {}: {:?} not flagged", f.unit, f);
-            }
+    for f in units_frames(&[99, 112], "blind-kit") {
+        let temperature = f
+            .failures
+            .iter()
+            .any(|q| matches!(*q, "contact temperature" | "mean temperature"));
+        if temperature {
+            checked += 1;
+            let flagged = f.flags.iter().any(|n| n.starts_with("temperature_"));
+            assert!(flagged, "unit {}: {:?} not flagged", f.unit, f);
         }
     }
     assert!(
@@ -125,12 +106,19 @@ fn temperatures_a_calibration_cannot_read_are_flagged() {
 
 /// The battery's frames of unit `seed`, calibrated on its own kit.
 fn unit_frames(seed: u64, name: &str) -> Vec<Scored> {
+    units_frames(&[seed], name)
+}
+
+/// The battery's frames of the units `seeds` (two at a time), each calibrated on its own
+/// kit; a unit that refuses calibration fails the test.
+fn units_frames(seeds: &[u64], name: &str) -> Vec<Scored> {
     let work = std::env::temp_dir().join(format!("vistaf-{name}-{}", std::process::id()));
-    let mut results = run_units(&[seed], &work, 2, &[], Default::default(), |_| {});
+    let results = run_units(seeds, &work, 2, &[], Default::default(), |_| {});
     let _ = std::fs::remove_dir_all(&work);
     results
-        .remove(0)
-        .unwrap_or_else(|e| panic!("unit {}: {}", e.unit, e.why))
+        .into_iter()
+        .flat_map(|r| r.unwrap_or_else(|e| panic!("unit {}: {}", e.unit, e.why)))
+        .collect()
 }
 
 /// Every skin of one temperature throughout reads within 1 °C on average.

@@ -36,6 +36,7 @@ use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement};
 use vistaf_protocol::Flag;
 
 use crate::fit::{fit_depth, fit_force, Sample};
+use crate::temperature::rms;
 
 /// What went wrong.
 #[derive(Debug, thiserror::Error)]
@@ -455,16 +456,10 @@ fn longest_rising(points: &[MeanRead]) -> &[MeanRead] {
 /// What the mean's table mends: the kit's uniform frames as read, and through the table
 /// with each inner setpoint left out (read between its neighbours), RMSE °C.
 fn mean_read_note(points: &[MeanRead]) -> String {
-    let rms = |e: &[f64]| (e.iter().map(|x| x * x).sum::<f64>() / e.len().max(1) as f64).sqrt();
     let as_read: Vec<f64> = points.iter().map(|p| p.read_c - p.setpoint_c).collect();
     let held_out: Vec<f64> = points
         .windows(3)
-        .map(|w| {
-            let (a, b, c) = (w[0], w[1], w[2]);
-            let t = a.setpoint_c
-                + (c.setpoint_c - a.setpoint_c) * (b.read_c - a.read_c) / (c.read_c - a.read_c);
-            t - b.setpoint_c
-        })
+        .map(|w| MeanRead::setpoint_at(&w[0], &w[2], w[1].read_c) - w[1].setpoint_c)
         .collect();
     format!(
         "the skin's mean on the kit's uniform frames: {:.3} °C RMSE as read, {:.3} °C through \

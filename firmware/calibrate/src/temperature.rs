@@ -131,7 +131,8 @@ struct Scored {
     candidates: Vec<CandidateScore>,
 }
 
-fn rms(v: &[f64]) -> f64 {
+/// Root mean square of `v` (0 when empty).
+pub(crate) fn rms(v: &[f64]) -> f64 {
     (v.iter().map(|e| e * e).sum::<f64>() / v.len().max(1) as f64).sqrt()
 }
 

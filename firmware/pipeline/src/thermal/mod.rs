@@ -330,21 +330,18 @@ impl Thermometer {
             let f = g.factor as f32;
             (max_c, hottest_px) = (t_c, Some((x * f, y * f)));
         }
-        // Where no place stands out, an extreme is the skin's median: an aggregate of the
-        // whole map, read through the table of the skin's mean as the mean is.
+        // Where no place stands out, an extreme is the skin's median (exactly; one that
+        // stands out departs from it): an aggregate of the whole map, read through the
+        // table of the skin's mean as the mean is.
         let skin_c = self.as_skin(f64::from(ext.skin_c));
-        let extreme = |extreme_c: f32, stands_out: bool| {
-            if stands_out || extreme_c.is_nan() {
-                extreme_c
-            } else {
+        let or_skin = |extreme_c: f32| {
+            if extreme_c == ext.skin_c {
                 skin_c
+            } else {
+                extreme_c
             }
         };
-        let (hot, cold) = (
-            at.is_some() || ext.hottest.is_some(),
-            ext.min_c != ext.skin_c,
-        );
-        let (max_c, min_c) = (extreme(max_c, hot), extreme(ext.min_c, cold));
+        let (max_c, min_c) = (or_skin(max_c), or_skin(ext.min_c));
         let mean_c = if n == 0 {
             f32::NAN
         } else {
