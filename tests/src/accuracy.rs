@@ -10,8 +10,8 @@
 //! Tolerances: peak depth 3 % + 0.02 mm; contact centre 1.5 mm; force 8 % + 0.3 N for the
 //! calibration sphere wholly in view and 25 % + 0.3 N for other indenters and for presses
 //! at the edge; temperature 1 °C (contact and
-//! skin mean), and a skin's hottest place (`temp_max_c`) within 1.5 °C of its truth. A press of 0.2 mm or
-//! more reported as no contact is *missed*; a contact reported more than 3 mm from any
+//! skin mean), and a skin's hottest and coldest places (`temp_max_c`, `temp_min_c`) within
+//! 1.5 °C of the truth's hottest and coldest points. A press of 0.2 mm or more reported as no contact is *missed*; a contact reported more than 3 mm from any
 //! press (or on an untouched skin) is a *phantom*.
 
 use std::path::Path;
@@ -99,6 +99,10 @@ pub struct Scored {
     pub skin_temp_c: Option<f32>,
     /// Hottest block above the truth's hottest point, °C.
     pub max_temp_excess_c: Option<f32>,
+    /// Coldest block below the truth's coldest point, °C.
+    pub min_temp_deficit_c: Option<f32>,
+    /// Hottest minus coldest block on a skin at one temperature, °C.
+    pub uniform_spread_c: Option<f32>,
     /// A press of 0.2 mm or more reported as no contact.
     pub missed: bool,
     /// A contact reported away from every press.
@@ -471,6 +475,8 @@ fn score(
         skin_temp_c: None,
         mean_temp_err_c: None,
         max_temp_excess_c: None,
+        min_temp_deficit_c: None,
+        uniform_spread_c: None,
         missed: false,
         phantom: false,
         failures: Vec::new(),
@@ -534,12 +540,12 @@ pub fn frames_csv(results: &[UnitResult]) -> String {
     let mut s = String::from(
         "unit,kind,indenter,depth_mm,rim_inside_mm,depth_err_mm,force_err_n,force_n,centre_err_mm,\
          contact_temp_err_c,contact_temp_sigma_c,contact_temp_c,skin_temp_c,mean_temp_err_c,max_temp_excess_c,\
-         failures,flags,noise_rad,shape\n",
+         min_temp_deficit_c,uniform_spread_c,failures,flags,noise_rad,shape\n",
     );
     for f in results.iter().flatten().flatten() {
         let _ = writeln!(
             s,
-            "{},{},{},{:.4},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.4},{}",
+            "{},{},{},{:.4},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.4},{}",
             f.unit,
             f.kind.name(),
             f.indenter,
@@ -555,6 +561,8 @@ pub fn frames_csv(results: &[UnitResult]) -> String {
             opt(f.skin_temp_c),
             opt(f.mean_temp_err_c),
             opt(f.max_temp_excess_c),
+            opt(f.min_temp_deficit_c),
+            opt(f.uniform_spread_c),
             f.failures.join(" "),
             f.flags.join(" "),
             f.noise_rad,
@@ -591,6 +599,15 @@ fn score_temperature(s: &mut Scored, state: &SkinState, truth: &Truth, m: &Measu
     s.max_temp_excess_c = Some(excess);
     if excess > 1.5 || excess.is_nan() {
         s.failures.push("hottest block");
+    }
+    let coldest = truth.temperature_c.iter().copied().fold(f32::MAX, f32::min);
+    let deficit = coldest - t.min_c;
+    s.min_temp_deficit_c = Some(deficit);
+    if deficit > 1.5 || deficit.is_nan() {
+        s.failures.push("coldest block");
+    }
+    if state.temperature.sources.is_empty() {
+        s.uniform_spread_c = Some(t.max_c - t.min_c);
     }
 }
 
@@ -710,6 +727,18 @@ pub fn report(results: &[UnitResult]) -> String {
         let _ = writeln!(
             s,
             "Hottest block above the truth's hottest point, °C (absolute): median {a:.2}, p95 {b:.2}, worst {c:.2}."
+        );
+    }
+    if let Some([a, b, c]) = spread(frames.iter().filter_map(|f| f.min_temp_deficit_c)) {
+        let _ = writeln!(
+            s,
+            "Coldest block below the truth's coldest point, °C (absolute): median {a:.2}, p95 {b:.2}, worst {c:.2}."
+        );
+    }
+    if let Some([a, b, c]) = spread(frames.iter().filter_map(|f| f.uniform_spread_c)) {
+        let _ = writeln!(
+            s,
+            "Hottest minus coldest block on a uniform skin, °C: median {a:.2}, p95 {b:.2}, worst {c:.2}."
         );
     }
     let false_flags: Vec<&&Scored> = frames

@@ -79,6 +79,29 @@ fn a_warm_skin_reads_its_mean_where_the_colours_hardly_move() {
     }
 }
 
+/// On these units a uniform skin's readings wander together over many blocks (where the
+/// colours hardly move, with the light across the view), and a neighbourhood departed from
+/// the skin by more than independent noise allows for: a warm skin showed a coldest place,
+/// others a hottest place, beyond the bound below with no flag. A place must now
+/// depart further than the kit's own uniform frames showed places departing
+/// (`TemperatureModel::stand_out`), and every uniform skin's coldest and hottest places
+/// read within 1 °C of it.
+#[test]
+fn a_uniform_skin_shows_no_place_its_kit_did_not() {
+    let frames = units_frames(&[52, 74], "uniform-places");
+    let uniform: Vec<&Scored> = frames.iter().filter(|f| f.kind == Kind::Uniform).collect();
+    assert!(uniform.len() >= 6, "{} uniform skins read", uniform.len());
+    for f in uniform {
+        let (cold, hot) = (f.min_temp_deficit_c.unwrap(), f.max_temp_excess_c.unwrap());
+        assert!(
+            cold <= 1.0 && hot <= 1.0,
+            "unit {} at {:.1} °C: coldest place {cold:.2} °C below, hottest {hot:.2} °C above",
+            f.unit,
+            f.skin_temp_c.unwrap_or(f32::NAN)
+        );
+    }
+}
+
 /// Temperatures a unit's own calibration says it cannot read are flagged, never reported
 /// as if they could: unit 99's camera clips every warm kit frame (the cleared pigment and
 /// the lamps' reflections reach full scale), so a hot contact reads as the warmest skin

@@ -29,8 +29,9 @@ use vistaf_pipeline::ftp::carrier;
 use vistaf_pipeline::image_ops::gray_down_f32;
 use vistaf_pipeline::input::decode_scale;
 use vistaf_pipeline::measure::profile::Shape;
+use vistaf_pipeline::thermal::extremes::STAND_OUT_SIGMAS;
 use vistaf_pipeline::thermal::model::{
-    mean_read_rises, MeanRead, TemperatureModel, MEAN_READ_MIN_SLOPE,
+    mean_read_rises, MeanRead, StandOut, TemperatureModel, MEAN_READ_MIN_SLOPE, STAND_OUT_MARGIN,
 };
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement};
 use vistaf_protocol::Flag;
@@ -336,7 +337,9 @@ fn temperature_model<O: Observer>(
     match fit_temperature(&samples) {
         Ok(mut m) => {
             m.blind_above_c = blind_above_c;
-            m.mean_read = mean_read(run, calib, &m, &kept)?;
+            let reads = kit_reads(run, calib, &m, &kept)?;
+            m.mean_read = mean_read(run, &reads);
+            m.stand_out = stand_out(run, &reads);
             Ok(Some(m))
         }
         Err(e) => {
@@ -346,28 +349,37 @@ fn temperature_model<O: Observer>(
     }
 }
 
-/// The skin's mean as the service reads it with `model` at each setpoint of the frames
-/// `kept` (set, frame, label) ([`TemperatureModel::mean_read`]), over the longest stretch of
-/// setpoints where it rises, with a note of what it mends; empty (with a note) where it
-/// rises nowhere.
-fn mean_read<O: Observer>(
-    run: &mut Run<'_, O>,
-    calib: &Calibration,
-    model: &TemperatureModel,
-    kept: &[(usize, usize, f64)],
-) -> Result<Vec<MeanRead>, CalibrateError> {
-    let calib = Calibration {
-        temperature: Some(model.clone()),
-        ..calib.clone()
-    };
-    let points = kit_means(run, &calib, kept)?;
+/// What the service reads on the kit's uniform frames at one setpoint.
+#[derive(Debug, Clone, Copy)]
+struct KitRead {
+    /// The setpoint, °C.
+    setpoint_c: f64,
+    /// The skin's mean as read, averaged over the setpoint's frames, °C.
+    mean_c: f64,
+    /// The largest departure of a place from the skin over the setpoint's frames, either
+    /// way, in standard deviations
+    /// ([`vistaf_pipeline::thermal::Temperature::departures_sigmas`]).
+    departure_sigmas: f64,
+}
+
+/// The skin's mean at each setpoint ([`TemperatureModel::mean_read`]), over the longest
+/// stretch of setpoints where it rises, with a note of what it mends; empty (with a note)
+/// where it rises nowhere.
+fn mean_read<O: Observer>(run: &mut Run<'_, O>, reads: &[KitRead]) -> Vec<MeanRead> {
+    let points: Vec<MeanRead> = reads
+        .iter()
+        .map(|r| MeanRead {
+            setpoint_c: r.setpoint_c,
+            read_c: r.mean_c,
+        })
+        .collect();
     let rising = longest_rising(&points);
     if rising.len() < 2 {
         run.obs.note(format!(
             "the skin's mean, as read on the kit's uniform frames, rises by less than \
              {MEAN_READ_MIN_SLOPE} °C per °C between every two setpoints: reported as read"
         ));
-        return Ok(Vec::new());
+        return Vec::new();
     }
     if rising.len() < points.len() {
         run.obs.note(format!(
@@ -379,22 +391,56 @@ fn mean_read<O: Observer>(
         ));
     }
     run.obs.note(mean_read_note(rising));
-    Ok(rising.to_vec())
+    rising.to_vec()
 }
 
-/// The mean of the skin's mean over the frames `kept` (set, frame, label) at each setpoint,
-/// in setpoint order, each frame read with `calib` as the service reads it.
-fn kit_means<O: Observer>(
+/// How far places departed from the skin on the kit's uniform frames at each setpoint
+/// ([`TemperatureModel::stand_out`]), with a note; empty where nowhere did they depart
+/// further than the least threshold allows for.
+fn stand_out<O: Observer>(run: &mut Run<'_, O>, reads: &[KitRead]) -> Vec<StandOut> {
+    let table: Vec<StandOut> = reads
+        .iter()
+        .filter(|r| r.departure_sigmas.is_finite())
+        .map(|r| StandOut {
+            setpoint_c: r.setpoint_c,
+            sigmas: r.departure_sigmas,
+        })
+        .collect();
+    let least = f64::from(STAND_OUT_SIGMAS);
+    let Some(widest) = table
+        .iter()
+        .filter(|p| STAND_OUT_MARGIN * p.sigmas > least)
+        .max_by(|a, b| a.sigmas.total_cmp(&b.sigmas))
+    else {
+        return Vec::new();
+    };
+    run.obs.note(format!(
+        "places on the kit's uniform frames departed from the skin by up to {:.1} σ of \
+         their noise (at {} °C): a coldest or hottest place must depart {STAND_OUT_MARGIN} \
+         times as far as the kit's near its temperature, and at least {least} σ",
+        widest.sigmas, widest.setpoint_c
+    ));
+    table
+}
+
+/// What the service reads on the frames `kept` (set, frame, label) at each setpoint, in
+/// setpoint order, each frame read with `model` as the service reads it.
+fn kit_reads<O: Observer>(
     run: &mut Run<'_, O>,
     calib: &Calibration,
+    model: &TemperatureModel,
     kept: &[(usize, usize, f64)],
-) -> Result<Vec<MeanRead>, CalibrateError> {
+) -> Result<Vec<KitRead>, CalibrateError> {
+    let calib = Calibration {
+        temperature: Some(model.clone()),
+        ..calib.clone()
+    };
     let opts = AnalyzerOptions {
         force_calibration: true,
         ..Default::default()
     };
-    // (setpoint key, label, summed mean read, frames)
-    let mut sums: Vec<(f64, f64, f64, f64)> = Vec::new();
+    // (setpoint key, summed mean read, frames, reading)
+    let mut sums: Vec<(f64, f64, f64, KitRead)> = Vec::new();
     let mut frame = Decoded::default();
     for (si, s) in run.sets.iter().enumerate() {
         let frames: Vec<&(usize, usize, f64)> = kept.iter().filter(|k| k.0 == si).collect();
@@ -411,26 +457,36 @@ fn kit_means<O: Observer>(
             run.obs.progress("the skin's mean", done + 1, frames.len());
             s.decoded_frame(i, run.scale, &mut frame)?;
             let d = an.analyze(&frame).map_err(pipe)?;
-            let Some(read) = d
-                .temperature
-                .map(|m| f64::from(m.mean_c))
-                .filter(|r| r.is_finite())
-            else {
+            let Some(m) = d.temperature.filter(|m| m.mean_c.is_finite()) else {
                 continue;
             };
+            let read = f64::from(m.mean_c);
+            let departure = f64::from(m.departures_sigmas[0].max(m.departures_sigmas[1]));
             let key = setpoint(t);
             match sums.iter_mut().find(|x| x.0 == key) {
-                Some(x) => (x.2, x.3) = (x.2 + read, x.3 + 1.0),
-                None => sums.push((key, t, read, 1.0)),
+                Some(x) => {
+                    (x.1, x.2) = (x.1 + read, x.2 + 1.0);
+                    x.3.departure_sigmas = x.3.departure_sigmas.max(departure);
+                }
+                None => sums.push((
+                    key,
+                    read,
+                    1.0,
+                    KitRead {
+                        setpoint_c: t,
+                        mean_c: read,
+                        departure_sigmas: departure,
+                    },
+                )),
             }
         }
     }
     sums.sort_by(|a, b| a.0.total_cmp(&b.0));
     Ok(sums
-        .iter()
-        .map(|x| MeanRead {
-            setpoint_c: x.1,
-            read_c: x.2 / x.3,
+        .into_iter()
+        .map(|(_, sum, n, r)| KitRead {
+            mean_c: sum / n,
+            ..r
         })
         .collect())
 }

@@ -520,6 +520,7 @@ pub fn fit_temperature(samples: &[BlockSample]) -> Result<TemperatureModel, Ther
         held_out,
         n: samples.len(),
         mean_read: Vec::new(),
+        stand_out: Vec::new(),
     })
 }
 

@@ -697,7 +697,7 @@ mod tests {
                 .to_string()
         };
         type Edit<'a> = &'a dyn Fn(&mut serde_json::Value);
-        let cases: [(&str, Edit<'_>); 14] = [
+        let cases: [(&str, Edit<'_>); 16] = [
             ("`shape`", &|v| {
                 v["shape"]["area_mm2"] = serde_json::json!([1.0])
             }),
@@ -771,6 +771,18 @@ mod tests {
                 v["temperature"]["mean_read"] = serde_json::json!([
                     {"setpoint_c": 20.0, "read_c": 21.0},
                     {"setpoint_c": 22.0, "read_c": 20.5}
+                ])
+            }),
+            ("`temperature.stand_out`", &|v| {
+                v["temperature"]["stand_out"] = serde_json::json!([
+                    {"setpoint_c": 20.0, "sigmas": 4.0},
+                    {"setpoint_c": 22.0, "sigmas": -1.0}
+                ])
+            }),
+            ("`temperature.stand_out`", &|v| {
+                v["temperature"]["stand_out"] = serde_json::json!([
+                    {"setpoint_c": 22.0, "sigmas": 4.0},
+                    {"setpoint_c": 20.0, "sigmas": 5.0}
                 ])
             }),
         ];

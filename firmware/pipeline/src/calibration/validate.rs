@@ -5,7 +5,9 @@
 //! file can neither crash the service nor make it report absurd numbers.
 
 use super::{Calibration, DepthModel, FitRange, ForceForm, ForceModel, ShapeSignature};
-use crate::thermal::model::{mean_read_rises, MEAN_READ_MIN_SLOPE};
+use crate::thermal::model::{
+    mean_read_rises, stand_out_ordered, MEAN_READ_MIN_SLOPE, STAND_OUT_LIMIT,
+};
 
 /// A broken rule: the key's path and why.
 #[derive(Debug, Clone, PartialEq)]
@@ -79,6 +81,15 @@ pub fn check(c: &Calibration) -> Check {
                 format!(
                     "must hold finite temperatures in setpoint order, each mean read at least \
                      {MEAN_READ_MIN_SLOPE} °C per °C above the one before"
+                ),
+            ));
+        }
+        if !stand_out_ordered(&t.stand_out) {
+            return Err(bad(
+                "temperature.stand_out",
+                format!(
+                    "must hold finite setpoints in increasing order, each with a departure of \
+                     0…{STAND_OUT_LIMIT} standard deviations"
                 ),
             ));
         }

@@ -27,6 +27,18 @@
 //! the skin has no hottest (coldest) place and its median stands for both. The threshold
 //! follows the noise: inside the transition, where a block reads to a few tenths of a
 //! degree or better, a place a degree warmer than the skin stands out.
+//!
+//! The noise is the larger of the place's own and the skin's (the median of the blocks'
+//! variances): a place at the skin's temperature scatters as the skin does, whatever it
+//! reads. Above the transition, a misread neighbourhood of a warm skin can land on the
+//! coloured stripes' slope, where a block's variance is small; judged by that variance
+//! alone, a warm skin would show a coldest place degrees below it.
+//!
+//! [`STAND_OUT_SIGMAS`] is the least threshold, what independent noise needs. A uniform
+//! skin's readings also wander together over many blocks with the light across the view,
+//! which no block's variance holds; a calibration raises the threshold where its kit's own
+//! uniform frames showed places departing further
+//! ([`super::model::TemperatureModel::stand_out_sigmas`]).
 
 use super::static_light::median;
 
@@ -36,8 +48,8 @@ pub const REACH: usize = 2;
 /// than half of it.
 pub const MIN_NEIGHBOURS: usize = 13;
 /// Standard deviations of its median by which a neighbourhood must depart from the skin's
-/// median to be an extreme: beyond what the largest of a few hundred medians of pure noise
-/// reaches (a map holds a few hundred disjoint neighbourhoods).
+/// median to be an extreme, at least: beyond what the largest of a few hundred medians of
+/// independent noise reaches (a map holds a few hundred disjoint neighbourhoods).
 pub const STAND_OUT_SIGMAS: f32 = 3.5;
 /// Blocks that share one black-stripe estimate (2 × 2, `evaluate`): a neighbourhood of `n`
 /// blocks holds about `n / 4` independent readings where the black stripes carry them.
@@ -55,6 +67,10 @@ pub struct Extremes {
     pub hottest: Option<usize>,
     /// The skin: the map's median, °C (NaN when nothing was measured).
     pub skin_c: f32,
+    /// How far the coldest and the hottest neighbourhood depart from the skin, in standard
+    /// deviations of a place at the skin's temperature (0 when none departs that way): what
+    /// a uniform skin's map shows of its noise, for the calibration's threshold.
+    pub departures_sigmas: [f32; 2],
 }
 
 /// Standard deviation of the median of `n` readings of variance `var_c2` each, °C, with
@@ -69,20 +85,30 @@ pub fn median_sigma_c(var_c2: f32, n: usize) -> f32 {
 }
 
 /// Whether a reading `departure_c` °C from the skin's median, with standard deviation
-/// `sigma_c`, stands out of its noise ([`STAND_OUT_SIGMAS`]): a neighbourhood's median here,
-/// a contact's own reading in [`super::Thermometer::measure`].
-pub fn stands_out(departure_c: f32, sigma_c: f32) -> bool {
-    departure_c > STAND_OUT_SIGMAS * sigma_c
+/// `sigma_c`, stands out of its noise by more than `sigmas` of it (at least
+/// [`STAND_OUT_SIGMAS`], more where the calibration's kit showed more,
+/// [`super::model::TemperatureModel::stand_out_sigmas`]): a neighbourhood's median here, a
+/// contact's own reading in [`super::Thermometer::measure`].
+pub fn stands_out(departure_c: f32, sigma_c: f32, sigmas: f32) -> bool {
+    departure_c > sigmas * sigma_c
 }
 
 /// The extremes of a `bw × bh` map (°C, NaN where unmeasured), each block's reading of
-/// variance `var_c2` (°C², from the calibration's tables).
-pub fn extremes(map_c: &[f32], var_c2: &[f32], bw: usize, bh: usize) -> Extremes {
+/// variance `var_c2` (°C², from the calibration's tables); `sigmas` says by how many
+/// standard deviations a place must depart from a skin whose median reads `skin_c` to
+/// stand out ([`stands_out`]).
+pub fn extremes(
+    map_c: &[f32],
+    var_c2: &[f32],
+    (bw, bh): (usize, usize),
+    sigmas: impl Fn(f32) -> f32,
+) -> Extremes {
     let mut e = Extremes {
         min_c: f32::INFINITY,
         max_c: f32::NEG_INFINITY,
         hottest: None,
         skin_c: f32::NAN,
+        departures_sigmas: [0.0; 2],
     };
     let n = map_c.len().min(bw * bh);
     let mut measured: Vec<f32> = map_c[..n].iter().copied().filter(|t| !t.is_nan()).collect();
@@ -90,6 +116,8 @@ pub fn extremes(map_c: &[f32], var_c2: &[f32], bw: usize, bh: usize) -> Extremes
         return e;
     };
     e.skin_c = skin;
+    let threshold = sigmas(skin);
+    let skin_var = skin_variance_c2(&map_c[..n], var_c2);
     let mut near = [(0f32, 0f32); (2 * REACH + 1) * (2 * REACH + 1)];
     let mut confirmed = false;
     for b in 0..n {
@@ -102,12 +130,22 @@ pub fn extremes(map_c: &[f32], var_c2: &[f32], bw: usize, bh: usize) -> Extremes
         }
         confirmed = true;
         let ((hot, hot_var), (cold, cold_var)) = middles(&mut near[..count]);
-        let stands = |departure: f32, var: f32| stands_out(departure, median_sigma_c(var, count));
-        if hot > e.max_c && stands(hot - skin, hot_var) {
+        // In standard deviations of a place at the skin's temperature, whatever it reads.
+        let departure = |d: f32, var: f32| {
+            let var = if var.is_nan() { var } else { var.max(skin_var) };
+            d / median_sigma_c(var, count)
+        };
+        let (cold_z, hot_z) = (
+            departure(skin - cold, cold_var),
+            departure(hot - skin, hot_var),
+        );
+        e.departures_sigmas[0] = e.departures_sigmas[0].max(cold_z);
+        e.departures_sigmas[1] = e.departures_sigmas[1].max(hot_z);
+        if hot > e.max_c && hot_z > threshold {
             e.max_c = hot;
             e.hottest = Some(b);
         }
-        if stands(skin - cold, cold_var) {
+        if cold_z > threshold {
             e.min_c = e.min_c.min(cold);
         }
     }
@@ -121,6 +159,17 @@ pub fn extremes(map_c: &[f32], var_c2: &[f32], bw: usize, bh: usize) -> Extremes
         e.min_c = skin;
     }
     e
+}
+
+/// The skin's variance: the median of the measured blocks' (°C², 0 when none is known).
+fn skin_variance_c2(map_c: &[f32], var_c2: &[f32]) -> f32 {
+    let mut variances: Vec<f32> = map_c
+        .iter()
+        .zip(var_c2)
+        .filter(|(t, v)| !t.is_nan() && !v.is_nan())
+        .map(|(_, &v)| v)
+        .collect();
+    median(&mut variances).unwrap_or(0.0)
 }
 
 /// Fills `near` with the measured (reading, variance) pairs of block `b`'s neighbourhood
@@ -168,6 +217,11 @@ mod tests {
     /// degree, °C².
     const FINE_C2: f32 = 0.01;
 
+    /// The threshold of a calibration whose kit showed nothing beyond independent noise.
+    fn standard(_skin_c: f32) -> f32 {
+        STAND_OUT_SIGMAS
+    }
+
     #[test]
     fn a_stray_block_is_not_the_hottest_but_a_warm_patch_is() {
         let (bw, bh) = (14, 12);
@@ -179,7 +233,7 @@ mod tests {
             }
         }
         m[6 * bw + 9] = 32.0;
-        let e = extremes(&m, &vec![FINE_C2; bw * bh], bw, bh);
+        let e = extremes(&m, &vec![FINE_C2; bw * bh], (bw, bh), standard);
         assert_eq!(e.max_c, 31.0);
         assert_eq!(e.min_c, 25.0);
         let h = e.hottest.expect("a hottest block");
@@ -203,7 +257,7 @@ mod tests {
         for (x, y) in [(8, 8), (9, 8), (8, 9), (9, 9)] {
             m[y * bw + x] = 30.0;
         }
-        let e = extremes(&m, &vec![FINE_C2; bw * bh], bw, bh);
+        let e = extremes(&m, &vec![FINE_C2; bw * bh], (bw, bh), standard);
         assert_eq!((e.min_c, e.max_c, e.hottest), (38.0, 38.0, None));
     }
 
@@ -215,7 +269,7 @@ mod tests {
         for (b, v) in m.iter_mut().take(12).enumerate() {
             *v = 20.0 + b as f32;
         }
-        let e = extremes(&m, &var, bw, bh);
+        let e = extremes(&m, &var, (bw, bh), standard);
         assert_eq!(
             (e.min_c, e.max_c, e.hottest),
             (f32::INFINITY, f32::NEG_INFINITY, None)
@@ -223,7 +277,7 @@ mod tests {
         m[12] = 40.0;
         // The middle column's neighbourhoods hold all 13: 20…31 and 40, whose middle is
         // 26, the skin's median too, so nothing stands out from it.
-        let e = extremes(&m, &var, bw, bh);
+        let e = extremes(&m, &var, (bw, bh), standard);
         assert_eq!((e.min_c, e.max_c, e.hottest), (26.0, 26.0, None));
     }
 
@@ -237,12 +291,66 @@ mod tests {
         let mut rng = crate::test_rng::XorShift(0x9e37_79b9_7f4a_7c15);
         let m = cells_of_noise(bw, bh, skin, sigma, &mut rng);
         let var = vec![sigma * sigma; bw * bh];
-        let largest_median = extremes(&m, &vec![0.0; bw * bh], bw, bh).max_c;
+        let largest_median = extremes(&m, &vec![0.0; bw * bh], (bw, bh), standard).max_c;
         assert!(largest_median > skin + 1.0, "{largest_median}");
-        let e = extremes(&m, &var, bw, bh);
+        let e = extremes(&m, &var, (bw, bh), standard);
         assert!((e.max_c - skin).abs() < 0.3, "hottest {}", e.max_c);
         assert!((e.min_c - skin).abs() < 0.3, "coldest {}", e.min_c);
         assert_eq!(e.hottest, None);
+    }
+
+    /// A warm skin whose blocks read to ±2 °C, with a patch of 6 × 6 blocks misread 3 °C
+    /// low where the calibration's variance is a tenth of a degree's: the patch is at the
+    /// skin's temperature and scatters as the skin does, so it is no coldest place; ten
+    /// degrees below, it is.
+    #[test]
+    fn a_misread_patch_of_a_noisy_skin_is_judged_by_the_skins_noise() {
+        let (bw, bh, skin, sigma) = (60, 44, 39.0f32, 2.0f32);
+        let mut rng = crate::test_rng::XorShift(0x853c_49e6_748f_ea9b);
+        let mut m = vec![skin; bw * bh];
+        let mut var = vec![sigma * sigma; bw * bh];
+        let patch: Vec<usize> = (10..16)
+            .flat_map(|y| (20..26).map(move |x| y * bw + x))
+            .collect();
+        for &b in &patch {
+            m[b] = skin - 3.0 + 0.1 * (rng.next() % 3) as f32;
+            var[b] = FINE_C2;
+        }
+        let e = extremes(&m, &var, (bw, bh), standard);
+        assert_eq!(e.min_c, skin);
+        // Judged by the patch's own variance, it would stand out by about 5 σ.
+        assert!(e.departures_sigmas[0] > 1.0 && e.departures_sigmas[0] < STAND_OUT_SIGMAS);
+        for &b in &patch {
+            m[b] -= 7.0;
+        }
+        let e = extremes(&m, &var, (bw, bh), standard);
+        assert!((e.min_c - (skin - 10.0)).abs() < 0.3, "coldest {}", e.min_c);
+    }
+
+    /// A place a degree below a skin read to a tenth of a degree stands out by about 8 σ:
+    /// the coldest place at the least threshold, the skin's own median where the kit's
+    /// uniform frames showed departures that far.
+    #[test]
+    fn a_place_stands_out_only_beyond_the_threshold() {
+        let (bw, bh, skin) = (30, 24, 25.0f32);
+        let mut m = vec![skin; bw * bh];
+        for y in 8..14 {
+            for x in 10..16 {
+                m[y * bw + x] = skin - 1.0;
+            }
+        }
+        let var = vec![FINE_C2; bw * bh];
+        let e = extremes(&m, &var, (bw, bh), standard);
+        assert_eq!(e.min_c, skin - 1.0);
+        let z = e.departures_sigmas[0];
+        let expected = 1.0 / median_sigma_c(FINE_C2, 25);
+        assert!(
+            (z - expected).abs() < 1e-3 * expected,
+            "{z} σ, {expected} σ expected"
+        );
+        assert_eq!(e.departures_sigmas[1], 0.0);
+        let wide = extremes(&m, &var, (bw, bh), |_| 1.1 * expected);
+        assert_eq!((wide.min_c, wide.max_c), (skin, skin));
     }
 
     /// …but a warm object of 6 × 6 blocks (12 mm) ten degrees above that noisy skin, and a
@@ -258,7 +366,7 @@ mod tests {
                 m[(y + 20) * bw + x + 20] -= 10.0;
             }
         }
-        let e = extremes(&m, &vec![sigma * sigma; bw * bh], bw, bh);
+        let e = extremes(&m, &vec![sigma * sigma; bw * bh], (bw, bh), standard);
         assert!((e.max_c - (skin + 10.0)).abs() < 2.5, "hottest {}", e.max_c);
         assert!((e.min_c - (skin - 10.0)).abs() < 2.5, "coldest {}", e.min_c);
         let h = e.hottest.expect("a hottest place");

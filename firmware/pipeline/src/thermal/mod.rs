@@ -64,13 +64,18 @@ pub struct Temperature {
     pub max_c: f32,
     /// Centre of the hottest place, input pixels (`None` where no place stands out).
     pub hottest_px: Option<(f32, f32)>,
+    /// How far the coldest and the hottest neighbourhood depart from the skin, in standard
+    /// deviations of a place at the skin's temperature
+    /// ([`extremes::Extremes::departures_sigmas`]): on a uniform skin, its noise.
+    pub departures_sigmas: [f32; 2],
     /// Temperature over the contact region, °C, when there is contact.
     pub contact_c: Option<f32>,
     /// Its standard deviation, °C: the calibration's variance tables, widened by how
     /// far the reading moves with the contact's stripe ratio
     /// ([`Temperatures::read_contact`]).
     pub contact_sigma_c: Option<f32>,
-    /// A block read outside the calibrated range (or outside the calibrated colours).
+    /// A block read outside the calibrated range (or outside the calibrated colours), or a
+    /// coldest or hottest place read beyond it.
     pub out_of_range: bool,
     /// The calibration's own held-out test missed by more than [`HELD_OUT_MISS_LIMIT_C`]
     /// near a reading this frame reports (the skin's mean, coldest and hottest places,
@@ -181,6 +186,18 @@ impl Thermometer {
         self.model
             .as_ref()
             .map_or(read_c, |m| m.skin_mean_c(read_c)) as f32
+    }
+
+    /// By how many standard deviations a place must depart from a skin whose map's median
+    /// reads `skin_c` to stand out: the calibration's threshold at the skin temperature
+    /// that median stands for ([`TemperatureModel::stand_out_sigmas`]).
+    fn stand_out_sigmas(&self) -> impl Fn(f32) -> f32 + '_ {
+        move |skin_c: f32| {
+            let skin = f64::from(self.as_skin(f64::from(skin_c)));
+            self.model
+                .as_ref()
+                .map_or(extremes::STAND_OUT_SIGMAS, |m| m.stand_out_sigmas(skin))
+        }
     }
 
     /// Learns what the reference shows of the light and the skin from its colour sums per
@@ -310,7 +327,8 @@ impl Thermometer {
                 ..r
             });
         out_of_range |= contact.is_some_and(|r| !r.trusted);
-        let ext = extremes::extremes(&map.map_c, &map.var_c2, g.bw, g.bh);
+        let sigmas = self.stand_out_sigmas();
+        let ext = extremes::extremes(&map.map_c, &map.var_c2, (g.bw, g.bh), &sigmas);
         let nan = |v: f32| if v.is_finite() { v } else { f32::NAN };
         let (mut max_c, mut hottest_px) =
             (nan(ext.max_c), ext.hottest.map(|b| g.block_center_px(b)));
@@ -320,7 +338,8 @@ impl Thermometer {
         // stood out, `max_c` is the skin's median, and the contact must stand out of its
         // own noise as a neighbourhood would.
         let above_skin = |r: &Reading| {
-            ext.hottest.is_some() || extremes::stands_out(r.t_c - max_c, r.var_c2.max(0.0).sqrt())
+            ext.hottest.is_some()
+                || extremes::stands_out(r.t_c - max_c, r.var_c2.max(0.0).sqrt(), sigmas(ext.skin_c))
         };
         let warmest =
             contact.filter(|r| r.trusted && (max_c.is_nan() || (r.t_c > max_c && above_skin(r))));
@@ -342,6 +361,14 @@ impl Thermometer {
             }
         };
         let (max_c, min_c) = (or_skin(max_c), or_skin(ext.min_c));
+        // A place read beyond the calibrated range is no temperature the kit showed (a
+        // neighbourhood of blocks misread together, beside a deep press say), however few
+        // blocks it holds.
+        out_of_range |= self.model.as_ref().is_some_and(|m| {
+            [min_c, max_c]
+                .iter()
+                .any(|&t| t.is_finite() && m.out_of_range(f64::from(t), 0.0))
+        });
         let mean_c = if n == 0 {
             f32::NAN
         } else {
@@ -360,6 +387,7 @@ impl Thermometer {
             mean_c,
             max_c,
             hottest_px,
+            departures_sigmas: ext.departures_sigmas,
             map_c: map.map_c,
             contact_c: contact.map(|r| r.t_c),
             contact_sigma_c: contact.map(|r| r.var_c2.max(0.0).sqrt()),

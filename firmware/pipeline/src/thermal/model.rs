@@ -11,6 +11,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::extremes::STAND_OUT_SIGMAS;
 use super::lab::Invariants;
 
 /// Largest magnitude of a colour feature or an invariant a model may hold (CIELAB runs
@@ -494,7 +495,42 @@ pub struct TemperatureModel {
     /// ([`TemperatureModel::skin_mean_c`]). Empty in files written before it.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub mean_read: Vec<MeanRead>,
+    /// How far a place departed from the skin on the kit's uniform frames at each
+    /// setpoint, in order ([`TemperatureModel::stand_out_sigmas`]). Empty in files written
+    /// before it.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub stand_out: Vec<StandOut>,
 }
+
+/// The largest departure of a place from the skin on the kit's uniform frames at one
+/// setpoint ([`super::extremes::Extremes::departures_sigmas`], either way, over the
+/// setpoint's frames).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct StandOut {
+    /// Setpoint, °C.
+    pub setpoint_c: f64,
+    /// The departure, in standard deviations of a place at the skin's temperature.
+    pub sigmas: f64,
+}
+
+/// The largest departure a calibration file may hold in [`TemperatureModel::stand_out`],
+/// standard deviations: far beyond any kit's, short of overflowing what it multiplies.
+pub const STAND_OUT_LIMIT: f64 = 1e3;
+
+/// Whether a table of [`StandOut`] holds finite setpoints in increasing order, each with a
+/// departure within 0…[`STAND_OUT_LIMIT`].
+pub fn stand_out_ordered(table: &[StandOut]) -> bool {
+    table
+        .iter()
+        .all(|p| p.setpoint_c.is_finite() && (0.0..=STAND_OUT_LIMIT).contains(&p.sigmas))
+        && table.windows(2).all(|w| w[0].setpoint_c < w[1].setpoint_c)
+}
+
+/// How far beyond the largest departure its kit's uniform frames showed a place must
+/// depart to stand out on a unit's skin, as a factor: a frame in use drifts in exposure
+/// and white balance, which the kit's frames at one setpoint share, and the kit holds only
+/// a few frames per setpoint.
+pub const STAND_OUT_MARGIN: f64 = 1.25;
 
 /// Least rise of the skin's mean read per °C of setpoint for [`TemperatureModel::mean_read`]
 /// to stand: where it rises less, turning it back would magnify the mean's noise by more
@@ -636,6 +672,32 @@ impl TemperatureModel {
             return read_c + fade * (end.setpoint_c - end.read_c);
         }
         MeanRead::setpoint_at(&m[k - 1], &m[k], read_c)
+    }
+
+    /// By how many standard deviations of its noise a place must depart from a skin at
+    /// `skin_c` (°C) to be its coldest or hottest place: [`STAND_OUT_SIGMAS`], or
+    /// [`STAND_OUT_MARGIN`] times the largest departure the kit's uniform frames showed
+    /// there ([`TemperatureModel::stand_out`], linear between setpoints, the end's
+    /// beyond), where that is more.
+    ///
+    /// The noise of a neighbourhood's median assumes its blocks' errors independent beyond
+    /// the cells that share a black-stripe estimate. Where the colours hardly move (above
+    /// the coloured stripes' transition), a uniform skin's readings wander together over
+    /// many blocks, with the light across the view: its places depart further than
+    /// independent noise would take them, and its own kit shows how far.
+    pub fn stand_out_sigmas(&self, skin_c: f64) -> f32 {
+        let m = &self.stand_out;
+        let kit = match m.partition_point(|p| p.setpoint_c <= skin_c) {
+            _ if m.is_empty() || !skin_c.is_finite() => 0.0,
+            0 => m[0].sigmas,
+            k if k == m.len() => m[k - 1].sigmas,
+            k => {
+                let (a, b) = (m[k - 1], m[k]);
+                let f = (skin_c - a.setpoint_c) / (b.setpoint_c - a.setpoint_c);
+                a.sigmas + f * (b.sigmas - a.sigmas)
+            }
+        };
+        (STAND_OUT_MARGIN * kit).max(f64::from(STAND_OUT_SIGMAS)) as f32
     }
 
     /// How far the calibration's own held-out test missed near `t` (°C): the absolute
@@ -862,5 +924,44 @@ mod tests {
         assert!((t - 30.099).abs() < 0.01, "{t}");
         assert!(v < 0.01);
         assert_eq!(fuse(10.0, 1.0, 20.0, 1.0).0, 15.0);
+    }
+
+    /// The threshold is the least one without a table, and where the kit's places departed
+    /// less than it allows for; beyond that, the margin times the kit's departure, linear
+    /// between setpoints and the end's beyond them.
+    #[test]
+    fn a_place_must_depart_further_where_the_kit_showed_places_departing() {
+        let least = f64::from(STAND_OUT_SIGMAS);
+        let mut m = default_model();
+        m.stand_out.clear();
+        assert_eq!(f64::from(m.stand_out_sigmas(40.0)), least);
+        m.stand_out = vec![
+            StandOut {
+                setpoint_c: 30.0,
+                sigmas: 2.0,
+            },
+            StandOut {
+                setpoint_c: 40.0,
+                sigmas: 6.0,
+            },
+        ];
+        assert!(stand_out_ordered(&m.stand_out));
+        let at = |t: f64| f64::from(m.stand_out_sigmas(t));
+        for (t, want) in [
+            (20.0, least),
+            (30.0, least),
+            (37.5, STAND_OUT_MARGIN * 5.0),
+            (40.0, STAND_OUT_MARGIN * 6.0),
+            (47.5, STAND_OUT_MARGIN * 6.0),
+            (f64::NAN, least),
+        ] {
+            assert!(
+                (at(t) - want).abs() < 1e-5,
+                "{t} °C: {} σ, {want} σ expected",
+                at(t)
+            );
+        }
+        m.stand_out.swap(0, 1);
+        assert!(!stand_out_ordered(&m.stand_out));
     }
 }
