@@ -9,10 +9,10 @@
 //! a failure without any flag is a *silent failure*, the one a robot cannot guard against.
 //! Tolerances: peak depth 3 % + 0.02 mm; contact centre 1.5 mm; force 8 % + 0.3 N for the
 //! calibration sphere wholly in view and 25 % + 0.3 N for other indenters and for presses
-//! at the edge; temperature 1 °C (contact and
-//! skin mean), and a skin's hottest and coldest places (`temp_max_c`, `temp_min_c`) within
-//! 1.5 °C of the truth's hottest and coldest points. A press of 0.2 mm or more reported as no contact is *missed*; a contact reported more than 3 mm from any
-//! press (or on an untouched skin) is a *phantom*.
+//! at the edge; temperature 1 °C (contact and skin mean), and a skin's hottest and coldest
+//! places (`temp_max_c`, `temp_min_c`) within 1.5 °C of the truth's hottest and coldest
+//! points. A press of 0.2 mm or more reported as no contact is *missed*; a contact reported
+//! more than 3 mm from any press (or on an untouched skin) is a *phantom*.
 
 use std::path::Path;
 
@@ -101,7 +101,8 @@ pub struct Scored {
     pub max_temp_excess_c: Option<f32>,
     /// Coldest block below the truth's coldest point, °C.
     pub min_temp_deficit_c: Option<f32>,
-    /// Hottest minus coldest block on a skin at one temperature, °C.
+    /// Hottest minus coldest block on a skin at one temperature (untouched, or pressed at
+    /// that temperature), °C.
     pub uniform_spread_c: Option<f32>,
     /// A press of 0.2 mm or more reported as no contact.
     pub missed: bool,
@@ -738,7 +739,7 @@ pub fn report(results: &[UnitResult]) -> String {
     if let Some([a, b, c]) = spread(frames.iter().filter_map(|f| f.uniform_spread_c)) {
         let _ = writeln!(
             s,
-            "Hottest minus coldest block on a uniform skin, °C: median {a:.2}, p95 {b:.2}, worst {c:.2}."
+            "Hottest minus coldest block on a skin at one temperature (untouched, or pressed at that temperature), °C: median {a:.2}, p95 {b:.2}, worst {c:.2}."
         );
     }
     let false_flags: Vec<&&Scored> = frames

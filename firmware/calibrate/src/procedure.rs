@@ -31,7 +31,8 @@ use vistaf_pipeline::input::decode_scale;
 use vistaf_pipeline::measure::profile::Shape;
 use vistaf_pipeline::thermal::extremes::STAND_OUT_SIGMAS;
 use vistaf_pipeline::thermal::model::{
-    mean_read_rises, MeanRead, StandOut, TemperatureModel, MEAN_READ_MIN_SLOPE, STAND_OUT_MARGIN,
+    mean_read_rises, MeanRead, StandOut, TemperatureModel, MEAN_READ_MIN_SLOPE, STAND_OUT_LIMIT,
+    STAND_OUT_MARGIN,
 };
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement};
 use vistaf_protocol::Flag;
@@ -403,7 +404,9 @@ fn stand_out<O: Observer>(run: &mut Run<'_, O>, reads: &[KitRead]) -> Vec<StandO
         .filter(|r| r.departure_sigmas.is_finite())
         .map(|r| StandOut {
             setpoint_c: r.setpoint_c,
-            sigmas: r.departure_sigmas,
+            // A block the variance tables call exact can depart without bound; the file
+            // holds what any threshold needs.
+            sigmas: r.departure_sigmas.min(STAND_OUT_LIMIT),
         })
         .collect();
     let least = f64::from(STAND_OUT_SIGMAS);
