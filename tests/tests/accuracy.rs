@@ -67,9 +67,7 @@ fn a_phantom_whose_window_spans_the_view_keeps_its_frame_in_the_fit() {
 #[test]
 fn a_warm_skin_reads_its_mean_where_the_colours_hardly_move() {
     let frames = units_frames(&[44, 53], "warm-mean");
-    let uniform: Vec<&Scored> = frames.iter().filter(|f| f.kind == Kind::Uniform).collect();
-    assert!(uniform.len() >= 6, "{} uniform skins read", uniform.len());
-    for f in uniform {
+    for f in uniform_skins(&frames) {
         let e = f.mean_temp_err_c.unwrap();
         assert!(
             e.abs() <= 0.4,
@@ -89,9 +87,7 @@ fn a_warm_skin_reads_its_mean_where_the_colours_hardly_move() {
 #[test]
 fn a_uniform_skin_shows_no_place_its_kit_did_not() {
     let frames = units_frames(&[52, 74], "uniform-places");
-    let uniform: Vec<&Scored> = frames.iter().filter(|f| f.kind == Kind::Uniform).collect();
-    assert!(uniform.len() >= 6, "{} uniform skins read", uniform.len());
-    for f in uniform {
+    for f in uniform_skins(&frames) {
         let (cold, hot) = (f.min_temp_deficit_c.unwrap(), f.max_temp_excess_c.unwrap());
         assert!(
             cold <= 1.0 && hot <= 1.0,
@@ -142,6 +138,13 @@ fn units_frames(seeds: &[u64], name: &str) -> Vec<Scored> {
         .into_iter()
         .flat_map(|r| r.unwrap_or_else(|e| panic!("unit {}: {}", e.unit, e.why)))
         .collect()
+}
+
+/// The uniform skins among `frames`, at least six of them (two units' worth).
+fn uniform_skins(frames: &[Scored]) -> Vec<&Scored> {
+    let uniform: Vec<&Scored> = frames.iter().filter(|f| f.kind == Kind::Uniform).collect();
+    assert!(uniform.len() >= 6, "{} uniform skins read", uniform.len());
+    uniform
 }
 
 /// Every skin of one temperature throughout reads within 1 °C on average.

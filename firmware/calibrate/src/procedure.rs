@@ -29,7 +29,7 @@ use vistaf_pipeline::ftp::carrier;
 use vistaf_pipeline::image_ops::gray_down_f32;
 use vistaf_pipeline::input::decode_scale;
 use vistaf_pipeline::measure::profile::Shape;
-use vistaf_pipeline::thermal::extremes::STAND_OUT_SIGMAS;
+use vistaf_pipeline::thermal::extremes::{departures_sigmas, STAND_OUT_SIGMAS};
 use vistaf_pipeline::thermal::model::{
     mean_read_rises, MeanRead, StandOut, TemperatureModel, MEAN_READ_MIN_SLOPE, STAND_OUT_LIMIT,
     STAND_OUT_MARGIN,
@@ -358,8 +358,7 @@ struct KitRead {
     /// The skin's mean as read, averaged over the setpoint's frames, °C.
     mean_c: f64,
     /// The largest departure of a place from the skin over the setpoint's frames, either
-    /// way, in standard deviations
-    /// ([`vistaf_pipeline::thermal::Temperature::departures_sigmas`]).
+    /// way, in standard deviations ([`departures_sigmas`]).
     departure_sigmas: f64,
 }
 
@@ -442,8 +441,8 @@ fn kit_reads<O: Observer>(
         force_calibration: true,
         ..Default::default()
     };
-    // (setpoint key, summed mean read, frames, reading)
-    let mut sums: Vec<(f64, f64, f64, KitRead)> = Vec::new();
+    // (setpoint key, frames, reading with its means summed)
+    let mut sums: Vec<(f64, f64, KitRead)> = Vec::new();
     let mut frame = Decoded::default();
     for (si, s) in run.sets.iter().enumerate() {
         let frames: Vec<&(usize, usize, f64)> = kept.iter().filter(|k| k.0 == si).collect();
@@ -463,33 +462,29 @@ fn kit_reads<O: Observer>(
             let Some(m) = d.temperature.filter(|m| m.mean_c.is_finite()) else {
                 continue;
             };
-            let read = f64::from(m.mean_c);
-            let departure = f64::from(m.departures_sigmas[0].max(m.departures_sigmas[1]));
+            let [cold, hot] = departures_sigmas(&m.map_c, &m.var_c2, (m.bw, m.bh));
+            let read = KitRead {
+                setpoint_c: t,
+                mean_c: f64::from(m.mean_c),
+                departure_sigmas: f64::from(cold.max(hot)),
+            };
             let key = setpoint(t);
             match sums.iter_mut().find(|x| x.0 == key) {
-                Some(x) => {
-                    (x.1, x.2) = (x.1 + read, x.2 + 1.0);
-                    x.3.departure_sigmas = x.3.departure_sigmas.max(departure);
+                Some((_, n, sum)) => {
+                    *n += 1.0;
+                    sum.mean_c += read.mean_c;
+                    sum.departure_sigmas = sum.departure_sigmas.max(read.departure_sigmas);
                 }
-                None => sums.push((
-                    key,
-                    read,
-                    1.0,
-                    KitRead {
-                        setpoint_c: t,
-                        mean_c: read,
-                        departure_sigmas: departure,
-                    },
-                )),
+                None => sums.push((key, 1.0, read)),
             }
         }
     }
     sums.sort_by(|a, b| a.0.total_cmp(&b.0));
     Ok(sums
         .into_iter()
-        .map(|(_, sum, n, r)| KitRead {
-            mean_c: sum / n,
-            ..r
+        .map(|(_, n, sum)| KitRead {
+            mean_c: sum.mean_c / n,
+            ..sum
         })
         .collect())
 }

@@ -28,8 +28,8 @@
 //! follows the noise: inside the transition, where a block reads to a few tenths of a
 //! degree or better, a place a degree warmer than the skin stands out.
 //!
-//! The noise is the larger of the place's own and the skin's (the median of the blocks'
-//! variances): a place at the skin's temperature scatters as the skin does, whatever it
+//! The noise is the larger of the place's own and the skin's (the variance of the block
+//! that reads the skin's median): a place at the skin's temperature scatters as the skin does, whatever it
 //! reads. Above the transition, a misread neighbourhood of a warm skin can land on the
 //! coloured stripes' slope, where a block's variance is small; judged by that variance
 //! alone, a warm skin would show a coldest place degrees below it.
@@ -39,8 +39,6 @@
 //! which no block's variance holds; a calibration raises the threshold where its kit's own
 //! uniform frames showed places departing further
 //! ([`super::model::TemperatureModel::stand_out_sigmas`]).
-
-use super::static_light::median;
 
 /// Blocks from a block to the edge of its neighbourhood (5 × 5 blocks).
 pub const REACH: usize = 2;
@@ -67,10 +65,6 @@ pub struct Extremes {
     pub hottest: Option<usize>,
     /// The skin: the map's median, °C (NaN when nothing was measured).
     pub skin_c: f32,
-    /// How far the coldest and the hottest neighbourhood depart from the skin, in standard
-    /// deviations of a place at the skin's temperature (0 when none departs that way): what
-    /// a uniform skin's map shows of its noise, for the calibration's threshold.
-    pub departures_sigmas: [f32; 2],
 }
 
 /// Standard deviation of the median of `n` readings of variance `var_c2` each, °C, with
@@ -108,19 +102,110 @@ pub fn extremes(
         max_c: f32::NEG_INFINITY,
         hottest: None,
         skin_c: f32::NAN,
-        departures_sigmas: [0.0; 2],
     };
-    let n = map_c.len().min(bw * bh);
-    let mut measured: Vec<f32> = map_c[..n].iter().copied().filter(|t| !t.is_nan()).collect();
-    let Some(skin) = median(&mut measured) else {
+    let Some(skin) = Skin::of(map_c, var_c2, bw * bh) else {
         return e;
     };
-    e.skin_c = skin;
-    let threshold = sigmas(skin);
-    let skin_var = skin_variance_c2(&map_c[..n], var_c2);
+    e.skin_c = skin.c;
+    let threshold = sigmas(skin.c);
+    let confirmed = each_place(map_c, var_c2, (bw, bh), |b, p| {
+        let (hot, cold) = (p.hot.0, p.cold.0);
+        if hot > e.max_c && skin.departure_sigmas(hot - skin.c, p.hot.1, p.count) > threshold {
+            e.max_c = hot;
+            e.hottest = Some(b);
+        }
+        if cold < e.min_c && skin.departure_sigmas(skin.c - cold, p.cold.1, p.count) > threshold {
+            e.min_c = cold;
+        }
+    });
+    if !confirmed {
+        return e;
+    }
+    if e.hottest.is_none() {
+        e.max_c = skin.c;
+    }
+    if e.min_c == f32::INFINITY {
+        e.min_c = skin.c;
+    }
+    e
+}
+
+/// How far the coldest and the hottest neighbourhood of a `bw × bh` map depart from its
+/// skin, in standard deviations of a place at the skin's temperature (0 when none departs
+/// that way; see [`extremes`]): on a uniform skin, what its places show of its noise, for
+/// the calibration's threshold ([`super::model::TemperatureModel::stand_out`]).
+pub fn departures_sigmas(map_c: &[f32], var_c2: &[f32], (bw, bh): (usize, usize)) -> [f32; 2] {
+    let mut out = [0.0f32; 2];
+    let Some(skin) = Skin::of(map_c, var_c2, bw * bh) else {
+        return out;
+    };
+    each_place(map_c, var_c2, (bw, bh), |_, p| {
+        out[0] = out[0].max(skin.departure_sigmas(skin.c - p.cold.0, p.cold.1, p.count));
+        out[1] = out[1].max(skin.departure_sigmas(p.hot.0 - skin.c, p.hot.1, p.count));
+    });
+    out
+}
+
+/// The skin a map's places depart from.
+struct Skin {
+    /// The median of the measured blocks' readings, °C.
+    c: f32,
+    /// The variance of the block that reads it, °C² (0 when unknown): the variance of a
+    /// reading at the skin's temperature.
+    var_c2: f32,
+}
+
+impl Skin {
+    /// The skin of the first `n` blocks of a map; `None` when none was measured.
+    fn of(map_c: &[f32], var_c2: &[f32], n: usize) -> Option<Skin> {
+        let mut measured: Vec<(f32, f32)> = (0..n.min(map_c.len()))
+            .filter(|&b| !map_c[b].is_nan())
+            .map(|b| (map_c[b], var_c2.get(b).copied().unwrap_or(f32::NAN)))
+            .collect();
+        if measured.is_empty() {
+            return None;
+        }
+        let mid = measured.len() / 2;
+        let (_, &mut (c, var), _) =
+            measured.select_nth_unstable_by(mid, |a, b| a.0.total_cmp(&b.0));
+        let var_c2 = if var.is_nan() { 0.0 } else { var };
+        Some(Skin { c, var_c2 })
+    }
+
+    /// A departure `d` (°C) of a neighbourhood's middle of variance `var` (°C²), over its
+    /// `count` blocks, in standard deviations of a place at the skin's temperature,
+    /// whatever it reads (see the module documentation): the larger of its variance and
+    /// the skin's.
+    fn departure_sigmas(&self, d: f32, var: f32, count: usize) -> f32 {
+        let var = if var.is_nan() {
+            var
+        } else {
+            var.max(self.var_c2)
+        };
+        d / median_sigma_c(var, count)
+    }
+}
+
+/// A neighbourhood's lower and upper middles ([`middles`]), (reading, variance) each, and
+/// how many measured blocks it holds.
+struct Place {
+    hot: (f32, f32),
+    cold: (f32, f32),
+    count: usize,
+}
+
+/// Calls `f(b, place)` for each measured block `b` of a `bw × bh` map whose neighbourhood
+/// holds enough measured blocks ([`MIN_NEIGHBOURS`]) to stand for it; returns whether any
+/// did.
+fn each_place(
+    map_c: &[f32],
+    var_c2: &[f32],
+    (bw, bh): (usize, usize),
+    mut f: impl FnMut(usize, Place),
+) -> bool {
     let mut near = [(0f32, 0f32); (2 * REACH + 1) * (2 * REACH + 1)];
     let mut confirmed = false;
-    for b in 0..n {
+    for b in 0..map_c.len().min(bw * bh) {
         if map_c[b].is_nan() {
             continue;
         }
@@ -129,47 +214,10 @@ pub fn extremes(
             continue;
         }
         confirmed = true;
-        let ((hot, hot_var), (cold, cold_var)) = middles(&mut near[..count]);
-        // In standard deviations of a place at the skin's temperature, whatever it reads.
-        let departure = |d: f32, var: f32| {
-            let var = if var.is_nan() { var } else { var.max(skin_var) };
-            d / median_sigma_c(var, count)
-        };
-        let (cold_z, hot_z) = (
-            departure(skin - cold, cold_var),
-            departure(hot - skin, hot_var),
-        );
-        e.departures_sigmas[0] = e.departures_sigmas[0].max(cold_z);
-        e.departures_sigmas[1] = e.departures_sigmas[1].max(hot_z);
-        if hot > e.max_c && hot_z > threshold {
-            e.max_c = hot;
-            e.hottest = Some(b);
-        }
-        if cold_z > threshold {
-            e.min_c = e.min_c.min(cold);
-        }
+        let (hot, cold) = middles(&mut near[..count]);
+        f(b, Place { hot, cold, count });
     }
-    if !confirmed {
-        return e;
-    }
-    if e.hottest.is_none() {
-        e.max_c = skin;
-    }
-    if e.min_c == f32::INFINITY {
-        e.min_c = skin;
-    }
-    e
-}
-
-/// The skin's variance: the median of the measured blocks' (°C², 0 when none is known).
-fn skin_variance_c2(map_c: &[f32], var_c2: &[f32]) -> f32 {
-    let mut variances: Vec<f32> = map_c
-        .iter()
-        .zip(var_c2)
-        .filter(|(t, v)| !t.is_nan() && !v.is_nan())
-        .map(|(_, &v)| v)
-        .collect();
-    median(&mut variances).unwrap_or(0.0)
+    confirmed
 }
 
 /// Fills `near` with the measured (reading, variance) pairs of block `b`'s neighbourhood
@@ -319,7 +367,8 @@ mod tests {
         let e = extremes(&m, &var, (bw, bh), standard);
         assert_eq!(e.min_c, skin);
         // Judged by the patch's own variance, it would stand out by about 5 σ.
-        assert!(e.departures_sigmas[0] > 1.0 && e.departures_sigmas[0] < STAND_OUT_SIGMAS);
+        let [cold, _] = departures_sigmas(&m, &var, (bw, bh));
+        assert!(cold > 1.0 && cold < STAND_OUT_SIGMAS, "{cold} σ");
         for &b in &patch {
             m[b] -= 7.0;
         }
@@ -342,13 +391,13 @@ mod tests {
         let var = vec![FINE_C2; bw * bh];
         let e = extremes(&m, &var, (bw, bh), standard);
         assert_eq!(e.min_c, skin - 1.0);
-        let z = e.departures_sigmas[0];
+        let [z, hot] = departures_sigmas(&m, &var, (bw, bh));
         let expected = 1.0 / median_sigma_c(FINE_C2, 25);
         assert!(
             (z - expected).abs() < 1e-3 * expected,
             "{z} σ, {expected} σ expected"
         );
-        assert_eq!(e.departures_sigmas[1], 0.0);
+        assert_eq!(hot, 0.0);
         let wide = extremes(&m, &var, (bw, bh), |_| 1.1 * expected);
         assert_eq!((wide.min_c, wide.max_c), (skin, skin));
     }

@@ -51,6 +51,9 @@ pub struct Temperature {
     pub block_mm: f32,
     /// Temperature per block, °C (NaN where a block could not be measured).
     pub map_c: Vec<f32>,
+    /// Each block's variance, °C², from the calibration's tables (NaN where unmeasured):
+    /// what the extremes were judged by ([`extremes::departures_sigmas`]).
+    pub var_c2: Vec<f32>,
     /// Coldest place, mean and hottest place, °C (NaN when no block was measured); the
     /// extremes are read over each block's neighbourhood, and are the skin's median where
     /// no place stands out of the noise ([`extremes`]). The mean, and the skin's median
@@ -64,10 +67,6 @@ pub struct Temperature {
     pub max_c: f32,
     /// Centre of the hottest place, input pixels (`None` where no place stands out).
     pub hottest_px: Option<(f32, f32)>,
-    /// How far the coldest and the hottest neighbourhood depart from the skin, in standard
-    /// deviations of a place at the skin's temperature
-    /// ([`extremes::Extremes::departures_sigmas`]): on a uniform skin, its noise.
-    pub departures_sigmas: [f32; 2],
     /// Temperature over the contact region, °C, when there is contact.
     pub contact_c: Option<f32>,
     /// Its standard deviation, °C: the calibration's variance tables, widened by how
@@ -191,13 +190,11 @@ impl Thermometer {
     /// By how many standard deviations a place must depart from a skin whose map's median
     /// reads `skin_c` to stand out: the calibration's threshold at the skin temperature
     /// that median stands for ([`TemperatureModel::stand_out_sigmas`]).
-    fn stand_out_sigmas(&self) -> impl Fn(f32) -> f32 + '_ {
-        move |skin_c: f32| {
-            let skin = f64::from(self.as_skin(f64::from(skin_c)));
-            self.model
-                .as_ref()
-                .map_or(extremes::STAND_OUT_SIGMAS, |m| m.stand_out_sigmas(skin))
-        }
+    fn stand_out_sigmas(&self, skin_c: f32) -> f32 {
+        let skin = f64::from(self.as_skin(f64::from(skin_c)));
+        self.model
+            .as_ref()
+            .map_or(extremes::STAND_OUT_SIGMAS, |m| m.stand_out_sigmas(skin))
     }
 
     /// Learns what the reference shows of the light and the skin from its colour sums per
@@ -327,8 +324,9 @@ impl Thermometer {
                 ..r
             });
         out_of_range |= contact.is_some_and(|r| !r.trusted);
-        let sigmas = self.stand_out_sigmas();
-        let ext = extremes::extremes(&map.map_c, &map.var_c2, (g.bw, g.bh), &sigmas);
+        let ext = extremes::extremes(&map.map_c, &map.var_c2, (g.bw, g.bh), |skin_c| {
+            self.stand_out_sigmas(skin_c)
+        });
         let nan = |v: f32| if v.is_finite() { v } else { f32::NAN };
         let (mut max_c, mut hottest_px) =
             (nan(ext.max_c), ext.hottest.map(|b| g.block_center_px(b)));
@@ -339,7 +337,11 @@ impl Thermometer {
         // own noise as a neighbourhood would.
         let above_skin = |r: &Reading| {
             ext.hottest.is_some()
-                || extremes::stands_out(r.t_c - max_c, r.var_c2.max(0.0).sqrt(), sigmas(ext.skin_c))
+                || extremes::stands_out(
+                    r.t_c - max_c,
+                    r.var_c2.max(0.0).sqrt(),
+                    self.stand_out_sigmas(ext.skin_c),
+                )
         };
         let warmest =
             contact.filter(|r| r.trusted && (max_c.is_nan() || (r.t_c > max_c && above_skin(r))));
@@ -387,8 +389,8 @@ impl Thermometer {
             mean_c,
             max_c,
             hottest_px,
-            departures_sigmas: ext.departures_sigmas,
             map_c: map.map_c,
+            var_c2: map.var_c2,
             contact_c: contact.map(|r| r.t_c),
             contact_sigma_c: contact.map(|r| r.var_c2.max(0.0).sqrt()),
             out_of_range,

@@ -580,6 +580,26 @@ pub fn mean_read_rises(m: &[MeanRead]) -> bool {
         })
 }
 
+/// The value at `t` (°C) of `points` in setpoint order, each read as (setpoint, value) by
+/// `read`: linear between setpoints, the nearest end's beyond them (the later of two at one
+/// setpoint); `None` without points or for a `t` that is not a number.
+fn along_setpoints<P>(points: &[P], read: impl Fn(&P) -> (f64, f64), t: f64) -> Option<f64> {
+    if t.is_nan() {
+        return None;
+    }
+    let k = points.partition_point(|p| read(p).0 < t);
+    let last = points.len().checked_sub(1)?;
+    let (s1, v1) = read(&points[k.min(last)]);
+    if k == 0 || k > last {
+        return Some(v1);
+    }
+    let (s0, v0) = read(&points[k - 1]);
+    if s1 <= s0 {
+        return Some(v1);
+    }
+    Some(v0 + (v1 - v0) * (t - s0) / (s1 - s0))
+}
+
 /// Inverse-variance blend of two estimates.
 pub fn fuse(a: f64, va: f64, b: f64, vb: f64) -> (f64, f64) {
     let (wa, wb) = (1.0 / va.max(1e-6), 1.0 / vb.max(1e-6));
@@ -686,18 +706,8 @@ impl TemperatureModel {
     /// many blocks, with the light across the view: its places depart further than
     /// independent noise would take them, and its own kit shows how far.
     pub fn stand_out_sigmas(&self, skin_c: f64) -> f32 {
-        let m = &self.stand_out;
-        let kit = match m.partition_point(|p| p.setpoint_c <= skin_c) {
-            _ if m.is_empty() || !skin_c.is_finite() => 0.0,
-            0 => m[0].sigmas,
-            k if k == m.len() => m[k - 1].sigmas,
-            k => {
-                let (a, b) = (m[k - 1], m[k]);
-                let f = (skin_c - a.setpoint_c) / (b.setpoint_c - a.setpoint_c);
-                a.sigmas + f * (b.sigmas - a.sigmas)
-            }
-        };
-        (STAND_OUT_MARGIN * kit).max(f64::from(STAND_OUT_SIGMAS)) as f32
+        let kit = along_setpoints(&self.stand_out, |p| (p.setpoint_c, p.sigmas), skin_c);
+        (STAND_OUT_MARGIN * kit.unwrap_or(0.0)).max(f64::from(STAND_OUT_SIGMAS)) as f32
     }
 
     /// How far the calibration's own held-out test missed near `t` (°C): the absolute
@@ -706,16 +716,8 @@ impl TemperatureModel {
     /// beyond them; 0 without any. A systematic miss no block's scatter shows: a colour
     /// path the models could not follow there, a setpoint the kit's frames misread.
     pub fn held_out_error_c(&self, t: f64) -> f64 {
-        let h = &self.held_out;
-        let miss = |e: &SetpointError| (e.estimate_c - e.setpoint_c).abs();
-        let Some(k) = h.iter().position(|e| e.setpoint_c >= t) else {
-            return h.last().map_or(0.0, miss);
-        };
-        if k == 0 || h[k].setpoint_c <= h[k - 1].setpoint_c {
-            return miss(&h[k]);
-        }
-        let f = (t - h[k - 1].setpoint_c) / (h[k].setpoint_c - h[k - 1].setpoint_c);
-        miss(&h[k - 1]) + f * (miss(&h[k]) - miss(&h[k - 1]))
+        let miss = |e: &SetpointError| (e.setpoint_c, (e.estimate_c - e.setpoint_c).abs());
+        along_setpoints(&self.held_out, miss, t).unwrap_or(0.0)
     }
 
     /// Whether the stored shapes agree with each other.
