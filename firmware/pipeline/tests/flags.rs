@@ -15,7 +15,11 @@ fn unit() -> SensorUnit {
 }
 
 fn analyze(state: &SkinState, imp: Implementation) -> Measurement {
-    let r = Renderer::new(unit());
+    analyze_on(unit(), state, imp)
+}
+
+fn analyze_on(unit: SensorUnit, state: &SkinState, imp: Implementation) -> Measurement {
+    let r = Renderer::new(unit);
     let (reference, _) = r.render(&SkinState::idle(ROOM_C), 1);
     let opts = AnalyzerOptions {
         force_calibration: true,
@@ -220,6 +224,38 @@ fn wide_spheres_and_punches_are_read_as_what_they_are() {
             if shape == Shape::Sphere {
                 assert!(!x.flags.contains(Flag::PhaseSlope), "{imp:?} d {d}: {x:?}");
             }
+        }
+    }
+}
+
+/// A flat punch whose skirt cannot have sunk the frame's registration is read at its
+/// plateau's level and spared the calibrated indenter's area and load tests: on a view
+/// wide enough, punches from 3 to 6 mm in radius read within tolerance without the
+/// phase-slope flag. (On the small view, a 6 mm punch's skirt covers the background, and
+/// it keeps the tests: `out_of_tolerance_blunt_contacts_are_flagged`.)
+#[test]
+fn a_plateau_whose_skirt_spared_the_registration_reads_unflagged() {
+    use vistaf_pipeline::measure::profile::Shape;
+    let wide = SensorUnit::reference();
+    for (r_mm, d) in [(3.0, 0.5), (4.0, 0.8), (6.0, 0.4), (6.0, 0.9)] {
+        let mut s = SkinState::idle(ROOM_C);
+        s.contacts.push(Contact {
+            indenter: Indenter::Punch(Footprint::Disc { r_mm }),
+            center_mm: center_mm(&wide),
+            depth_mm: d,
+        });
+        for imp in [Implementation::Fixed, Implementation::Float] {
+            let x = analyze_on(wide.clone(), &s, imp);
+            let err = (x.peak_depth_mm - d).abs();
+            assert_eq!(x.shape, Shape::Flat, "{imp:?} disc r {r_mm} d {d}: {x:?}");
+            assert!(
+                err <= 0.03 * d + 0.02,
+                "{imp:?} disc r {r_mm} d {d}: error {err} mm: {x:?}"
+            );
+            assert!(
+                !x.flags.contains(Flag::PhaseSlope),
+                "{imp:?} disc r {r_mm} d {d}: {x:?}"
+            );
         }
     }
 }

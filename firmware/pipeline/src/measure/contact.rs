@@ -273,6 +273,9 @@ pub(super) struct Limits<'a, P> {
     pub(super) resolved: bool,
     /// The contact's shape as its profile shows it.
     pub(super) shape: Shape,
+    /// Whether the contact's skirt cannot have sunk the registration by more than the
+    /// depth tolerance's floor ([`super::register::Background::skirt_free`]).
+    pub(super) skirt_free: bool,
 }
 
 /// Whether a contact's reciprocal load is unlike the calibrated indenter's at the depth it
@@ -310,10 +313,11 @@ impl<P> Limits<'_, P> {
         // A contact whose profile is clearly a sphere's is read as one whatever its radius
         // (its area against the calibrated sphere's is its radius against the calibrated
         // one), and its load is a sphere's of that radius: Hertz's load at a given depth
-        // grows as the square root of the radius. A plateau's depth is its own, but it keeps
-        // the tests of an unknown shape: a punch wide enough to read as one also leaves
-        // little background to register the frame on, and the calibrated sphere's load is
-        // the only check left on its depth.
+        // grows as the square root of the radius. A plateau's depth is its own level, and it
+        // is spared the tests when its skirt cannot have sunk the registration: otherwise (a
+        // punch whose skirt covers the small view's background) the whole plateau may read
+        // shallow, and the calibrated sphere's area and load are the only check left on its
+        // depth, so it keeps the tests of an unknown shape.
         let unlike = comparable
             && ctx.calib.shape.as_ref().is_some_and(|s| {
                 let calibrated = s.area_mm2_at(f64::from(read.peak_mm));
@@ -329,6 +333,7 @@ impl<P> Limits<'_, P> {
                         };
                         unlike_load(s.load.as_ref(), read, scale)
                     }
+                    Shape::Flat if self.skirt_free => false,
                     Shape::Flat | Shape::Unknown => {
                         !like_calibrated || unlike_load(s.load.as_ref(), read, 1.0)
                     }

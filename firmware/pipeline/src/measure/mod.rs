@@ -584,6 +584,7 @@ impl<M: PhaseMap> Found<'_, M> {
             unwrap: (unreached, residues),
             resolved,
             shape: shape.shape,
+            skirt_free: self.bg.skirt_free(threshold_um, 1000.0 * feats.peak_mm),
         };
         let mut flags = limits.flags(&inputs, carrier, ctx);
         // Half the contact's depth reaching where the kernel averages padding: the contact

@@ -18,17 +18,20 @@
 //! of the map unexplained (over the pixels, so what varies around a ring, a letter's
 //! strokes, counts against it), the other family's fit of the ring means leaves
 //! [`CLEAR_RATIO`] times as much as its own, and the contact is wide enough for the choice
-//! to hold ([`SPHERE_MIN_SIGMAS`], [`FLAT_MIN_SIGMAS`]). Otherwise (a small contact whose
-//! blurred profiles the two families share, a letter that neither describes) the shape is
-//! unknown, and the contact is judged as before by its area and load against the
-//! calibrated indenter's.
+//! to hold ([`SPHERE_MIN_SIGMAS`], [`FLAT_MIN_SIGMAS`]). A plateau has looser limits of its
+//! own ([`FLAT_FIT_LIMIT`], [`FLAT_CLEAR_RATIO`]): a punch's rim leaves uneven overshoot
+//! around it, and a dome wide enough for a plateau's core is told apart by less. Otherwise
+//! (a small contact whose blurred profiles the two families share, a letter that neither
+//! describes) the shape is unknown, and the contact is judged as before by its area and
+//! load against the calibrated indenter's.
 //!
 //! A sphere is then read as one whatever its radius: no area test, and its load against a
 //! sphere's of its radius. A flat punch's depth is its plateau's level: the mean of the
 //! rings that lie wholly inside its fitted rim by the kernel's reach, where the blur has
 //! left the plateau as it is and a rim's overshoot does not reach (or, for a plateau too
-//! narrow for such a core, the fit's depth). A plateau keeps the tests of an unknown shape
-//! (`docs/pipeline.md` gives the measured trade).
+//! narrow for such a core, the fit's depth). A plateau is spared the tests of an unknown
+//! shape unless its skirt may have sunk the frame's registration (`docs/pipeline.md` gives
+//! the measured trade).
 
 use super::apex::{hertz, LAYER_DECAY_MM, RESOLVED_SIGMAS};
 use super::load::Rings;
@@ -44,6 +47,16 @@ pub const FIT_LIMIT: f64 = 0.08;
 /// …and is the contact's shape only when the other family's fit of the ring means leaves
 /// this many times as much as its own.
 pub const CLEAR_RATIO: f64 = 3.0;
+/// A plateau's fit may leave up to this fraction of the map: a punch's rim makes the
+/// demodulator overshoot unevenly around it (higher on one side), which varies around a
+/// ring, while a letter's strokes and gaps leave more than half as much again (and so
+/// does a dome whose apex a glare spot bent).
+pub const FLAT_FIT_LIMIT: f64 = 0.12;
+/// A plateau is the contact's shape when the dome's fit of the ring means leaves this many
+/// times as much as the plateau's: a dome wide enough to have a plateau's core leaves
+/// clearly less than a plateau does, while a punch whose blurred rim a dome half follows
+/// still leaves the dome more.
+pub const FLAT_CLEAR_RATIO: f64 = 2.0;
 /// A plateau is chosen only for a contact at least this many kernel σ in radius (its
 /// fit's): it keeps its level in the blurred map only where the kernel, which reaches about
 /// 2.5 σ, lies wholly on it, and below that size the two families' blurred profiles differ
@@ -204,7 +217,9 @@ impl Shapes {
         };
         if sphere.err <= FIT_LIMIT && flat.shape_err >= CLEAR_RATIO * sphere.shape_err {
             chosen(sphere, Shape::Sphere)
-        } else if flat.err <= FIT_LIMIT && sphere.shape_err >= CLEAR_RATIO * flat.shape_err {
+        } else if flat.err <= FLAT_FIT_LIMIT
+            && sphere.shape_err >= FLAT_CLEAR_RATIO * flat.shape_err
+        {
             let mut fit = chosen(flat, Shape::Flat);
             if fit.shape == Shape::Flat {
                 fit.depth = self
