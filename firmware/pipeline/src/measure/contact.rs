@@ -274,7 +274,7 @@ pub(super) struct Limits<'a, P> {
     /// The contact's shape as its profile shows it.
     pub(super) shape: Shape,
     /// Whether the contact's skirt cannot have sunk the registration by more than the
-    /// depth tolerance's floor ([`super::register::Background::skirt_free`]).
+    /// depth tolerance ([`super::register::Background::skirt_free`]).
     pub(super) skirt_free: bool,
 }
 
