@@ -18,7 +18,8 @@
 //! of the map unexplained (over the pixels, so what varies around a ring, a letter's
 //! strokes, counts against it), the other family's fit of the ring means leaves
 //! [`CLEAR_RATIO`] times as much as its own, and the contact is wide enough for the choice
-//! to hold ([`SPHERE_MIN_SIGMAS`], [`FLAT_MIN_SIGMAS`]). A plateau has looser limits of its
+//! to hold ([`SPHERE_MIN_SIGMAS`], [`FLAT_MIN_SIGMAS`]; a dome narrower than
+//! [`WIDE_SPHERE_SIGMAS`] must be clearer still). A plateau has looser limits of its
 //! own ([`FLAT_FIT_LIMIT`], [`FLAT_CLEAR_RATIO`]): a punch's rim leaves uneven overshoot
 //! around it, and a dome wide enough for a plateau's core is told apart by less. Otherwise
 //! (a small contact whose blurred profiles the two families share, a letter that neither
@@ -62,10 +63,15 @@ pub const FLAT_CLEAR_RATIO: f64 = 2.0;
 /// 2.5 σ, lies wholly on it, and below that size the two families' blurred profiles differ
 /// by little more than a real skin's departures from either.
 pub const FLAT_MIN_SIGMAS: f64 = 3.0;
-/// A dome is chosen only for a contact at least this many kernel σ in radius (its fit's):
-/// a small punch, blurred, can fit a wider sphere better than any punch, and a punch read
-/// as a sphere reads deep (`docs/pipeline.md`).
-pub const SPHERE_MIN_SIGMAS: f64 = 6.0;
+/// A dome is chosen only for a contact at least this many kernel σ in radius (its fit's)…
+pub const SPHERE_MIN_SIGMAS: f64 = 4.5;
+/// …and, narrower than this many, only when the plateau's fit of the ring means leaves
+/// [`NARROW_SPHERE_CLEAR_RATIO`] times the dome's: a small punch, blurred, can fit a wider
+/// sphere better than any punch (up to three times better), and a punch read as a sphere
+/// reads deep (`docs/pipeline.md`).
+pub const WIDE_SPHERE_SIGMAS: f64 = 6.0;
+/// The clear ratio a dome narrower than [`WIDE_SPHERE_SIGMAS`] must reach.
+pub const NARROW_SPHERE_CLEAR_RATIO: f64 = 4.5;
 /// A plateau's level is read this many kernel σ inside its fitted rim: the kernel reaches
 /// `√6 σ` (a two-box triangle of length `l` has `σ² = (l² − 1)/6`), and the fitted radius
 /// is a ladder's step from the true one.
@@ -215,7 +221,12 @@ impl Shapes {
                 radius_px: b.a_px,
             }
         };
-        if sphere.err <= FIT_LIMIT && flat.shape_err >= CLEAR_RATIO * sphere.shape_err {
+        let sphere_clear = if sphere.a_px < WIDE_SPHERE_SIGMAS * self.sigma_px {
+            NARROW_SPHERE_CLEAR_RATIO
+        } else {
+            CLEAR_RATIO
+        };
+        if sphere.err <= FIT_LIMIT && flat.shape_err >= sphere_clear * sphere.shape_err {
             chosen(sphere, Shape::Sphere)
         } else if flat.err <= FLAT_FIT_LIMIT
             && sphere.shape_err >= FLAT_CLEAR_RATIO * flat.shape_err
@@ -431,12 +442,14 @@ mod tests {
 
     /// Spheres of several radii, blurred by the demodulator's own kernel (not the templates'
     /// Gaussian), noise included, read as spheres of about their contact radius once wide
-    /// enough that no punch passes for them; a narrower one is not told.
+    /// enough that no punch passes for them (from 4.5 kernel σ, the 4.2 mm one at about 5 σ
+    /// by the stricter clear ratio); a narrower one is not told.
     #[test]
     fn wide_spheres_of_any_radius_read_as_spheres() {
         let decay = LAYER_DECAY_MM / f64::from(PX_MM);
         for (a_mm, d_um, wide) in [
             (3.5, 1200.0, false),
+            (4.2, 1000.0, true),
             (5.5, 800.0, true),
             (7.0, 1500.0, true),
         ] {
