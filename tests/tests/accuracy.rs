@@ -78,11 +78,10 @@ fn a_warm_skin_reads_its_mean_where_the_colours_hardly_move() {
 }
 
 /// On these units a uniform skin's readings wander together over many blocks (where the
-/// colours hardly move, with the light across the view), and a neighbourhood departed from
-/// the skin by more than independent noise allows for: a warm skin showed a coldest place,
-/// others a hottest place, beyond the bound below with no flag. A place must now
-/// depart further than the kit's own uniform frames showed places departing
-/// (`TemperatureModel::stand_out`), and every uniform skin's coldest and hottest places
+/// colours hardly move, with the light across the view), and a neighbourhood can depart
+/// from the skin by more than independent noise allows for. A place stands out only when
+/// it departs further than the kit's own uniform frames showed places departing
+/// (`TemperatureModel::stand_out`), so every uniform skin's coldest and hottest places
 /// read within 1 °C of it.
 #[test]
 fn a_uniform_skin_shows_no_place_its_kit_did_not() {

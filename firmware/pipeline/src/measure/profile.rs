@@ -50,8 +50,8 @@ pub const FIT_LIMIT: f64 = 0.08;
 pub const CLEAR_RATIO: f64 = 3.0;
 /// A plateau's fit may leave up to this fraction of the map: a punch's rim makes the
 /// demodulator overshoot unevenly around it (higher on one side), which varies around a
-/// ring, while a letter's strokes and gaps leave more than half as much again (and so
-/// does a dome whose apex a glare spot bent).
+/// ring, while a letter's strokes and gaps leave clearly more (and so does a dome whose
+/// apex a glare spot bent; `docs/pipeline.md` has the measured spread).
 pub const FLAT_FIT_LIMIT: f64 = 0.12;
 /// A plateau is the contact's shape when the dome's fit of the ring means leaves this many
 /// times as much as the plateau's: a dome wide enough to have a plateau's core leaves
@@ -67,8 +67,8 @@ pub const FLAT_MIN_SIGMAS: f64 = 3.0;
 pub const SPHERE_MIN_SIGMAS: f64 = 4.5;
 /// …and, narrower than this many, only when the plateau's fit of the ring means leaves
 /// [`NARROW_SPHERE_CLEAR_RATIO`] times the dome's: a small punch, blurred, can fit a wider
-/// sphere better than any punch (up to three times better), and a punch read as a sphere
-/// reads deep (`docs/pipeline.md`).
+/// sphere better than any punch, and a punch read as a sphere reads deep
+/// (`docs/pipeline.md` has how much better such punches fit).
 pub const WIDE_SPHERE_SIGMAS: f64 = 6.0;
 /// The clear ratio a dome narrower than [`WIDE_SPHERE_SIGMAS`] must reach.
 pub const NARROW_SPHERE_CLEAR_RATIO: f64 = 4.5;

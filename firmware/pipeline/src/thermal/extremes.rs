@@ -29,8 +29,8 @@
 //! degree or better, a place a degree warmer than the skin stands out.
 //!
 //! The noise is the larger of the place's own and the skin's (the variance of the block
-//! that reads the skin's median): a place at the skin's temperature scatters as the skin does, whatever it
-//! reads. Above the transition, a misread neighbourhood of a warm skin can land on the
+//! that reads the skin's median): a place at the skin's temperature scatters as the skin
+//! does, whatever it reads. Above the transition, a misread neighbourhood of a warm skin can land on the
 //! coloured stripes' slope, where a block's variance is small; judged by that variance
 //! alone, a warm skin would show a coldest place degrees below it.
 //!
@@ -65,6 +65,9 @@ pub struct Extremes {
     pub hottest: Option<usize>,
     /// The skin: the map's median, °C (NaN when nothing was measured).
     pub skin_c: f32,
+    /// The standard deviations by which a place had to depart from that skin to stand out
+    /// ([`STAND_OUT_SIGMAS`] when nothing was measured): what a contact is held to too.
+    pub stand_out_sigmas: f32,
 }
 
 /// Standard deviation of the median of `n` readings of variance `var_c2` each, °C, with
@@ -102,12 +105,14 @@ pub fn extremes(
         max_c: f32::NEG_INFINITY,
         hottest: None,
         skin_c: f32::NAN,
+        stand_out_sigmas: STAND_OUT_SIGMAS,
     };
     let Some(skin) = Skin::of(map_c, var_c2, bw * bh) else {
         return e;
     };
     e.skin_c = skin.c;
-    let threshold = sigmas(skin.c);
+    e.stand_out_sigmas = sigmas(skin.c);
+    let threshold = e.stand_out_sigmas;
     let confirmed = each_place(map_c, var_c2, (bw, bh), |b, p| {
         let (hot, cold) = (p.hot.0, p.cold.0);
         if hot > e.max_c && skin.departure_sigmas(hot - skin.c, p.hot.1, p.count) > threshold {

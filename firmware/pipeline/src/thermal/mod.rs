@@ -340,7 +340,7 @@ impl Thermometer {
                 || extremes::stands_out(
                     r.t_c - max_c,
                     r.var_c2.max(0.0).sqrt(),
-                    self.stand_out_sigmas(ext.skin_c),
+                    ext.stand_out_sigmas,
                 )
         };
         let warmest =

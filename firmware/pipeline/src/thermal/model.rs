@@ -503,7 +503,7 @@ pub struct TemperatureModel {
 }
 
 /// The largest departure of a place from the skin on the kit's uniform frames at one
-/// setpoint ([`super::extremes::Extremes::departures_sigmas`], either way, over the
+/// setpoint ([`super::extremes::departures_sigmas`], either way, over the
 /// setpoint's frames).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct StandOut {
