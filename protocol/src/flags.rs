@@ -40,8 +40,8 @@ pub enum Flag {
     StaleReference = 6,
     /// The indentation is deeper than the calibration covers (reported extrapolated).
     DepthOutOfRange = 7,
-    /// The force is beyond what the calibration covers (reported saturated at the edge of
-    /// the calibrated range's margin).
+    /// The force is beyond what the calibration covers (reported by the calibrated law
+    /// read beyond its kit, saturated where the calibration stops vouching for the law).
     ForceOutOfRange = 8,
     /// The contact temperature's standard deviation exceeds the one-degree tolerance a
     /// reading is held to: its stripes say little about the temperature there (above the

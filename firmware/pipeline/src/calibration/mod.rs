@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 pub use crate::evidence::{CandidateScore, FitRange, Fitted};
 
 mod validate;
-pub use validate::{check_depth, Invalid, MAX_DEPTH_MM, MAX_FORCE_N};
+pub use validate::{check_depth, Invalid, MAX_DEPTH_MM, MAX_FORCE_N, MODEL_REACH};
 
 /// The format tag of calibration files.
 pub const FORMAT: &str = "vistaf-calibration/2";
@@ -267,6 +267,23 @@ impl ForceModel {
             ForceForm::Hertz { c } => c * u.powf(1.5),
         };
         f.max(0.0)
+    }
+
+    /// Force for a feature value `u` when the calibration's largest input was `top`, N.
+    /// Within `top` it is [`ForceModel::force_n`]. Beyond it the elastic laws (linear in a
+    /// load, Hertz's power in depth) are the skin's physics and carry on as they are; the
+    /// growth forms' curvature was fitted over the kit alone, so they go on along their
+    /// tangent at `top` instead of compounding it.
+    pub fn extrapolated_force_n(&self, u: f64, top: f64) -> f64 {
+        if !(u > top && top > 0.0) {
+            return self.force_n(u);
+        }
+        let slope = match self.form {
+            ForceForm::Linear { .. } | ForceForm::Hertz { .. } => return self.force_n(u),
+            ForceForm::PowerLaw { a, b } => a * b * top.powf(b - 1.0),
+            ForceForm::Exponential { a, b } => a * b * (b * top).min(50.0).exp(),
+        };
+        (self.force_n(top) + slope.max(0.0) * (u - top)).max(0.0)
     }
 
     /// The model as an equation.
@@ -615,6 +632,35 @@ impl Calibration {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Beyond the kit the elastic laws read on as they are, and the growth forms along
+    /// their tangent at the kit's largest input; within it every form is itself.
+    #[test]
+    fn force_models_extrapolate_by_their_physics() {
+        let model = |form| ForceModel {
+            feature: ForceFeature::ReciprocalLoad,
+            form,
+        };
+        let linear = model(ForceForm::Linear { a: 1.6 });
+        let hertz = model(ForceForm::Hertz { c: 2.0 });
+        let power = model(ForceForm::PowerLaw { a: 2.0, b: 1.5 });
+        let growth = model(ForceForm::Exponential { a: 1.0, b: 2.0 });
+        for m in [&linear, &hertz, &power, &growth] {
+            for u in [0.0, 0.5, 2.0] {
+                assert_eq!(m.extrapolated_force_n(u, 2.0), m.force_n(u), "{m:?} at {u}");
+            }
+        }
+        assert_eq!(linear.extrapolated_force_n(5.0, 2.0), linear.force_n(5.0));
+        assert_eq!(hertz.extrapolated_force_n(5.0, 2.0), hertz.force_n(5.0));
+        // The power law that Hertz's is, past u = 2: 2·2^1.5 + 3·√2·3.
+        let tangent = 2.0 * 2f64.powf(1.5) + 3.0 * 2f64.sqrt() * 3.0;
+        assert!((power.extrapolated_force_n(5.0, 2.0) - tangent).abs() < 1e-9);
+        assert!(power.extrapolated_force_n(5.0, 2.0) < power.force_n(5.0));
+        // e^4 − 1 at the kit's edge, rising at 2·e^4 beyond it.
+        let e4 = 4f64.exp();
+        let got = growth.extrapolated_force_n(3.0, 2.0);
+        assert!((got - (e4 - 1.0 + 2.0 * e4)).abs() < 1e-9, "{got}");
+    }
 
     #[test]
     fn depth_models_are_monotone() {

@@ -49,6 +49,9 @@ pub const OUTPUT_SLACK: f64 = 0.5;
 pub const OUTPUT_SLACK_ABS: f64 = 1.0;
 /// Most coefficients a polynomial depth model may carry.
 const MAX_POLYNOMIAL_DEGREE: usize = 4;
+/// How far beyond its calibration's largest input a model is checked (and so may be read),
+/// as a multiple of that input.
+pub const MODEL_REACH: f64 = 2.0;
 /// Points a model is evaluated at to check it is finite and monotone.
 const PROBES: usize = 256;
 /// Phases a depth model is checked over without a recorded range, rad (two turns: a
@@ -279,7 +282,7 @@ pub fn check_depth(m: &DepthModel, range: Option<&FitRange>) -> Check {
             }
         }
     }
-    let to = range.map_or(DEFAULT_PHASE_RAD, |r| 2.0 * r.input[1].max(1e-3));
+    let to = range.map_or(DEFAULT_PHASE_RAD, |r| MODEL_REACH * r.input[1].max(1e-3));
     check_curve(key, |x| m.depth_mm(x), to, MAX_DEPTH_MM, range)?;
     // Some phase must read as depth: a model reading 0 for every press is a lie.
     if m.depth_mm(to) <= 0.0 {
@@ -321,8 +324,15 @@ fn check_force(m: &ForceModel, range: Option<&FitRange>) -> Check {
         }
         ForceForm::Hertz { c } => positive("c", c)?,
     }
-    let to = range.map_or_else(|| default_input(m), |r| 2.0 * r.input[1].max(1e-6));
-    check_curve("force.model", |u| m.force_n(u), to, MAX_FORCE_N, range)
+    let to = range.map_or_else(|| default_input(m), |r| MODEL_REACH * r.input[1].max(1e-6));
+    let top = range.map_or(f64::INFINITY, |r| r.input[1]);
+    check_curve(
+        "force.model",
+        |u| m.extrapolated_force_n(u, top),
+        to,
+        MAX_FORCE_N,
+        range,
+    )
 }
 
 fn check_shape(s: &ShapeSignature) -> Check {

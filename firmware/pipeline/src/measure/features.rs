@@ -2,7 +2,9 @@
 //! slope the flags judge.
 
 use super::FORCE_RANGE_SLACK;
-use crate::calibration::{Calibration, ForceInputs, MAX_FORCE_N};
+#[cfg(doc)]
+use crate::calibration::ForceModel;
+use crate::calibration::{Calibration, ForceInputs, MAX_FORCE_N, MODEL_REACH};
 
 /// Features of a depth map.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -173,23 +175,36 @@ pub fn peak_component(depth_um: &[i32], w: usize, peak_at: usize, thr_um: i32) -
     out
 }
 
-/// Force from the calibration's model.
-/// The force the calibration's model gives for a contact's features, N, bounded by what the
-/// calibration covers: beyond [`FORCE_RANGE_SLACK`] times its largest force label (or
-/// [`MAX_FORCE_N`] for a file that does not record it) the force is saturated there and
-/// `true` says so. Never NaN or infinite.
+/// Force from the calibration's model, N, and whether it lies beyond what the calibration
+/// covers (more than [`FORCE_RANGE_SLACK`] times its largest force label). Beyond the
+/// calibration's largest input the model is extrapolated
+/// ([`ForceModel::extrapolated_force_n`]) as far as it was checked ([`MODEL_REACH`] times
+/// that input) and saturated there; a file that does not record its range is bounded at
+/// [`MAX_FORCE_N`]. Never NaN or infinite.
 pub fn bounded_force(calib: &Calibration, x: &ForceInputs) -> (f32, bool) {
-    let limit = calib
-        .force
-        .as_ref()
-        .and_then(|fm| fm.range)
-        .map_or(MAX_FORCE_N, |r| FORCE_RANGE_SLACK * r.output[1]) as f32;
-    let force = force_of(calib, x);
-    if force.is_nan() || force > limit {
-        (limit, true)
+    let Some(fm) = &calib.force else {
+        return (0.0, false);
+    };
+    let u = f64::from(fm.model.feature.of(x));
+    let Some(r) = fm.range else {
+        let f = fm.model.force_n(u);
+        return if f.is_nan() || f > MAX_FORCE_N {
+            (MAX_FORCE_N as f32, true)
+        } else {
+            (f as f32, false)
+        };
+    };
+    let (top, reach) = (r.input[1], MODEL_REACH * r.input[1]);
+    let within = u <= reach;
+    let f = fm
+        .model
+        .extrapolated_force_n(if within { u } else { reach }, top);
+    let f = if f.is_finite() {
+        f.min(MAX_FORCE_N)
     } else {
-        (force, false)
-    }
+        MAX_FORCE_N
+    };
+    (f as f32, !within || f > FORCE_RANGE_SLACK * r.output[1])
 }
 
 /// The force the calibration's model gives for a contact's features, N (unbounded: see

@@ -74,7 +74,8 @@ pub const LOW_CONTRAST_RATIO: f32 = 0.32;
 pub const NOISY_RAD: f32 = 0.024;
 /// Depth beyond the deepest calibrated indentation by this factor is flagged.
 pub const DEPTH_RANGE_SLACK: f64 = 1.1;
-/// Force beyond the largest calibrated force by this factor is flagged, and saturated there.
+/// Force beyond the largest calibrated force by this factor is flagged: the model is read
+/// beyond its kit there ([`bounded_force`]).
 pub const FORCE_RANGE_SLACK: f64 = 1.1;
 /// Phase-slope flag: local phase slope (98th percentile over the deformed pixels) above
 /// this fraction of the band half-width (the steepness sweep of `docs/performance.md`, and
