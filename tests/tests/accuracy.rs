@@ -19,6 +19,19 @@ fn wide_units_calibrate_and_report_every_press_where_it_is() {
     }
 }
 
+/// On these units an untouched skin's phase stood out by its noise where the reference's
+/// fringes are faint (a dim corner, a glare spot, the border), beyond the threshold the
+/// whole view's noise sets, and was reported as a contact. A contact must stand out
+/// against the noise its own fringes carry; every press is still reported, where it is.
+#[test]
+fn faint_fringes_report_no_contact_on_an_untouched_skin() {
+    let frames = units_frames(&[92, 97], "faint-fringes");
+    assert!(uniform_skins(&frames).iter().all(|f| !f.phantom));
+    for f in &frames {
+        assert!(!f.phantom && !f.missed, "unit {}: {:?}", f.unit, f);
+    }
+}
+
 /// On this unit the pigment darkens so far inside its transition that the grating's
 /// contrast is flagged low there; the colour → temperature fit must still see those kit
 /// frames (their colours are the skin's), or the skin reads low in that span with no flag.

@@ -238,8 +238,8 @@ fn positive(key: &str, v: f64) -> Check {
     }
 }
 
-/// Checks a depth model alone over the phases it will meet (twice its fit's largest, or
-/// [`DEFAULT_PHASE_RAD`] without a range): a calibration chooses only among models that
+/// Checks a depth model alone over the phases it will meet ([`MODEL_REACH`] times its fit's
+/// largest, or two turns without a range): a calibration chooses only among models that
 /// pass.
 pub fn check_depth(m: &DepthModel, range: Option<&FitRange>) -> Check {
     let key = "depth.model";

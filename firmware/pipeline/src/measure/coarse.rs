@@ -12,39 +12,66 @@ use crate::phase::{PhaseMap, GRID};
 /// samples are above in all: the band-pass spreads any indentation over about a period
 /// each way, so a blob smaller than a disc one period across is a speck of the image (an
 /// illumination edge under a shifted grating, a hot pixel), not a contact.
+///
+/// `thr` holds where the reference's fringe amplitude `amp_r` reaches its median
+/// `amp_med`. Where the fringes are fainter (a glare spot washing them out, a dim corner,
+/// a low-contrast border) the phase's noise grows as the amplitude falls, and a noise floor
+/// measured over the whole view must not let it read as a contact: there must be a
+/// contact by the same rules with each sample's threshold raised as its fringes are
+/// fainter (`|phi| · min(amp_r, amp_med) > thr · amp_med`). Once there is one, its region
+/// is every tile above `thr` itself, the fainter samples of a press included.
 pub fn contact_tiles(
     phi: &[i32],
     rel: &[bool],
+    (amp_r, amp_med): (&[u32], u32),
     thr: i32,
     (cw, ch): (usize, usize),
     (tw, th): (usize, usize),
     min_total: usize,
 ) -> Option<(Vec<bool>, usize)> {
     const PER: usize = TILE_PX / GRID;
-    let mut count = vec![0usize; tw * th];
-    let above = |p: &[i32], r: &[bool]| -> usize {
+    // Per tile, the samples above `thr` and those above their fringes' own threshold.
+    let mut count = vec![(0usize, 0usize); tw * th];
+    let thr = thr.max(0).unsigned_abs();
+    let bar = u64::from(thr) * u64::from(amp_med);
+    let above = |p: &[i32], r: &[bool], a: &[u32]| -> (usize, usize) {
         p.iter()
             .zip(r)
-            .map(|(p, r)| usize::from(*r && p.abs() > thr))
-            .sum()
+            .zip(a)
+            .fold((0, 0), |(n, sure), ((p, r), a)| {
+                let m = if *r { p.unsigned_abs() } else { 0 };
+                let faint = u64::from(m) * u64::from((*a).min(amp_med));
+                (n + usize::from(m > thr), sure + usize::from(faint > bar))
+            })
     };
-    let rows = phi.chunks_exact(cw).zip(rel.chunks_exact(cw)).take(ch);
-    for (cy, (prow, rrow)) in rows.enumerate() {
+    let rows = phi
+        .chunks_exact(cw)
+        .zip(rel.chunks_exact(cw))
+        .zip(amp_r.chunks_exact(cw));
+    for (cy, ((prow, rrow), arow)) in rows.take(ch).enumerate() {
         let trow = &mut count[(cy / PER) * tw..(cy / PER + 1) * tw];
         // A tile's samples along the row at a time (fixed-size runs: no division per
         // sample, and the run's test unrolls), then the row's partial last tile.
         let ((pr, p_rest), (rr, r_rest)) = (prow.as_chunks::<PER>(), rrow.as_chunks::<PER>());
-        for ((t, p), r) in trow.iter_mut().zip(pr).zip(rr) {
-            *t += above(p, r);
+        let (ar, a_rest) = arow.as_chunks::<PER>();
+        let add = |t: &mut (usize, usize), (n, sure): (usize, usize)| {
+            *t = (t.0 + n, t.1 + sure);
+        };
+        for (((t, p), r), a) in trow.iter_mut().zip(pr).zip(rr).zip(ar) {
+            add(t, above(p, r, a));
         }
         if let Some(t) = trow.get_mut(pr.len()) {
-            *t += above(p_rest, r_rest);
+            add(t, above(p_rest, r_rest, a_rest));
         }
     }
-    if count.iter().all(|&c| c < TILE_MIN_SAMPLES) || count.iter().sum::<usize>() < min_total {
+    let found = |n: &dyn Fn(&(usize, usize)) -> usize| {
+        count.iter().any(|c| n(c) >= TILE_MIN_SAMPLES)
+            && count.iter().map(n).sum::<usize>() >= min_total
+    };
+    if !found(&|c| c.1) {
         return None;
     }
-    let active: Vec<bool> = count.iter().map(|&c| c >= TILE_MIN_SAMPLES).collect();
+    let active: Vec<bool> = count.iter().map(|c| c.0 >= TILE_MIN_SAMPLES).collect();
     let dil = dilate(&active, tw, th);
     let tiles = dil.iter().filter(|t| **t).count();
     Some((dil, tiles))
@@ -393,6 +420,47 @@ mod tests {
 
     /// Tile counts and per-sample tile membership against a plain reading, sample by
     /// sample (`cx / per`).
+    /// Where the reference's fringes are a third of their median amplitude, a sample needs
+    /// three times the phase for a contact to be found; brighter fringes than the median
+    /// do not lower the threshold. A contact found holds its fainter samples above the
+    /// plain threshold too.
+    #[test]
+    fn faint_fringes_need_a_phase_their_noise_cannot_reach() {
+        let per = TILE_PX / GRID;
+        let (cw, ch) = (3 * per, per);
+        let (tw, th) = (3, 1);
+        // Two samples of tile `t` stand out by `p`.
+        let stand_out = |phi: &mut Vec<i32>, t: usize, p: i32| {
+            phi[t * per + 1] = p;
+            phi[t * per + 2] = -p;
+        };
+        let phase = |p: i32| {
+            let mut phi = vec![0i32; cw * ch];
+            stand_out(&mut phi, 1, p);
+            phi
+        };
+        let rel = vec![true; cw * ch];
+        let tiles = |phi: &[i32], amp_r: &[u32]| {
+            contact_tiles(phi, &rel, (amp_r, 90), 10, (cw, ch), (tw, th), 0)
+        };
+        let found = |phi: &[i32], amp: u32| tiles(phi, &vec![amp; cw * ch]).is_some();
+        assert!(found(&phase(11), 90));
+        assert!(found(&phase(11), 900));
+        assert!(!found(&phase(10), 900));
+        assert!(!found(&phase(30), 30));
+        assert!(found(&phase(31), 30));
+        // Tile 0 bright, tiles 1 and 2 faint: only tile 1's phase is high enough there, but
+        // tile 2's samples above 10 belong to the contact it makes.
+        let mut amp_r = vec![30; cw * ch];
+        amp_r[..per].fill(90);
+        let mut phi = phase(31);
+        stand_out(&mut phi, 2, 11);
+        assert_eq!(tiles(&phi, &amp_r), Some((vec![true; 3], 3)));
+        let mut faint_only = vec![0i32; cw * ch];
+        stand_out(&mut faint_only, 2, 11);
+        assert_eq!(tiles(&faint_only, &amp_r), None);
+    }
+
     #[test]
     fn tiles_and_samples_follow_the_grid() {
         let per = TILE_PX / GRID;
@@ -427,9 +495,17 @@ mod tests {
                     }
                 })
                 .collect();
-            let got = contact_tiles(&phi, &vec![true; phi.len()], 10, (cw, ch), (tw, th), 0);
-            let unreliable =
-                contact_tiles(&phi, &vec![false; phi.len()], 10, (cw, ch), (tw, th), 0);
+            let amp = (&vec![9; phi.len()][..], 9);
+            let got = contact_tiles(&phi, &vec![true; phi.len()], amp, 10, (cw, ch), (tw, th), 0);
+            let unreliable = contact_tiles(
+                &phi,
+                &vec![false; phi.len()],
+                amp,
+                10,
+                (cw, ch),
+                (tw, th),
+                0,
+            );
             assert!(unreliable.is_none());
             match got {
                 Some((tiles, n)) => {

@@ -220,7 +220,13 @@ pub fn measure<M: PhaseMap>(
     );
     let amp_medians = (amp_frame_median, amp_ref_median);
     let mut flags = image_flags(map, &coarse, amp_medians, ctx);
-    let bg = register::background(&coarse, &grid, carrier, ctx.indentation_sign());
+    let bg = register::background(
+        &coarse,
+        &grid,
+        carrier,
+        ctx.indentation_sign(),
+        amp_ref_median,
+    );
     flags.insert_all(background_flags(&bg));
     let mut wrapped = WrappedPhase {
         cw: grid.coarse.0,

@@ -8,7 +8,7 @@
 //! contact is several kernel σ wide.
 //!
 //! **How.** The depth map is the surface blurred once by the demodulator's kernel. Both
-//! families of unit surfaces, Hertz's sphere ([`super::apex::hertz`]) and Boussinesq's
+//! families of unit surfaces, Hertz's sphere (`apex::hertz`) and Boussinesq's
 //! punch, each for a ladder of contact radii `a`, are blurred by a Gaussian of the kernel's
 //! variance and averaged over rings one pixel wide: templates built once per plan. The
 //! contact's ring means about its centre, out to where they fall below [`PROFILE_CUT`] of

@@ -138,12 +138,14 @@ impl<'c, P: PhaseNum> Directions<'c, P> {
 /// Registers the frame on its background, measures the noise floor and finds the contact
 /// tiles above it; with a contact, registration and noise are measured again outside it
 /// (and on the rim instead when the rim stands raised above it, [`raised_rim`]). `sign` is
-/// the indentation's phase sign.
+/// the indentation's phase sign; `amp_med` the reference's median fringe amplitude, where
+/// the noise floor's threshold holds as measured ([`contact_tiles`]).
 pub(super) fn background<P: PhaseNum>(
     coarse: &Coarse<'_, P>,
     grid: &Grid,
     carrier: Carrier,
     sign: i32,
+    amp_med: u32,
 ) -> Background<P> {
     let dirs = Directions::new(coarse);
     let first = P::angle(dirs.all);
@@ -166,6 +168,7 @@ pub(super) fn background<P: PhaseNum>(
         contact_tiles(
             phi,
             &coarse.rel_contact,
+            (&coarse.amp_r, amp_med),
             thr,
             grid.coarse,
             grid.tiles,
