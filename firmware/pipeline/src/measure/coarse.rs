@@ -418,8 +418,6 @@ mod tests {
         }
     }
 
-    /// Tile counts and per-sample tile membership against a plain reading, sample by
-    /// sample (`cx / per`).
     /// Where the reference's fringes are a third of their median amplitude, a sample needs
     /// three times the phase for a contact to be found; brighter fringes than the median
     /// do not lower the threshold. A contact found holds its fainter samples above the
@@ -461,6 +459,8 @@ mod tests {
         assert_eq!(tiles(&faint_only, &amp_r), None);
     }
 
+    /// Tile counts and per-sample tile membership against a plain reading, sample by
+    /// sample (`cx / per`).
     #[test]
     fn tiles_and_samples_follow_the_grid() {
         let per = TILE_PX / GRID;
