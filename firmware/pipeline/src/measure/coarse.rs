@@ -30,51 +30,90 @@ pub fn contact_tiles(
     min_total: usize,
 ) -> Option<(Vec<bool>, usize)> {
     const PER: usize = TILE_PX / GRID;
-    // Per tile, the samples above `thr` and those above their fringes' own threshold.
-    let mut count = vec![(0usize, 0usize); tw * th];
     let thr = thr.max(0).unsigned_abs();
-    let bar = u64::from(thr) * u64::from(amp_med);
-    let above = |p: &[i32], r: &[bool], a: &[u32]| -> (usize, usize) {
+    let mut count = vec![0usize; tw * th];
+    let above = |p: &[i32], r: &[bool]| -> usize {
         p.iter()
             .zip(r)
-            .zip(a)
-            .fold((0, 0), |(n, sure), ((p, r), a)| {
-                let m = if *r { p.unsigned_abs() } else { 0 };
-                let faint = u64::from(m) * u64::from((*a).min(amp_med));
-                (n + usize::from(m > thr), sure + usize::from(faint > bar))
-            })
+            .map(|(p, r)| usize::from(*r && p.unsigned_abs() > thr))
+            .sum()
     };
-    let rows = phi
-        .chunks_exact(cw)
-        .zip(rel.chunks_exact(cw))
-        .zip(amp_r.chunks_exact(cw));
-    for (cy, ((prow, rrow), arow)) in rows.take(ch).enumerate() {
+    let rows = phi.chunks_exact(cw).zip(rel.chunks_exact(cw)).take(ch);
+    for (cy, (prow, rrow)) in rows.enumerate() {
         let trow = &mut count[(cy / PER) * tw..(cy / PER + 1) * tw];
         // A tile's samples along the row at a time (fixed-size runs: no division per
         // sample, and the run's test unrolls), then the row's partial last tile.
         let ((pr, p_rest), (rr, r_rest)) = (prow.as_chunks::<PER>(), rrow.as_chunks::<PER>());
-        let (ar, a_rest) = arow.as_chunks::<PER>();
-        let add = |t: &mut (usize, usize), (n, sure): (usize, usize)| {
-            *t = (t.0 + n, t.1 + sure);
-        };
-        for (((t, p), r), a) in trow.iter_mut().zip(pr).zip(rr).zip(ar) {
-            add(t, above(p, r, a));
+        for ((t, p), r) in trow.iter_mut().zip(pr).zip(rr) {
+            *t += above(p, r);
         }
         if let Some(t) = trow.get_mut(pr.len()) {
-            add(t, above(p_rest, r_rest, a_rest));
+            *t += above(p_rest, r_rest);
         }
     }
-    let found = |n: &dyn Fn(&(usize, usize)) -> usize| {
-        count.iter().any(|c| n(c) >= TILE_MIN_SAMPLES)
-            && count.iter().map(n).sum::<usize>() >= min_total
-    };
-    if !found(&|c| c.1) {
+    if count.iter().all(|&c| c < TILE_MIN_SAMPLES) || count.iter().sum::<usize>() < min_total {
         return None;
     }
-    let active: Vec<bool> = count.iter().map(|c| c.0 >= TILE_MIN_SAMPLES).collect();
+    let bar = u64::from(thr) * u64::from(amp_med);
+    let stands = |p: i32, a: u32| u64::from(p.unsigned_abs()) * u64::from(a.min(amp_med)) > bar;
+    let samples = Samples {
+        phi,
+        rel,
+        amp_r,
+        cw,
+    };
+    if !samples.make_contact(&count, tw, min_total, stands) {
+        return None;
+    }
+    let active: Vec<bool> = count.iter().map(|&c| c >= TILE_MIN_SAMPLES).collect();
     let dil = dilate(&active, tw, th);
     let tiles = dil.iter().filter(|t| **t).count();
     Some((dil, tiles))
+}
+
+/// The coarse grid's samples as the contact test reads them (`cw` across).
+struct Samples<'a> {
+    phi: &'a [i32],
+    rel: &'a [bool],
+    amp_r: &'a [u32],
+    cw: usize,
+}
+
+impl Samples<'_> {
+    /// Whether the reliable samples that `stand` out (given a sample's phase and its
+    /// reference's amplitude) make a contact by [`contact_tiles`]'s rules: a tile with
+    /// [`TILE_MIN_SAMPLES`] of them, `min_total` in all. They are a subset of the samples
+    /// above the plain threshold, so only the tiles where those were counted (`plain`,
+    /// `tw` across) are read, and the reading stops once a contact is made.
+    fn make_contact(
+        &self,
+        plain: &[usize],
+        tw: usize,
+        min_total: usize,
+        stand: impl Fn(i32, u32) -> bool,
+    ) -> bool {
+        const PER: usize = TILE_PX / GRID;
+        let mut count = vec![0usize; plain.len()];
+        let (mut total, mut tile_made) = (0usize, false);
+        let rows = (self.phi.chunks_exact(self.cw))
+            .zip(self.rel.chunks_exact(self.cw))
+            .zip(self.amp_r.chunks_exact(self.cw));
+        for (cy, ((prow, rrow), arow)) in rows.enumerate() {
+            let t0 = (cy / PER) * tw;
+            for (cx, ((p, r), a)) in prow.iter().zip(rrow).zip(arow).enumerate() {
+                let t = t0 + cx / PER;
+                if plain.get(t).is_some_and(|&n| n > 0) && *r && stand(*p, *a) {
+                    count[t] += 1;
+                    total += 1;
+                    tile_made |= count[t] >= TILE_MIN_SAMPLES;
+                }
+            }
+            if tile_made && total >= min_total {
+                return true;
+            }
+        }
+        false
+    }
 }
 
 /// Per coarse sample (`cw × ch`), whether its tile is set in `tiles` (`tw` across). The
