@@ -2,8 +2,6 @@
 //! slope the flags judge.
 
 use super::FORCE_RANGE_SLACK;
-#[cfg(doc)]
-use crate::calibration::ForceModel;
 use crate::calibration::{Calibration, ForceInputs, MAX_FORCE_N, MODEL_REACH};
 
 /// Features of a depth map.
@@ -178,41 +176,30 @@ pub fn peak_component(depth_um: &[i32], w: usize, peak_at: usize, thr_um: i32) -
 /// Force from the calibration's model, N, and whether it lies beyond what the calibration
 /// covers (more than [`FORCE_RANGE_SLACK`] times its largest force label). Beyond the
 /// calibration's largest input the model is extrapolated
-/// ([`ForceModel::extrapolated_force_n`]) as far as it was checked ([`MODEL_REACH`] times
-/// that input) and saturated there; a file that does not record its range is bounded at
+/// ([`ForceModel::extrapolated_force_n`](crate::calibration::ForceModel::extrapolated_force_n))
+/// as far as it was checked ([`MODEL_REACH`] times that input) and saturated there. A file
+/// that does not record its range is read as it is, flagged and bounded at
 /// [`MAX_FORCE_N`]. Never NaN or infinite.
 pub fn bounded_force(calib: &Calibration, x: &ForceInputs) -> (f32, bool) {
     let Some(fm) = &calib.force else {
         return (0.0, false);
     };
     let u = f64::from(fm.model.feature.of(x));
-    let Some(r) = fm.range else {
-        let f = fm.model.force_n(u);
-        return if f.is_nan() || f > MAX_FORCE_N {
-            (MAX_FORCE_N as f32, true)
-        } else {
-            (f as f32, false)
-        };
-    };
-    let (top, reach) = (r.input[1], MODEL_REACH * r.input[1]);
+    let (top, flagged_above) = fm.range.map_or((f64::INFINITY, MAX_FORCE_N), |r| {
+        (r.input[1], FORCE_RANGE_SLACK * r.output[1])
+    });
+    let reach = MODEL_REACH * top;
+    // NaN is not within reach: it reads as the farthest the model was checked.
     let within = u <= reach;
     let f = fm
         .model
         .extrapolated_force_n(if within { u } else { reach }, top);
-    let f = if f.is_finite() {
+    let bounded = if f.is_finite() {
         f.min(MAX_FORCE_N)
     } else {
         MAX_FORCE_N
     };
-    (f as f32, !within || f > FORCE_RANGE_SLACK * r.output[1])
-}
-
-/// The force the calibration's model gives for a contact's features, N (unbounded: see
-/// [`bounded_force`]).
-pub fn force_of(calib: &Calibration, x: &ForceInputs) -> f32 {
-    let Some(fm) = &calib.force else { return 0.0 };
-    let u = fm.model.feature.of(x);
-    fm.model.force_n(f64::from(u)) as f32
+    (bounded as f32, !within || f.is_nan() || f > flagged_above)
 }
 
 /// Largest gradient component the 32-bit slope count keeps: 2·G_MAX² fits an `i32`.
@@ -294,6 +281,44 @@ fn slope_counts(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::calibration::{FitRange, ForceFeature, ForceForm};
+
+    /// Within the kit a force is the model's; past 1.1 × its largest label it is flagged
+    /// and read on; past twice its largest input, and for a reading that is not a number,
+    /// it stays where the check ended. A file without a range is read as it is up to what
+    /// any skin can carry.
+    #[test]
+    fn a_force_is_read_on_past_the_kit_as_far_as_it_was_checked() {
+        let mut calib = Calibration::default_sim();
+        let fm = calib
+            .force
+            .as_mut()
+            .expect("the default calibration has a force model");
+        fm.model.feature = ForceFeature::ReciprocalLoad;
+        fm.model.form = ForceForm::Linear { a: 2.0 };
+        fm.range = Some(FitRange {
+            input: [0.1, 5.0],
+            output: [0.2, 10.0],
+        });
+        let at = |c: &Calibration, l: f32| {
+            let x = ForceInputs {
+                reciprocal_load_mm2: l,
+                ..Default::default()
+            };
+            bounded_force(c, &x)
+        };
+        assert_eq!(at(&calib, 3.0), (6.0, false));
+        assert_eq!(at(&calib, 5.4), (10.8, false));
+        assert_eq!(at(&calib, 6.0), (12.0, true));
+        assert_eq!(at(&calib, 40.0), (20.0, true));
+        assert_eq!(at(&calib, f32::NAN), (20.0, true));
+        if let Some(f) = calib.force.as_mut() {
+            f.range = None;
+        }
+        assert_eq!(at(&calib, 3.0), (6.0, false));
+        assert_eq!(at(&calib, 1e5), (MAX_FORCE_N as f32, true));
+        assert_eq!(at(&calib, f32::NAN), (MAX_FORCE_N as f32, true));
+    }
 
     /// The percentile by selection, as it was computed before it was counted.
     fn slope_p98(u: &[i32], mask: &[bool], w: usize, h: usize) -> i32 {

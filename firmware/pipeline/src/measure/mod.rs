@@ -22,9 +22,7 @@ mod register;
 mod window;
 
 pub use coarse::{contact_tiles, local_noise_units};
-pub use features::{
-    bounded_force, dominant_component, force_of, peak_component, summarize, Features,
-};
+pub use features::{bounded_force, dominant_component, peak_component, summarize, Features};
 pub use window::upsample2;
 
 use coarse::{median, read_coarse, Coarse, Margin, NOISE_STEP};

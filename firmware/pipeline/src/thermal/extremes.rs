@@ -30,9 +30,9 @@
 //!
 //! The noise is the larger of the place's own and the skin's (the variance of the block
 //! that reads the skin's median): a place at the skin's temperature scatters as the skin
-//! does, whatever it reads. Above the transition, a misread neighbourhood of a warm skin can land on the
-//! coloured stripes' slope, where a block's variance is small; judged by that variance
-//! alone, a warm skin would show a coldest place degrees below it.
+//! does, whatever it reads. Above the transition, a misread neighbourhood of a warm skin
+//! can land on the coloured stripes' slope, where a block's variance is small; judged by
+//! that variance alone, a warm skin would show a coldest place degrees below it.
 //!
 //! [`STAND_OUT_SIGMAS`] is the least threshold, what independent noise needs. A uniform
 //! skin's readings also wander together over many blocks with the light across the view,
