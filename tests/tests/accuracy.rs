@@ -136,6 +136,28 @@ fn temperatures_a_calibration_cannot_read_are_flagged() {
     );
 }
 
+/// On these units the skin is a thin layer whose surface returns to rest quickly beside a
+/// contact, and letters' force read 28–42 % low: the load weighed the map over a disc
+/// enclosing the letter, most of it open ground beside the strokes where the layer lies
+/// nearer rest than a half-space. Weighed over the letter's own half-depth footprint
+/// (`measure::load`), every letter reads within 15 %.
+#[test]
+fn letters_read_their_force_over_their_own_footprint() {
+    let letters: Vec<Scored> = units_frames(&[51, 75], "letters")
+        .into_iter()
+        .filter(|f| f.kind == Kind::Letter)
+        .collect();
+    assert_eq!(letters.len(), 4, "two letters per unit");
+    for f in &letters {
+        let (err, force) = f.force_err_n.unwrap();
+        assert!(
+            err.abs() <= 0.15 * force,
+            "unit {}: letter of {force:.2} N read {err:+.2} N off",
+            f.unit
+        );
+    }
+}
+
 /// The battery's frames of unit `seed`, calibrated on its own kit.
 fn unit_frames(seed: u64, name: &str) -> Vec<Scored> {
     units_frames(&[seed], name)

@@ -157,8 +157,8 @@ pub enum ForceFeature {
     /// `F = 2·E*·a·d`, its depth at half the plateau at `√2·a`); the reciprocal load below
     /// is exact for any shape and is the one the calibration keeps when it fits.
     ElasticLoad,
-    /// Reciprocal load `L`, mm²: the depth map weighted by a flat punch's pressure around
-    /// the contact (`crate::measure::load`). By Betti's reciprocal theorem the force on an
+    /// Reciprocal load `L`, mm²: the depth map weighted by the pressure of a flat punch the
+    /// shape of the contact's half-depth region (`crate::measure::load`). By Betti's reciprocal theorem the force on an
     /// elastic half-space is `E*·L` for any indenter shape, so the calibration on one
     /// sphere only finds the skin's modulus.
     ReciprocalLoad,

@@ -2,47 +2,188 @@
 //! for any indenter.
 //!
 //! Betti's reciprocal theorem on an elastic half-space, between the unknown contact (pressure
-//! `p`, surface displacement `u`) and a rigid flat punch of radius `b` pressed a unit depth
-//! (pressure `q(r) = E*/(π·√(b² − r²))`, displacement 1 everywhere under it): when `p`
-//! vanishes outside the disc `r < b`, `∫ p·1 dA = ∫ q·u dA`, so
+//! `p`, surface displacement `u`) and a rigid flat punch of footprint `D` pressed a unit
+//! depth (pressure `q`, displacement 1 everywhere on `D`): when `p` vanishes outside `D`,
+//! `∫ p·1 dA = ∫_D q·u dA`, so `F = E*·L` with
 //!
-//! `F = (E*/π)·∫_{r<b} u(r)/√(b² − r²) dA`
+//! `L = ∫_D (q/E*)·u dA`, mm²,
 //!
-//! whatever the indenter's shape: sphere, flat punch, letter. The integral is taken over
-//! rings of one pixel around the contact's centre: with `ū_k` the mean depth of ring `k`
-//! (radii `r_k` to `r_{k+1}`), `∫ ring u/√(b² − r²) dA = 2π·ū_k·(√(b² − r_k²) − √(b² − r_{k+1}²))`,
-//! which is exact for the weight's integrable singularity at the rim. The feature is
-//! `L = 2·Σ_k ū_k·(√(b² − r_k²) − √(b² − r_{k+1}²))`, mm², and `F = E*·L`: the calibration on
-//! the sphere only has to find `E*`. (For a flat punch of radius `a = b` it is `2·a·d`,
-//! Boussinesq's `F = 2·E*·a·d`.)
+//! whatever the indenter's shape: sphere, flat punch, letter. The calibration on the sphere
+//! only has to find `E*`. For a disc of radius `b`, `q/E* = 1/(π·√(b² − r²))`, and a flat
+//! punch of radius `a = b` reads `2·a·d`, Boussinesq's `F = 2·E*·a·d`.
 //!
-//! `b` must enclose the pressure: the radius of the farthest pixel of the peak's component
-//! deeper than half the peak, which is the contact radius for a sphere (Hertz's depth is
-//! half its peak there), `√2` times it for a flat punch, and beyond any part of a letter;
-//! the demodulator's blur only widens it. Larger discs would do in a half-space, but a real
-//! skin is a finite layer whose surface returns to rest faster than a half-space's: the
-//! smallest disc relies least on the far field.
+//! **Which punch.** `D` must enclose the contact's pressure, and the less ground around the
+//! contact it covers the better: a real skin is a finite layer whose surface returns to
+//! rest faster than a half-space's, so wherever `D` reaches beyond the contact the map lies
+//! below what the theorem weighs, and the force reads short. `D` is the contact's own
+//! half-depth region (the peak's component deeper than half the peak): a sphere's contact
+//! disc (Hertz's depth is half its peak at the contact radius), `√2` times a flat punch's
+//! radius, a letter's strokes with the narrow gaps between them that the blur fills, but
+//! not the open ground beside them that a disc enclosing the letter covers. (That disc read
+//! letters about a fifth low on a layer; `docs/pipeline.md` has the measured change.) Its
+//! pressure `q` has no closed form for a footprint of any shape and is solved on cells
+//! ([`footprint_load_mm2`]); for a round contact the reading is the disc's. The solve is a
+//! Cholesky factorisation written here rather than taken from a linear-algebra crate: the
+//! device path solves one small dense system per contact and needs nothing else of one.
+//!
+//! The map's rings about the contact's centre ([`rings`]) serve the profile's shape fit
+//! ([`super::profile`]), out to a multiple of the radius enclosing the half-depth region
+//! ([`enclosing_radius_px`]).
 
-/// The reciprocal load, mm², of a map summed over rings about the contact's centre
-/// (`rings`, µm, [`rings`] out to at least `b_px`), over the disc of radius `b_px` that
-/// encloses the contact ([`enclosing_radius_px`]), with working pixels `px_mm` wide. 0
-/// without a contact.
-pub fn reciprocal_load_mm2(rings: &Rings, b_px: f32, px_mm: f32) -> f32 {
-    if b_px <= 0.0 {
+/// Cells the contact's own punch is solved on, at most (about): the cell side grows with
+/// the contact so that the solve stays a small dense one whatever the contact's size, and
+/// the map, blurred over a kernel wider than such a cell, changes little within one.
+pub const MOST_CELLS: usize = 64;
+
+/// The reciprocal load, mm², of a map `depth_um` (µm, `w` pixels wide) against a rigid punch
+/// of the contact's own footprint (`contact`, the half-depth component's pixels), working
+/// pixels `px_mm` wide. 0 without a contact.
+///
+/// The punch's pressure `q` (unit depth, unit modulus) is solved on square cells over the
+/// footprint (`K·q = 1`, `K` the half-space's `1/(π·r)` influence between cell centres,
+/// `4·s·ln(1 + √2)/π` of a cell of side `s` on itself) by Cholesky: the matrix is symmetric
+/// positive definite and small ([`MOST_CELLS`]). A cell belongs to the footprint when most
+/// of it is contact (the cells holding the most contact pixels when none is), and it reads
+/// the map's mean over it; `L = Σ q·ū·s²`. For a round contact it is the disc's reading;
+/// for a flat elliptical punch (semi-axes `a ≥ b`) it is `π·a·d/K(e)`, `K` the complete
+/// elliptic integral of the first kind.
+pub fn footprint_load_mm2(depth_um: &[i32], w: usize, contact: &[usize], px_mm: f32) -> f32 {
+    load_on_cells(depth_um, w, contact, px_mm, MOST_CELLS)
+}
+
+/// [`footprint_load_mm2`] on about `most_cells` cells.
+fn load_on_cells(
+    depth_um: &[i32],
+    w: usize,
+    contact: &[usize],
+    px_mm: f32,
+    most_cells: usize,
+) -> f32 {
+    let cells = Cells::of(depth_um, w, contact, most_cells);
+    if cells.centres.is_empty() {
         return 0.0;
     }
-    let (sum_um, count) = (&rings.sum, &rings.count);
-    let b = f64::from(b_px);
-    let rim = |r: f64| (b * b - r * r).max(0.0).sqrt();
-    let load_um_px: f64 = (0..count.len().min(b_px.ceil() as usize))
-        .filter(|&k| count[k] > 0)
-        .map(|k| {
-            let mean = sum_um[k] as f64 / f64::from(count[k]);
-            let (r_in, r_out) = (k as f64, ((k + 1) as f64).min(b));
-            mean * (rim(r_in) - rim(r_out))
-        })
-        .sum();
-    (2.0 * load_um_px / 1000.0) as f32 * px_mm
+    let s_mm = f64::from(px_mm) * cells.side as f64;
+    let Some(q) = unit_punch_pressure(&cells.centres, s_mm) else {
+        return 0.0;
+    };
+    let load_um_mm: f64 = q.iter().zip(&cells.mean_um).map(|(q, u)| q * u).sum();
+    (load_um_mm * s_mm * s_mm / 1000.0) as f32
+}
+
+/// The footprint's cells: their centres (in cells) and the map's mean over each.
+struct Cells {
+    /// Cell side, pixels.
+    side: usize,
+    /// Centres of the cells in the footprint, in cell units.
+    centres: Vec<(f64, f64)>,
+    /// The map's mean over each of them, µm.
+    mean_um: Vec<f64>,
+}
+
+impl Cells {
+    /// The cells of `contact` on a map `w` wide, about `most_cells` of them: the side starts
+    /// where the contact's pixels fill that many and grows while a contact thinner than its
+    /// cells (no cell mostly contact) leaves more than twice as many.
+    fn of(depth_um: &[i32], w: usize, contact: &[usize], most_cells: usize) -> Cells {
+        let h = depth_um.len() / w.max(1);
+        let inside: Vec<usize> = contact.iter().copied().filter(|&i| i < w * h).collect();
+        let most_cells = most_cells.max(1);
+        let mut side = (inside.len() as f64 / most_cells as f64)
+            .sqrt()
+            .ceil()
+            .max(1.0) as usize;
+        loop {
+            let cells = Self::of_side(depth_um, (w, h), &inside, side);
+            if cells.centres.len() <= 2 * most_cells {
+                return cells;
+            }
+            side += side.div_ceil(2);
+        }
+    }
+
+    /// The cells of side `side` px over the contact pixels `inside` of a `w × h` map.
+    fn of_side(depth_um: &[i32], (w, h): (usize, usize), inside: &[usize], side: usize) -> Cells {
+        let mut cells = Cells {
+            side,
+            centres: Vec::new(),
+            mean_um: Vec::new(),
+        };
+        let (xs, ys) = (inside.iter().map(|&i| i % w), inside.iter().map(|&i| i / w));
+        let (Some(x0), Some(x1), Some(y0), Some(y1)) =
+            (xs.clone().min(), xs.max(), ys.clone().min(), ys.max())
+        else {
+            return cells;
+        };
+        let (nx, ny) = ((x1 - x0) / side + 1, (y1 - y0) / side + 1);
+        let mut hits = vec![0usize; nx * ny];
+        for &i in inside {
+            hits[(i / w - y0) / side * nx + (i % w - x0) / side] += 1;
+        }
+        let most = hits.iter().copied().max().unwrap_or(0);
+        for (k, &n) in hits.iter().enumerate() {
+            if n == 0 || (2 * n < side * side && n < most) {
+                continue;
+            }
+            let (cx, cy) = (k % nx, k / nx);
+            let (xa, ya) = (x0 + cx * side, y0 + cy * side);
+            let (xb, yb) = ((xa + side).min(w), (ya + side).min(h));
+            let sum: i64 = (ya..yb)
+                .flat_map(|y| depth_um[y * w + xa..y * w + xb].iter())
+                .map(|&v| i64::from(v))
+                .sum();
+            let count = ((xb - xa) * (yb - ya)).max(1);
+            cells.centres.push((cx as f64, cy as f64));
+            cells.mean_um.push(sum as f64 / count as f64);
+        }
+        cells
+    }
+}
+
+/// The pressure, per cell (1/mm), that sinks cells of side `s_mm` centred at `centres`
+/// (cell units) by a unit depth on a half-space of unit modulus. `None` if the system is
+/// not positive definite, which the half-space's influence between distinct cells is.
+fn unit_punch_pressure(centres: &[(f64, f64)], s_mm: f64) -> Option<Vec<f64>> {
+    use std::f64::consts::{PI, SQRT_2};
+    let n = centres.len();
+    let own = 4.0 * s_mm * (1.0 + SQRT_2).ln() / PI;
+    let mut k = vec![0.0f64; n * n];
+    for (i, a) in centres.iter().enumerate() {
+        for (j, b) in centres.iter().enumerate().take(i) {
+            let (dx, dy) = (a.0 - b.0, a.1 - b.1);
+            k[i * n + j] = s_mm / (PI * (dx * dx + dy * dy).sqrt());
+        }
+        k[i * n + i] = own;
+    }
+    cholesky_solve(&mut k, n, vec![1.0; n])
+}
+
+/// Solves `A·x = b` for a symmetric positive definite `A` (`n × n`, row-major, its lower
+/// triangle given; overwritten by its Cholesky factor). `None` if `A` is not.
+fn cholesky_solve(a: &mut [f64], n: usize, mut b: Vec<f64>) -> Option<Vec<f64>> {
+    let dot = |x: &[f64], y: &[f64]| -> f64 { x.iter().zip(y).map(|(x, y)| x * y).sum() };
+    for i in 0..n {
+        let (done, row) = a.split_at_mut(i * n);
+        let row = &mut row[..n];
+        for j in 0..i {
+            let above = &done[j * n..j * n + j + 1];
+            row[j] = (row[j] - dot(&row[..j], &above[..j])) / above[j];
+        }
+        let v = row[i] - dot(&row[..i], &row[..i]);
+        if v <= 0.0 || !v.is_finite() {
+            return None;
+        }
+        row[i] = v.sqrt();
+    }
+    for i in 0..n {
+        let row = &a[i * n..i * n + i + 1];
+        b[i] = (b[i] - dot(&row[..i], &b[..i])) / row[i];
+    }
+    for i in (0..n).rev() {
+        let tail: f64 = (i + 1..n).map(|k| a[k * n + i] * b[k]).sum();
+        b[i] = (b[i] - tail) / a[i * n + i];
+    }
+    Some(b)
 }
 
 /// A map's values summed over rings one pixel wide about a centre: ring `k` holds the
@@ -114,10 +255,34 @@ mod tests {
     use super::super::features::peak_component;
     use super::*;
 
-    /// The reciprocal load of map `z` (`w` wide) about `c`, enclosing `contact`.
+    /// The reciprocal load, mm², against the disc of radius `b_px` about the contact's centre,
+    /// in closed form: the map summed over rings (`rings`, µm, out to at least `b_px`), each
+    /// ring `k` weighted by `2·(√(b² − r_k²) − √(b² − r_{k+1}²))`, exact for the weight's
+    /// integrable singularity at the rim; working pixels `px_mm` wide. The oracle for round
+    /// contacts and the reading a letter used to get.
+    fn disc_load_mm2(rings: &Rings, b_px: f32, px_mm: f32) -> f32 {
+        if b_px <= 0.0 {
+            return 0.0;
+        }
+        let (sum_um, count) = (&rings.sum, &rings.count);
+        let b = f64::from(b_px);
+        let rim = |r: f64| (b * b - r * r).max(0.0).sqrt();
+        let load_um_px: f64 = (0..count.len().min(b_px.ceil() as usize))
+            .filter(|&k| count[k] > 0)
+            .map(|k| {
+                let mean = sum_um[k] as f64 / f64::from(count[k]);
+                let (r_in, r_out) = (k as f64, ((k + 1) as f64).min(b));
+                mean * (rim(r_in) - rim(r_out))
+            })
+            .sum();
+        (2.0 * load_um_px / 1000.0) as f32 * px_mm
+    }
+
+    /// The reciprocal load of map `z` (`w` wide) against the disc about `c` enclosing
+    /// `contact`.
     fn load_of(z: &[i32], w: usize, contact: &[usize], c: (f32, f32), px_mm: f32) -> f32 {
         let b = enclosing_radius_px(contact, w, c);
-        reciprocal_load_mm2(&rings(z, w, c, b), b, px_mm)
+        disc_load_mm2(&rings(z, w, c, b), b, px_mm)
     }
 
     /// The deepest pixel's half-depth component of `z` (`w` wide).
@@ -193,8 +358,154 @@ mod tests {
         assert_eq!(alone, with);
     }
 
+    /// The footprint load of map `z` (`w` wide) over its half-depth component.
+    fn footprint_of(z: &[i32], w: usize, px_mm: f32) -> f32 {
+        footprint_load_mm2(z, w, &component(z, w), px_mm)
+    }
+
+    /// A map of an elliptical footprint (semi-axes `a ≥ b` px on a `w × w` window) pressed
+    /// `d` µm deep, its surround at rest (a layer that cut it), blurred by a Gaussian of
+    /// `sigma` px (none at 0).
+    fn ellipse(w: usize, (a, b): (f32, f32), d: f32, sigma: f32) -> Vec<i32> {
+        let c = w as f32 / 2.0;
+        let step: Vec<f32> = (0..w * w)
+            .map(|i| {
+                let (x, y) = ((i % w) as f32 + 0.5 - c, (i / w) as f32 + 0.5 - c);
+                if (x / a).powi(2) + (y / b).powi(2) <= 1.0 {
+                    d
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        if sigma <= 0.0 {
+            return step.iter().map(|v| v.round() as i32).collect();
+        }
+        let reach = (3.0 * sigma).ceil() as i64;
+        let g: Vec<f32> = (-reach..=reach)
+            .map(|k| (-(k * k) as f32 / (2.0 * sigma * sigma)).exp())
+            .collect();
+        let total: f32 = g.iter().sum();
+        let pass = |src: &[f32], dx: usize, dy: usize| -> Vec<f32> {
+            (0..w * w)
+                .map(|i| {
+                    let (x, y) = ((i % w) as i64, (i / w) as i64);
+                    g.iter()
+                        .enumerate()
+                        .map(|(k, gk)| {
+                            let o = k as i64 - reach;
+                            let (xx, yy) = (x + o * dx as i64, y + o * dy as i64);
+                            let inside = (0..w as i64).contains(&xx) && (0..w as i64).contains(&yy);
+                            if inside {
+                                gk * src[yy as usize * w + xx as usize]
+                            } else {
+                                0.0
+                            }
+                        })
+                        .sum::<f32>()
+                        / total
+                })
+                .collect()
+        };
+        let blurred = pass(&pass(&step, 1, 0), 0, 1);
+        blurred.iter().map(|v| v.round() as i32).collect()
+    }
+
+    /// A flat elliptical punch (semi-axes `a ≥ b`) pressed `d` deep, its map `d` on the
+    /// footprint and nothing around it: solved on fine cells, its load is Boussinesq's
+    /// `π·a·d/K(e)`, where the enclosing disc's reads short by all the ground beside the
+    /// punch that the disc covers.
+    #[test]
+    fn an_elliptical_punch_reads_its_own_footprint() {
+        let (a, b, d, w) = (36.0f32, 12.0f32, 500.0, 101usize);
+        let z = ellipse(w, (a, b), d, 0.0);
+        let px_mm = 0.1;
+        // K(e) for e² = 1 − (b/a)², by the arithmetic-geometric mean.
+        let (mut p, mut g) = (1.0f64, f64::from(b / a));
+        for _ in 0..10 {
+            (p, g) = ((p + g) / 2.0, (p * g).sqrt());
+        }
+        let k = std::f64::consts::PI / (2.0 * p);
+        let want = std::f64::consts::PI * f64::from(a * px_mm) * f64::from(d) / 1000.0 / k;
+        let contact = component(&z, w);
+        let got = f64::from(load_on_cells(&z, w, &contact, px_mm, contact.len()));
+        assert!((got - want).abs() < 0.03 * want, "{got} vs {want}");
+        let c = w as f32 / 2.0;
+        let disc = f64::from(load_of(&z, w, &contact, (c, c), px_mm));
+        assert!(disc < 0.8 * want, "the disc reads {disc} of {want}");
+    }
+
+    /// On a map blurred as the demodulator blurs it (a kernel σ of a few pixels), the
+    /// footprint's few cells read what fine cells read: the map changes little within one.
+    #[test]
+    fn few_cells_read_a_blurred_map_as_fine_cells_do() {
+        let w = 121;
+        for (axes, sigma) in [((36.0, 12.0), 3.0), ((20.0, 20.0), 3.0), ((40.0, 6.0), 2.0)] {
+            let z = ellipse(w, axes, 500.0, sigma);
+            let contact = component(&z, w);
+            let fine = load_on_cells(&z, w, &contact, 0.1, contact.len());
+            let few = footprint_of(&z, w, 0.1);
+            assert!(
+                (few - fine).abs() < 0.02 * fine,
+                "{axes:?}: {few} vs {fine}"
+            );
+        }
+    }
+
+    /// On a round contact the footprint's punch is the enclosing disc: Boussinesq's and
+    /// Hertz's maps read as the disc reads them.
+    #[test]
+    fn a_round_contact_reads_as_its_disc() {
+        let (a, d) = (20.0f32, 500.0f32);
+        let (z, c) = radial(161, |r| {
+            if r <= a {
+                d
+            } else {
+                2.0 * d / std::f32::consts::PI * (a / r).asin()
+            }
+        });
+        let disc = load_of(&z, 161, &component(&z, 161), c, 0.1);
+        let own = footprint_of(&z, 161, 0.1);
+        assert!((own - disc).abs() < 0.02 * disc, "{own} vs {disc}");
+        let (r_px, d_px) = (400.0f32, 4.0f32);
+        let a = (r_px * d_px).sqrt();
+        let (z, c) = radial(201, |r| {
+            let w = if r <= a {
+                d_px - r * r / (2.0 * r_px)
+            } else {
+                let s = a / r;
+                d_px / std::f32::consts::PI
+                    * ((2.0 - r * r / (a * a)) * s.asin() + (r * r / (a * a) - 1.0).sqrt())
+            };
+            w * 100.0
+        });
+        let disc = load_of(&z, 201, &component(&z, 201), c, 0.1);
+        let own = footprint_of(&z, 201, 0.1);
+        assert!((own - disc).abs() < 0.02 * disc, "{own} vs {disc}");
+    }
+
+    /// Cholesky on a small positive definite system, and a matrix that is not one.
+    #[test]
+    fn cholesky_solves_and_refuses() {
+        let mut a = vec![4.0, 0.0, 0.0, 2.0, 3.0, 0.0, 0.0, 1.0, 2.0];
+        let x = cholesky_solve(&mut a, 3, vec![2.0, 1.0, 3.0]).expect("positive definite");
+        // A·x with A = [[4,2,0],[2,3,1],[0,1,2]].
+        let back = [
+            4.0 * x[0] + 2.0 * x[1],
+            2.0 * x[0] + 3.0 * x[1] + x[2],
+            x[1] + 2.0 * x[2],
+        ];
+        for (got, want) in back.iter().zip([2.0, 1.0, 3.0]) {
+            assert!((got - want).abs() < 1e-12, "{back:?}");
+        }
+        let mut not = vec![1.0, 0.0, 2.0, 1.0];
+        assert!(cholesky_solve(&mut not, 2, vec![1.0, 1.0]).is_none());
+    }
+
     #[test]
     fn no_depth_is_no_load() {
+        assert_eq!(footprint_load_mm2(&[0; 100], 10, &[], 0.1), 0.0);
+        assert_eq!(footprint_load_mm2(&[], 10, &[3], 0.1), 0.0);
         assert_eq!(load_of(&[0; 100], 10, &[], (5.0, 5.0), 0.1), 0.0);
         assert_eq!(load_of(&[], 10, &[], (5.0, 5.0), 0.1), 0.0);
     }

@@ -437,10 +437,10 @@ impl FrameResult {
     }
 }
 
-/// How far the contact's rings reach, in multiples of its enclosing radius: the load needs
-/// them out to that radius, the profile to where they fall to [`profile::PROFILE_CUT`] of
-/// the deepest (Boussinesq's surround does at 2.6 contact radii, 1.8 times the half-depth
-/// radius `√2 a`, and a layer's sooner).
+/// How far the contact's rings reach, in multiples of its enclosing radius: the profile
+/// needs them out to where they fall to [`profile::PROFILE_CUT`] of the deepest
+/// (Boussinesq's surround does at 2.6 contact radii, 1.8 times the half-depth radius
+/// `√2 a`, and a layer's sooner).
 const PROFILE_REACH: f32 = 2.5;
 
 /// A frame with contact tiles, and what its contact stage reads.
@@ -564,8 +564,8 @@ impl<M: PhaseMap> Found<'_, M> {
         }
         feats.peak_mm =
             self.map.depth_um(<M::P as PhaseNum>::from_units(apex.peak)) as f32 / 1000.0;
-        // One pass of rings about the centre serves the load (out to the enclosing radius)
-        // and the profile (beyond it).
+        // The rings about the centre serve the profile's shape fit; the load reads the
+        // half-depth component itself.
         let centre = self.window_centre(&feats, (x0, y0));
         let b_px = load::enclosing_radius_px(&contact, bw, centre);
         let rings = load::rings(&pass.depth_um, bw, centre, PROFILE_REACH * b_px);
@@ -577,7 +577,7 @@ impl<M: PhaseMap> Found<'_, M> {
             resolved = true;
         }
         let px_mm = ctx.mm_per_px * self.factor as f32;
-        let load_mm2 = load::reciprocal_load_mm2(&rings, b_px, px_mm);
+        let load_mm2 = load::footprint_load_mm2(&pass.depth_um, bw, &contact, px_mm);
         let inputs = Self::force_inputs(&feats, &pass, load_mm2, px_mm);
         let limits = Limits {
             coarse: self.coarse,
