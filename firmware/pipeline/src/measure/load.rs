@@ -19,9 +19,9 @@
 //! half-depth region (the peak's component deeper than half the peak): a sphere's contact
 //! disc (Hertz's depth is half its peak at the contact radius), `√2` times a flat punch's
 //! radius, a letter's strokes with the narrow gaps between them that the blur fills, but
-//! not the open ground beside them that a disc enclosing the letter covers. (That disc read
-//! letters about a fifth low on a layer; `docs/pipeline.md` has the measured change.) Its
-//! pressure `q` has no closed form for a footprint of any shape and is solved on cells
+//! not the open ground beside them that a disc enclosing the letter covers (that disc read
+//! letters low on a layer; `docs/pipeline.md` has the measured change). Its pressure `q`
+//! has no closed form for a footprint of any shape and is solved on cells
 //! ([`footprint_load_mm2`]); for a round contact the reading is the disc's. The solve is a
 //! Cholesky factorisation written here rather than taken from a linear-algebra crate: the
 //! device path solves one small dense system per contact and needs nothing else of one.
