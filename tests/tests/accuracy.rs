@@ -137,10 +137,9 @@ fn temperatures_a_calibration_cannot_read_are_flagged() {
 }
 
 /// On these units the skin is a thin layer whose surface returns to rest quickly beside a
-/// contact, and letters' force read low beyond its tolerance: the load weighed the map over
-/// a disc enclosing the letter, most of it open ground beside the strokes where the layer
-/// lies nearer rest than a half-space. Weighed over the letter's own half-depth footprint
-/// (`measure::load`), every letter reads within 15 %.
+/// contact: beside a letter's strokes it lies nearer rest than a half-space's, so a load
+/// weighed over a disc enclosing the letter reads its force short. Weighed over the
+/// letter's own half-depth footprint (`measure::load`), every letter reads within 15 %.
 #[test]
 fn letters_read_their_force_over_their_own_footprint() {
     let letters: Vec<Scored> = units_frames(&[51, 75], "letters")

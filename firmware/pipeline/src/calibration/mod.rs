@@ -158,9 +158,9 @@ pub enum ForceFeature {
     /// is exact for any shape and is the one the calibration keeps when it fits.
     ElasticLoad,
     /// Reciprocal load `L`, mm²: the depth map weighted by the pressure of a flat punch the
-    /// shape of the contact's half-depth region (`crate::measure::load`). By Betti's reciprocal theorem the force on an
-    /// elastic half-space is `E*·L` for any indenter shape, so the calibration on one
-    /// sphere only finds the skin's modulus.
+    /// shape of the contact's half-depth region (`crate::measure::load`). By Betti's
+    /// reciprocal theorem the force on an elastic half-space is `E*·L` for any indenter
+    /// shape, so the calibration on one sphere only finds the skin's modulus.
     ReciprocalLoad,
 }
 
