@@ -7,7 +7,7 @@
 //! the kit never used, a heated contact within 0.8 °C.
 #![allow(clippy::unwrap_used)] // tests unwrap: a failure is the test failing
 
-use vistaf_calibrate::{calibrate, Quiet};
+use vistaf_calibrate::{calibrate, Observer};
 use vistaf_hardware::frameset::FrameSet;
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation};
 use vistaf_protocol::Flag;
@@ -16,6 +16,17 @@ use vistaf_sim::scene::{center_mm, ROOM_C, SPHERE_R_MM};
 use vistaf_sim::sets::{kit_states, write_states, SetOptions};
 use vistaf_sim::thermal::HeatSource;
 use vistaf_sim::{Renderer, SensorUnit, SkinState};
+
+/// The calibration's remarks, kept to check.
+#[derive(Default)]
+struct Notes(Vec<String>);
+
+impl Observer for Notes {
+    fn progress(&mut self, _: &str, _: usize, _: usize) {}
+    fn note(&mut self, text: String) {
+        self.0.push(text);
+    }
+}
 
 fn check_unit(seed: u64) {
     let unit = SensorUnit::from_seed(seed);
@@ -37,8 +48,13 @@ fn check_unit(seed: u64) {
         write_states(&dir.join(name), name, &unit, states, &opts, |_, _| {}).unwrap()
     })
     .collect();
-    let calib = calibrate(&sets, Implementation::Fixed, &mut Quiet).unwrap();
+    let mut notes = Notes::default();
+    let calib = calibrate(&sets, Implementation::Fixed, &mut notes).unwrap();
     std::fs::remove_dir_all(&dir).unwrap();
+    // A frame left out of several stages for one reason is reported once.
+    for (k, n) in notes.0.iter().enumerate() {
+        assert!(!notes.0[..k].contains(n), "unit {seed}: note repeated: {n}");
+    }
 
     let r = Renderer::new(unit.clone());
     let (reference, _) = r.render(&SkinState::idle(ROOM_C), 77);

@@ -127,9 +127,20 @@ struct Run<'a, O: Observer> {
     obs: &'a mut O,
     /// Frames are decoded at `1/scale` ([`UnitGeometry::decode_scale`]).
     scale: u32,
+    /// The notes already given: a frame left out of one stage for a reason is usually left
+    /// out of the next for the same one, and is reported once.
+    noted: std::collections::BTreeSet<String>,
 }
 
 impl<O: Observer> Run<'_, O> {
+    /// Gives `note` unless the same note was given before.
+    fn note_once(&mut self, note: String) {
+        if !self.noted.contains(&note) {
+            self.obs.note(note.clone());
+            self.noted.insert(note);
+        }
+    }
+
     /// Analyses every frame carrying `label > 0` (and `only` accepts) with `calib`; returns
     /// (label, result) for those without a flag the label does not tolerate
     /// ([`Label::tolerates`]).
@@ -177,7 +188,7 @@ impl<O: Observer> Run<'_, O> {
                 if d.shape == Shape::Flat {
                     // The kit's indenter is a sphere: a press whose profile reads as a
                     // plateau was read with a punch's depth, not the sphere's apex.
-                    self.obs.note(format!(
+                    self.note_once(format!(
                         "{set}: {} left out of the fit (its profile reads as a flat punch's)",
                         f.file
                     ));
@@ -185,7 +196,7 @@ impl<O: Observer> Run<'_, O> {
                     out.push((y, d));
                 } else {
                     let names: Vec<&str> = d.flags.iter().map(|f| f.name()).collect();
-                    self.obs.note(format!(
+                    self.note_once(format!(
                         "{set}: {} left out of the fit ({})",
                         f.file,
                         names.join(", ")
@@ -595,6 +606,7 @@ pub fn calibrate<O: Observer>(
         imp,
         obs,
         scale: unit.decode_scale,
+        noted: Default::default(),
     };
     let sign = phase_sign(&mut run, &unit)?;
     let mut calib = identity(&unit, sign);
