@@ -7,7 +7,7 @@ use vistaf_pipeline::calibration::Calibration;
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement};
 use vistaf_protocol::Flag;
 use vistaf_sim::contact::{Contact, Footprint, Indenter};
-use vistaf_sim::scene::{center_mm, ROOM_C};
+use vistaf_sim::scene::{center_mm, ROOM_C, SPHERE_R_MM};
 use vistaf_sim::{Renderer, SensorUnit, SkinState};
 
 fn unit() -> SensorUnit {
@@ -255,6 +255,73 @@ fn a_plateau_whose_skirt_spared_the_registration_reads_unflagged() {
             assert!(
                 !x.flags.contains(Flag::PhaseSlope),
                 "{imp:?} disc r {r_mm} d {d}: {x:?}"
+            );
+        }
+    }
+}
+
+/// `img` with its stripes averaged away over the square of side `side_px` centred at
+/// `(x, y)`: each pixel takes the square's mean colour, as where the camera loses the
+/// fringe (a dark crescent at a punch's rim, a clipped glint).
+fn blot(img: &image::RgbImage, (x, y): (f32, f32), side_px: u32) -> image::RgbImage {
+    let mut out = img.clone();
+    let x0 = (x - side_px as f32 / 2.0).round().max(0.0) as u32;
+    let y0 = (y - side_px as f32 / 2.0).round().max(0.0) as u32;
+    let (x1, y1) = (
+        (x0 + side_px).min(img.width()),
+        (y0 + side_px).min(img.height()),
+    );
+    let mut sum = [0u64; 3];
+    for py in y0..y1 {
+        for px in x0..x1 {
+            for (s, v) in sum.iter_mut().zip(img.get_pixel(px, py).0) {
+                *s += u64::from(v);
+            }
+        }
+    }
+    let n = u64::from((x1 - x0) * (y1 - y0)).max(1);
+    let mean = image::Rgb(sum.map(|s| (s / n) as u8));
+    for py in y0..y1 {
+        for px in x0..x1 {
+            out.put_pixel(px, py, mean);
+        }
+    }
+    out
+}
+
+/// The apex is read from the map blurred over the demodulator's kernel: where the fringe
+/// was lost within its reach, it averages a phase nobody read, and the press is flagged.
+/// The calibrated sphere reads clean; with the fringe lost over a square of one period at
+/// its apex (too few samples for the band-loss count of the whole contact) it carries
+/// `phase_slope`; with the same square lost away from the contact, it does not.
+#[test]
+fn an_apex_beside_a_lost_fringe_is_flagged() {
+    let r = Renderer::new(unit());
+    let (reference, _) = r.render(&SkinState::idle(ROOM_C), 1);
+    let (img, truth) = r.render(&sphere(SPHERE_R_MM, 1.5), 9);
+    let at = truth.contact_px.unwrap();
+    let side = unit().period_px.round() as u32;
+    let far = (
+        at.0 + 0.3 * unit().width_px as f32,
+        at.1 + 0.25 * unit().height_px as f32,
+    );
+    let opts = AnalyzerOptions {
+        force_calibration: true,
+        ..Default::default()
+    };
+    for imp in [Implementation::Fixed, Implementation::Float] {
+        let a = Analyzer::new(&reference, Calibration::default_sim(), imp, opts).unwrap();
+        for (what, frame, want) in [
+            ("clean", img.clone(), false),
+            ("lost at the apex", blot(&img, at, side), true),
+            ("lost away from the contact", blot(&img, far, side), false),
+        ] {
+            let d = a.analyze(&frame).unwrap();
+            assert!(d.contact, "{imp:?}, {what}: {d:?}");
+            assert_eq!(
+                d.flags.contains(Flag::PhaseSlope),
+                want,
+                "{imp:?}, {what}: {d:?}"
             );
         }
     }

@@ -276,6 +276,8 @@ pub(super) struct Limits<'a, P> {
     /// Whether the contact's skirt cannot have sunk the registration by more than the
     /// depth tolerance ([`super::register::Background::skirt_free`]).
     pub(super) skirt_free: bool,
+    /// Where the apex was read, working pixels of the image.
+    pub(super) apex_px: (usize, usize),
 }
 
 /// Whether a contact's reciprocal load is unlike the calibrated indenter's at the depth it
@@ -341,7 +343,11 @@ impl<P> Limits<'_, P> {
             });
         let slope_limit = SLOPE_LIMIT * 65_536.0 * BAND_HALF_WIDTH * carrier.freq();
         let ((_, (bw, bh)), deformed) = (self.win.pixels(), &self.pass.deformed);
-        if unlike || self.band_lost() || slope_p98_exceeds(self.up, deformed, bw, bh, slope_limit) {
+        if unlike
+            || self.band_lost()
+            || (self.shape != Shape::Flat && self.apex_beside_lost(ctx.blur_loss.lengths()))
+            || slope_p98_exceeds(self.up, deformed, bw, bh, slope_limit)
+        {
             flags.insert(Flag::PhaseSlope);
         }
         let (unreached, residues) = self.unwrap;
@@ -358,6 +364,39 @@ impl<P> Limits<'_, P> {
         flags
     }
 
+    /// Whether a coarse sample inside the margin that the apex reading reaches lost its
+    /// fringe as [`Self::band_lost`] counts them: the apex averages a phase the demodulator
+    /// could not read there (the overshoot at a punch's rim, say, where the shading darkens
+    /// the stripes as the phase jumps). The reading reaches a kernel's length (`lx`, `ly`
+    /// working pixels) each way, and the upsampling of the coarse samples two pixels more.
+    /// A plateau's depth is its core's level, not the apex's: the flags do not ask for one.
+    fn apex_beside_lost(&self, (lx, ly): (usize, usize)) -> bool {
+        let c = self.coarse;
+        let (ax, ay) = self.apex_px;
+        let span = |a: usize, l: usize| {
+            let reach = l + GRID;
+            a.saturating_sub(reach).div_ceil(GRID)..=(a + reach) / GRID
+        };
+        let near = span(ay, ly).flat_map(|cy| span(ax, lx).map(move |cx| (cx, cy)));
+        let lost = |(cx, cy): (usize, usize)| {
+            let k = cy * c.cw + cx;
+            k < c.amp.len() && self.margin.contains(cx * GRID, cy * GRID) && self.fringe_lost(k)
+        };
+        near.filter(|&(cx, _)| cx < c.cw).any(lost)
+    }
+
+    /// Whether coarse sample `k` lost its fringe: unreliable, or its amplitude fell below
+    /// half its reference's after the frame's overall contrast change (so a dimmer or
+    /// washed-out frame does not count).
+    fn fringe_lost(&self, k: usize) -> bool {
+        let c = self.coarse;
+        let (fm, rm) = (
+            u64::from(self.amp_medians.0.max(1)),
+            u64::from(self.amp_medians.1),
+        );
+        !c.rel_contact[k] || u64::from(c.amp[k]) * 2 * rm < u64::from(c.amp_r[k]) * fm
+    }
+
     /// Beyond the band the demodulator cannot even report the slope; what it shows is the
     /// fringe amplitude falling (by the filter's response at the local frequency offset).
     /// Deformed samples whose amplitude fell below half the reference's (after the frame's
@@ -367,10 +406,6 @@ impl<P> Limits<'_, P> {
         let c = self.coarse;
         let ((x0, y0), (bw, _)) = self.win.pixels();
         let m = self.pass.deformed.len();
-        let (fm, rm) = (
-            u64::from(self.amp_medians.0.max(1)),
-            u64::from(self.amp_medians.1),
-        );
         let (mut lost, mut seen) = (0usize, 0usize);
         let (cx0, cx1) = self.win.cols;
         for (cx, cy) in self
@@ -386,7 +421,7 @@ impl<P> Limits<'_, P> {
             }
             let k = cy * c.cw + cx;
             seen += 1;
-            if !c.rel_contact[k] || u64::from(c.amp[k]) * 2 * rm < u64::from(c.amp_r[k]) * fm {
+            if self.fringe_lost(k) {
                 lost += 1;
             }
         }

@@ -590,6 +590,7 @@ impl<M: PhaseMap> Found<'_, M> {
             resolved,
             shape: shape.shape,
             skirt_free: self.bg.skirt_free(threshold_um, 1000.0 * feats.peak_mm),
+            apex_px: (x0 + apex.at % bw, y0 + apex.at / bw),
         };
         let mut flags = limits.flags(&inputs, carrier, ctx);
         // Half the contact's depth reaching where the kernel averages padding: the contact
