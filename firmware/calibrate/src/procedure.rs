@@ -248,6 +248,8 @@ fn temperature_model<O: Observer>(
     let (mut samples, mut labelled, mut clipped) = (Vec::new(), Vec::new(), Vec::new());
     // (set, frame, label) of every frame in the fit.
     let mut kept = Vec::new();
+    // Frames labelled without contact whose phase shows one.
+    let mut phantoms = 0usize;
     let mut done = 0;
     for (si, s) in run.sets.iter().enumerate() {
         if !s.manifest.frames.iter().any(no_contact) {
@@ -289,11 +291,18 @@ fn temperature_model<O: Observer>(
                 continue;
             }
             if d.contact {
+                // Why, the first time only: the next frames say what happened to them.
+                let why = if phantoms == 0 {
+                    " (the phase misread there: the pigment's colour at this temperature \
+                     lowers the grating's contrast, under a glare spot say)"
+                } else {
+                    ""
+                };
+                phantoms += 1;
                 run.obs.note(format!(
-                    "{set}: {} shows contact where its label says none (the phase misread \
-                     there: the pigment's colour at this temperature lowers the grating's \
-                     contrast, under a glare spot say); kept in the temperature fit with its \
-                     stripes placed by the registration where the phase moved",
+                    "{set}: {} shows contact where its label says none{why}; kept in the \
+                     temperature fit with its stripes placed by the registration where the \
+                     phase moved",
                     f.file,
                 ));
             }
