@@ -4,7 +4,8 @@
 //! pipeline must hold: peak depth within 3 % + 0.02 mm over 0.1–2.5 mm, contact centre
 //! within 0.5 mm, force RMSE within 8 % of full scale over 0.5–30 N; and those of the
 //! temperature pipeline: ≤ 0.3 °C within 22–32 °C and ≤ 1.0 °C over 15–45 °C at setpoints
-//! the kit never used, a heated contact within 0.8 °C.
+//! the kit never used, a heated contact within 0.8 °C. The calibration's remarks name each
+//! frame it left out once, however many of its stages left it out.
 #![allow(clippy::unwrap_used)] // tests unwrap: a failure is the test failing
 
 use vistaf_calibrate::{calibrate, Observer};

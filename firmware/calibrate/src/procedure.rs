@@ -10,7 +10,7 @@
 //!    model; volume, integrated phase, contact area and peak depth are candidate inputs,
 //!    grouped by force level.
 //!
-//! Frames whose analysis carries a quality flag are left out of the fits (and reported):
+//! Frames whose analysis carries a quality flag are left out of the fits (and reported once):
 //! a flagged number is not trusted, so it must not teach the model either. A frame of the
 //! skin at one temperature (labelled without contact) in which the phase shows a contact
 //! keeps all its blocks but those around that spot: the label says the skin is at rest, so
