@@ -135,9 +135,8 @@ struct Run<'a, O: Observer> {
 impl<O: Observer> Run<'_, O> {
     /// Gives `note` unless the same note was given before.
     fn note_once(&mut self, note: String) {
-        if !self.noted.contains(&note) {
-            self.obs.note(note.clone());
-            self.noted.insert(note);
+        if self.noted.insert(note.clone()) {
+            self.obs.note(note);
         }
     }
 
@@ -248,8 +247,8 @@ fn temperature_model<O: Observer>(
     let (mut samples, mut labelled, mut clipped) = (Vec::new(), Vec::new(), Vec::new());
     // (set, frame, label) of every frame in the fit.
     let mut kept = Vec::new();
-    // Frames labelled without contact whose phase shows one.
-    let mut phantoms = 0usize;
+    // Whether a frame labelled without contact whose phase shows one was explained.
+    let mut explained = false;
     let mut done = 0;
     for (si, s) in run.sets.iter().enumerate() {
         if !s.manifest.frames.iter().any(no_contact) {
@@ -292,13 +291,13 @@ fn temperature_model<O: Observer>(
             }
             if d.contact {
                 // Why, the first time only: the next frames say what happened to them.
-                let why = if phantoms == 0 {
+                let why = if explained {
+                    ""
+                } else {
                     " (the phase misread there: the pigment's colour at this temperature \
                      lowers the grating's contrast, under a glare spot say)"
-                } else {
-                    ""
                 };
-                phantoms += 1;
+                explained = true;
                 run.obs.note(format!(
                     "{set}: {} shows contact where its label says none{why}; kept in the \
                      temperature fit with its stripes placed by the registration where the \

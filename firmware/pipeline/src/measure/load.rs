@@ -332,51 +332,20 @@ mod tests {
     }
 
     /// A map of an elliptical footprint (semi-axes `a ≥ b` px on a `w × w` window) pressed
-    /// `d` µm deep, its surround at rest (a layer that cut it), blurred by a Gaussian of
-    /// `sigma` px (none at 0).
-    fn ellipse(w: usize, (a, b): (f32, f32), d: f32, sigma: f32) -> Vec<i32> {
+    /// `d` µm deep, its surround at rest (a layer that cut it).
+    fn ellipse(w: usize, (a, b): (f32, f32), d: f32) -> Vec<i32> {
         let c = w as f32 / 2.0;
-        let step: Vec<f32> = (0..w * w)
+        (0..w * w)
             .map(|i| {
                 let (x, y) = ((i % w) as f32 + 0.5 - c, (i / w) as f32 + 0.5 - c);
-                if (x / a).powi(2) + (y / b).powi(2) <= 1.0 {
-                    d
+                let inside = (x / a).powi(2) + (y / b).powi(2) <= 1.0;
+                if inside {
+                    d.round() as i32
                 } else {
-                    0.0
+                    0
                 }
             })
-            .collect();
-        if sigma <= 0.0 {
-            return step.iter().map(|v| v.round() as i32).collect();
-        }
-        let reach = (3.0 * sigma).ceil() as i64;
-        let g: Vec<f32> = (-reach..=reach)
-            .map(|k| (-(k * k) as f32 / (2.0 * sigma * sigma)).exp())
-            .collect();
-        let total: f32 = g.iter().sum();
-        let pass = |src: &[f32], dx: usize, dy: usize| -> Vec<f32> {
-            (0..w * w)
-                .map(|i| {
-                    let (x, y) = ((i % w) as i64, (i / w) as i64);
-                    g.iter()
-                        .enumerate()
-                        .map(|(k, gk)| {
-                            let o = k as i64 - reach;
-                            let (xx, yy) = (x + o * dx as i64, y + o * dy as i64);
-                            let inside = (0..w as i64).contains(&xx) && (0..w as i64).contains(&yy);
-                            if inside {
-                                gk * src[yy as usize * w + xx as usize]
-                            } else {
-                                0.0
-                            }
-                        })
-                        .sum::<f32>()
-                        / total
-                })
-                .collect()
-        };
-        let blurred = pass(&pass(&step, 1, 0), 0, 1);
-        blurred.iter().map(|v| v.round() as i32).collect()
+            .collect()
     }
 
     /// A flat elliptical punch (semi-axes `a ≥ b`) pressed `d` deep, its map `d` on the
@@ -386,7 +355,7 @@ mod tests {
     #[test]
     fn an_elliptical_punch_reads_its_own_footprint() {
         let (a, b, d, w) = (36.0f32, 12.0f32, 500.0, 101usize);
-        let z = ellipse(w, (a, b), d, 0.0);
+        let z = ellipse(w, (a, b), d);
         let px_mm = 0.1;
         // K(e) for e² = 1 − (b/a)², by the arithmetic-geometric mean.
         let (mut p, mut g) = (1.0f64, f64::from(b / a));
@@ -410,13 +379,14 @@ mod tests {
         );
     }
 
-    /// On a map blurred as the demodulator blurs it (a kernel σ of a few pixels), the
-    /// footprint's few cells read what fine cells read: the map changes little within one.
+    /// On a map blurred as the demodulator blurs it (its triangle of a few pixels,
+    /// [`super::super::apex::blur`]), the footprint's few cells read what fine cells read:
+    /// the map changes little within one.
     #[test]
     fn few_cells_read_a_blurred_map_as_fine_cells_do() {
         let w = 121;
-        for (axes, sigma) in [((36.0, 12.0), 3.0), ((20.0, 20.0), 3.0), ((40.0, 6.0), 2.0)] {
-            let z = ellipse(w, axes, 500.0, sigma);
+        for (axes, l) in [((36.0, 12.0), 7), ((20.0, 20.0), 7), ((40.0, 6.0), 5)] {
+            let z = super::super::apex::blur(&ellipse(w, axes, 500.0), w, (l, l));
             let contact = component(&z, w);
             let fine = load_on_cells(&z, w, &contact, 0.1, contact.len());
             let few = footprint_of(&z, w, 0.1);
