@@ -43,6 +43,11 @@ use crate::Measurement;
 pub const CONTACT_SIGMAS: f32 = 6.0;
 /// …and at least this much, rad (a floor for very clean frames).
 pub const MIN_CONTACT_RAD: f32 = 0.02;
+/// A contact's width is read ([`apex::Apex::resolved`]) only where its map peak stands at
+/// least this many contact thresholds above the background: nearer the threshold the
+/// noise makes up a share of the region and of both blurred readings at the apex, and a
+/// press too narrow for the band can pass for a resolved one of a fraction of its depth.
+pub const RESOLVED_THRESHOLDS: i32 = 2;
 /// Side of a contact tile at the working resolution, pixels.
 pub const TILE_PX: usize = 8;
 /// Coarse samples above threshold a tile needs to count as contact (of the 16 a tile has).
@@ -570,7 +575,7 @@ impl<M: PhaseMap> Found<'_, M> {
         let b_px = load::enclosing_radius_px(&contact, bw, centre);
         let rings = load::rings(&pass.depth_um, bw, centre, PROFILE_REACH * b_px);
         let shape = ctx.shapes.fit(&rings);
-        let mut resolved = apex.resolved;
+        let mut resolved = apex.resolved && map_peak_um >= RESOLVED_THRESHOLDS * threshold_um;
         if shape.shape == Shape::Flat {
             // A plateau's level, not a dome's blurred apex.
             feats.peak_mm = (shape.depth / 1000.0) as f32;
