@@ -344,7 +344,7 @@ fn a_press_near_the_noise_floor_is_within_tolerance_or_flagged() {
     };
     let depth_mm = 0.15;
     for imp in [Implementation::Fixed, Implementation::Float] {
-        let a = Analyzer::new(&reference, Calibration::default_sim(), imp, opts.clone()).unwrap();
+        let a = Analyzer::new(&reference, Calibration::default_sim(), imp, opts).unwrap();
         for seed in 2..12u64 {
             let c = center_mm(&unit);
             let mut s = SkinState::idle(ROOM_C);
