@@ -10,7 +10,8 @@
 //!    model; volume, integrated phase, contact area and peak depth are candidate inputs,
 //!    grouped by force level.
 //!
-//! Frames whose analysis carries a quality flag are left out of the fits (and reported once):
+//! Frames whose analysis carries a quality flag are left out of the fits (and reported once,
+//! with every stage that left them out and why, after the fits):
 //! a flagged number is not trusted, so it must not teach the model either. A frame of the
 //! skin at one temperature (labelled without contact) in which the phase shows a contact
 //! keeps all its blocks but those around that spot: the label says the skin is at rest, so
@@ -127,16 +128,57 @@ struct Run<'a, O: Observer> {
     obs: &'a mut O,
     /// Frames are decoded at `1/scale` ([`UnitGeometry::decode_scale`]).
     scale: u32,
-    /// The notes already given: a frame left out of one stage for a reason is usually left
-    /// out of the next for the same one, and is reported once.
-    noted: std::collections::BTreeSet<String>,
+    /// The frames left out of a fit so far, in the order first met: a frame left out of one
+    /// stage is usually left out of the next too, for the same reasons or for one a later
+    /// stage's model adds (`depth_out_of_range`), and is reported once, with every stage
+    /// and reason ([`Run::report_left_out`]).
+    left: Vec<LeftOut>,
+}
+
+/// A kit frame left out of one or more fits.
+struct LeftOut {
+    /// `set: file`.
+    frame: String,
+    /// The stages that left it out.
+    stages: Vec<String>,
+    /// Why (flag names, or what its profile showed), each once.
+    reasons: Vec<String>,
 }
 
 impl<O: Observer> Run<'_, O> {
-    /// Gives `note` unless the same note was given before.
-    fn note_once(&mut self, note: String) {
-        if self.noted.insert(note.clone()) {
-            self.obs.note(note);
+    /// Records `frame` (`set: file`) left out of `stage`'s fit for `reasons`.
+    fn left_out(&mut self, frame: String, stage: &str, reasons: Vec<String>) {
+        let at = match self.left.iter().position(|l| l.frame == frame) {
+            Some(at) => at,
+            None => {
+                self.left.push(LeftOut {
+                    frame,
+                    stages: Vec::new(),
+                    reasons: Vec::new(),
+                });
+                self.left.len() - 1
+            }
+        };
+        let l = &mut self.left[at];
+        if !l.stages.iter().any(|s| s == stage) {
+            l.stages.push(stage.to_string());
+        }
+        for r in reasons {
+            if !l.reasons.contains(&r) {
+                l.reasons.push(r);
+            }
+        }
+    }
+
+    /// Notes each frame left out of a fit, once: the stages that left it out and why.
+    fn report_left_out(&mut self) {
+        for l in std::mem::take(&mut self.left) {
+            self.obs.note(format!(
+                "{} left out of {} ({})",
+                l.frame,
+                l.stages.join(", "),
+                l.reasons.join(", ")
+            ));
         }
     }
 
@@ -184,22 +226,17 @@ impl<O: Observer> Run<'_, O> {
                         set: set.clone(),
                         cause,
                     })?;
+                let frame_name = || format!("{set}: {}", f.file);
                 if d.shape == Shape::Flat {
                     // The kit's indenter is a sphere: a press whose profile reads as a
                     // plateau was read with a punch's depth, not the sphere's apex.
-                    self.note_once(format!(
-                        "{set}: {} left out of the fit (its profile reads as a flat punch's)",
-                        f.file
-                    ));
+                    let why = "its profile reads as a flat punch's".to_string();
+                    self.left_out(frame_name(), stage, vec![why]);
                 } else if d.flags.iter().all(|f| label.tolerates(f)) {
                     out.push((y, d));
                 } else {
-                    let names: Vec<&str> = d.flags.iter().map(|f| f.name()).collect();
-                    self.note_once(format!(
-                        "{set}: {} left out of the fit ({})",
-                        f.file,
-                        names.join(", ")
-                    ));
+                    let names = d.flags.iter().map(|f| f.name().to_string()).collect();
+                    self.left_out(frame_name(), stage, names);
                 }
             }
         }
@@ -614,14 +651,13 @@ pub fn calibrate<O: Observer>(
         imp,
         obs,
         scale: unit.decode_scale,
-        noted: Default::default(),
+        left: Vec::new(),
     };
-    let sign = phase_sign(&mut run, &unit)?;
-    let mut calib = identity(&unit, sign);
-    calib.depth = depth_model(&mut run, &calib)?;
-    calib.shape = shape_signature(&mut run, &calib)?;
-    calib.force = force_model(&mut run, &calib)?;
-    calib.temperature = temperature_model(&mut run, &calib)?;
+    // The frames left out are reported whether the fits succeed or not: a fit refused for
+    // too few frames is explained by them.
+    let fitted = fit_models(&mut run, &unit);
+    run.report_left_out();
+    let mut calib = fitted?;
     calib.sets = sets
         .iter()
         .map(|s| {
@@ -632,6 +668,21 @@ pub fn calibrate<O: Observer>(
             })
         })
         .collect::<Result<_, CalibrateError>>()?;
+    Ok(calib)
+}
+
+/// Every model, fitted in turn on the kit: the phase's sign, phase → depth, the indenter's
+/// shape signature, force and temperature.
+fn fit_models<O: Observer>(
+    run: &mut Run<'_, O>,
+    unit: &UnitGeometry,
+) -> Result<Calibration, CalibrateError> {
+    let sign = phase_sign(run, unit)?;
+    let mut calib = identity(unit, sign);
+    calib.depth = depth_model(run, &calib)?;
+    calib.shape = shape_signature(run, &calib)?;
+    calib.force = force_model(run, &calib)?;
+    calib.temperature = temperature_model(run, &calib)?;
     Ok(calib)
 }
 
@@ -809,6 +860,54 @@ fn force_model<O: Observer>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The notes given, kept to check.
+    #[derive(Default)]
+    struct Notes(Vec<String>);
+
+    impl Observer for Notes {
+        fn progress(&mut self, _: &str, _: usize, _: usize) {}
+        fn note(&mut self, text: String) {
+            self.0.push(text);
+        }
+    }
+
+    /// A frame left out of two stages for different reasons is named once, with both
+    /// stages and every reason once; frames are named in the order first met.
+    #[test]
+    fn a_frame_left_out_of_several_stages_is_named_once_with_every_reason() {
+        let mut notes = Notes::default();
+        let mut run = Run {
+            sets: &[],
+            imp: Implementation::Fixed,
+            obs: &mut notes,
+            scale: 1,
+            left: Vec::new(),
+        };
+        let why = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        run.left_out(
+            "depth: f7.png".into(),
+            "phase → depth",
+            why(&["phase_slope"]),
+        );
+        run.left_out(
+            "depth: f2.png".into(),
+            "phase → depth",
+            why(&["low_contrast"]),
+        );
+        let both = why(&["phase_slope", "depth_out_of_range"]);
+        run.left_out("depth: f7.png".into(), "indenter shape", both);
+        run.report_left_out();
+        run.report_left_out();
+        assert_eq!(
+            notes.0,
+            [
+                "depth: f7.png left out of phase → depth, indenter shape \
+                 (phase_slope, depth_out_of_range)",
+                "depth: f2.png left out of phase → depth (low_contrast)",
+            ]
+        );
+    }
 
     /// The mean's table keeps the longest stretch of setpoints over which the kit's mean
     /// rises, and none where it never does.
