@@ -8,7 +8,7 @@
 //! frame it left out once, however many of its stages left it out.
 #![allow(clippy::unwrap_used)] // tests unwrap: a failure is the test failing
 
-use vistaf_calibrate::{calibrate, Observer};
+use vistaf_calibrate::{calibrate, Notes};
 use vistaf_hardware::frameset::FrameSet;
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation};
 use vistaf_protocol::Flag;
@@ -17,17 +17,6 @@ use vistaf_sim::scene::{center_mm, ROOM_C, SPHERE_R_MM};
 use vistaf_sim::sets::{kit_states, write_states, SetOptions};
 use vistaf_sim::thermal::HeatSource;
 use vistaf_sim::{Renderer, SensorUnit, SkinState};
-
-/// The calibration's remarks, kept to check.
-#[derive(Default)]
-struct Notes(Vec<String>);
-
-impl Observer for Notes {
-    fn progress(&mut self, _: &str, _: usize, _: usize) {}
-    fn note(&mut self, text: String) {
-        self.0.push(text);
-    }
-}
 
 fn check_unit(seed: u64) {
     let unit = SensorUnit::from_seed(seed);

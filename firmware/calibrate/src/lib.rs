@@ -28,4 +28,4 @@ pub mod procedure;
 pub mod temperature;
 pub mod verdict;
 
-pub use procedure::{calibrate, CalibrateError, Observer, Quiet};
+pub use procedure::{calibrate, CalibrateError, Notes, Observer, Quiet};

@@ -86,6 +86,18 @@ impl Observer for Quiet {
     fn note(&mut self, _: String) {}
 }
 
+/// An observer that keeps the remarks, in order, and ignores progress: for a caller that
+/// shows them later, or checks them.
+#[derive(Debug, Default)]
+pub struct Notes(pub Vec<String>);
+
+impl Observer for Notes {
+    fn progress(&mut self, _: &str, _: usize, _: usize) {}
+    fn note(&mut self, text: String) {
+        self.0.push(text);
+    }
+}
+
 fn sha_of(set: &FrameSet) -> Result<String, CalibrateError> {
     let mut h = Sha256::new();
     let files = std::iter::once("set.json".to_string())
@@ -148,17 +160,16 @@ struct LeftOut {
 impl<O: Observer> Run<'_, O> {
     /// Records `frame` (`set: file`) left out of `stage`'s fit for `reasons`.
     fn left_out(&mut self, frame: String, stage: &str, reasons: Vec<String>) {
-        let at = match self.left.iter().position(|l| l.frame == frame) {
-            Some(at) => at,
-            None => {
-                self.left.push(LeftOut {
-                    frame,
-                    stages: Vec::new(),
-                    reasons: Vec::new(),
-                });
-                self.left.len() - 1
-            }
-        };
+        let at = self.left.iter().position(|l| l.frame == frame);
+        let at = at.unwrap_or_else(|| {
+            let (stages, reasons) = (Vec::new(), Vec::new());
+            self.left.push(LeftOut {
+                frame,
+                stages,
+                reasons,
+            });
+            self.left.len() - 1
+        });
         let l = &mut self.left[at];
         if !l.stages.iter().any(|s| s == stage) {
             l.stages.push(stage.to_string());
@@ -860,17 +871,6 @@ fn force_model<O: Observer>(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// The notes given, kept to check.
-    #[derive(Default)]
-    struct Notes(Vec<String>);
-
-    impl Observer for Notes {
-        fn progress(&mut self, _: &str, _: usize, _: usize) {}
-        fn note(&mut self, text: String) {
-            self.0.push(text);
-        }
-    }
 
     /// A frame left out of two stages for different reasons is named once, with both
     /// stages and every reason once; frames are named in the order first met.
