@@ -3,18 +3,25 @@
 //! and its reading carries that little area's noise; the most extreme of several hundred
 //! such readings is mostly the noisiest one, so the skin's extremes taken block by block
 //! sit well outside its true range even on a uniform skin. Each block is therefore read as
-//! the median of its 5 × 5 neighbourhood (when more than half of it is measured) before
-//! the extremes are taken.
+//! what more than half of its 5 × 5 neighbourhood reads before the extremes are taken
+//! ([`ranks`]): a place is as warm as its [`MIN_NEIGHBOURS`]-th warmest block and as cold
+//! as its [`MIN_NEIGHBOURS`]-th coldest.
 //!
 //! The neighbourhood is that wide because neighbouring blocks are not independent: the
 //! black stripes are read over 3 × 3 blocks and shared by each 2 × 2 (`evaluate`), and
 //! outside the pigment's transition they carry most of a reading, so a 3 × 3 neighbourhood
 //! holds only a few independent readings and one misread cell (a dim corner, glare) fills
-//! half of it. In 5 × 5 blocks no single cell is a majority. A hottest place is the lower
-//! of the two middle values when the count is even (the coldest the upper), so a tie
-//! between a misread cell and the skin goes to the skin. A warm object still is the hottest
-//! place when it covers most of a neighbourhood (about 7 × 7 mm); a contact's own
-//! temperature is read over the contact region itself, not here.
+//! half of it. In 5 × 5 blocks no single cell is a majority. Where all 25 blocks are
+//! measured a place reads the neighbourhood's median; of 24, the lower of the two middle
+//! values for a hot place (the upper for a cold one), so a tie between a misread cell and
+//! the skin goes to the skin. A warm object still is the hottest place when it covers most
+//! of a neighbourhood (about 7 × 7 mm); a contact's own temperature is read over the
+//! contact region itself, not here.
+//!
+//! The majority is of the whole neighbourhood, not of its measured blocks. Blocks go
+//! unmeasured at the border of what the FTP trusts and where the reference showed glare
+//! ([`super::static_light`]); beside such a gap a misread cell, or the lit ring around a
+//! glare spot, would be most of what is left, and would pass for a warm object.
 //!
 //! **Standing out.** Where the pigments hardly change colour with temperature (above the
 //! coloured stripes' transition the black stripes alone carry a reading, and their colour
@@ -42,8 +49,8 @@
 
 /// Blocks from a block to the edge of its neighbourhood (5 × 5 blocks).
 pub const REACH: usize = 2;
-/// Fewest measured blocks of a neighbourhood for its median to stand for the block: more
-/// than half of it.
+/// More than half of a neighbourhood's 25 blocks: the fewest it must have measured to
+/// stand for its block, and how many of them must read as warm (cold) as a place.
 pub const MIN_NEIGHBOURS: usize = 13;
 /// Standard deviations of its median by which a neighbourhood must depart from the skin's
 /// median to be an extreme, at least: beyond what the largest of a few hundred medians of
@@ -191,8 +198,8 @@ impl Skin {
     }
 }
 
-/// A neighbourhood's lower and upper middles ([`middles`]), (reading, variance) each, and
-/// how many measured blocks it holds.
+/// A neighbourhood's warm and cold readings ([`ranks`]), (reading, variance) each, and how
+/// many measured blocks it holds.
 struct Place {
     hot: (f32, f32),
     cold: (f32, f32),
@@ -219,7 +226,7 @@ fn each_place(
             continue;
         }
         confirmed = true;
-        let (hot, cold) = middles(&mut near[..count]);
+        let (hot, cold) = ranks(&mut near[..count]);
         f(b, Place { hot, cold, count });
     }
     confirmed
@@ -248,18 +255,19 @@ fn neighbourhood(
     n
 }
 
-/// The lower and the upper middle of `near` by reading (the same when their count is
-/// odd), each with its variance.
-fn middles(near: &mut [(f32, f32)]) -> ((f32, f32), (f32, f32)) {
-    let n = near.len();
-    let by_reading = |a: &(f32, f32), b: &(f32, f32)| a.0.total_cmp(&b.0);
-    let (_, &mut lower, above) = near.select_nth_unstable_by((n - 1) / 2, by_reading);
-    let upper = if n.is_multiple_of(2) {
-        above.iter().copied().min_by(by_reading).unwrap_or(lower)
-    } else {
-        lower
+/// The [`MIN_NEIGHBOURS`]-th warmest and the [`MIN_NEIGHBOURS`]-th coldest of `near` by
+/// reading, each with its variance: what more than half of a whole neighbourhood reads at
+/// least (at most). Of 25 blocks both are the median; of 24, its lower and upper middle, so
+/// a tie between a misread cell and the skin goes to the skin. `near` holds at least
+/// [`MIN_NEIGHBOURS`] blocks (fewer give the nearest ranks it has).
+fn ranks(near: &mut [(f32, f32)]) -> ((f32, f32), (f32, f32)) {
+    let Some(last) = near.len().checked_sub(1) else {
+        return ((f32::NAN, f32::NAN), (f32::NAN, f32::NAN));
     };
-    (lower, upper)
+    let by_reading = |a: &(f32, f32), b: &(f32, f32)| a.0.total_cmp(&b.0);
+    let mut at = |k: usize| *near.select_nth_unstable_by(k.min(last), by_reading).1;
+    let n = last + 1;
+    (at(n.saturating_sub(MIN_NEIGHBOURS)), at(MIN_NEIGHBOURS - 1))
 }
 
 #[cfg(test)]
@@ -312,6 +320,37 @@ mod tests {
         }
         let e = extremes(&m, &vec![FINE_C2; bw * bh], (bw, bh), standard);
         assert_eq!((e.min_c, e.max_c, e.hottest), (38.0, 38.0, None));
+    }
+
+    /// Two misread 2 × 2 cells side by side at the border (a row the FTP did not trust
+    /// above them) are 8 of the 15 blocks a border neighbourhood measures, a majority of
+    /// those but not of its 25: no hottest place. A warm object filling those
+    /// neighbourhoods is.
+    #[test]
+    fn misread_cells_beside_unmeasured_blocks_are_not_an_extreme() {
+        let (bw, bh, skin) = (16, 10, 22.0f32);
+        let mut m = vec![skin; bw * bh];
+        m[..bw].fill(f32::NAN);
+        for y in 1..3 {
+            for x in 6..10 {
+                m[y * bw + x] = 45.0;
+            }
+        }
+        let var = vec![FINE_C2; bw * bh];
+        let e = extremes(&m, &var, (bw, bh), standard);
+        assert_eq!((e.min_c, e.max_c, e.hottest), (skin, skin, None));
+        for y in 1..4 {
+            for x in 5..12 {
+                m[y * bw + x] = 30.0;
+            }
+        }
+        let e = extremes(&m, &var, (bw, bh), standard);
+        assert_eq!(e.max_c, 30.0);
+        let h = e.hottest.expect("a hottest place");
+        assert!(
+            (5..12).contains(&(h % bw)) && (1..4).contains(&(h / bw)),
+            "{h}"
+        );
     }
 
     #[test]
