@@ -24,7 +24,7 @@ import json
 import sys
 import zlib
 
-PROTOCOL_VERSION = 9
+PROTOCOL_VERSION = 10
 SCHEMA_HASH = 0xC9D8_EA77_8716_206A
 # Largest frame on the wire (a full map tile), bytes: anything longer is garbage.
 FRAME_MAX = 1700
@@ -42,6 +42,7 @@ FLAG_NAMES = [
     "temperature_uncertain",
     "depth_unresolved",
     "contact_at_edge",
+    "depth_uncertain",
 ]
 RUN_STATES = ["Stopped", "Streaming", "Referencing", "CameraLost"]
 

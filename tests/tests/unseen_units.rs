@@ -90,8 +90,10 @@ fn check_unit(seed: u64) {
         let tol = 0.03 * depth + 0.02;
         // A press whose contact is narrower than the band resolves (a radius √(R·d) under
         // about 1.6 mm: about 0.26 mm deep for this 10 mm sphere; the bound below leaves
-        // room for the unit's own blur) may read low, and then says so and nothing else; a
-        // wider one meets the tolerance and carries no flag.
+        // room for the unit's own blur) may read low, and then says so, and a shallow one
+        // may carry `depth_uncertain` where its tolerance is narrower than the calibration's
+        // own held-out error allows for; a wider one meets the tolerance and carries no
+        // flag.
         let unresolved = d.flags.contains(Flag::DepthUnresolved);
         assert!(
             (d.peak_depth_mm - depth).abs() <= tol || unresolved,
@@ -106,7 +108,10 @@ fn check_unit(seed: u64) {
             "{label}: centre off by {err_mm} mm at {depth} mm"
         );
         assert!(
-            d.flags.iter().all(|f| f == Flag::DepthUnresolved) && (depth < 0.6 || !unresolved),
+            d.flags
+                .iter()
+                .all(|f| matches!(f, Flag::DepthUnresolved | Flag::DepthUncertain))
+                && (depth < 0.6 || d.flags.is_empty()),
             "{label}: {depth} mm flagged {:?}",
             d.flags
         );

@@ -125,11 +125,13 @@ impl Label {
     /// is read from the whole map, which the band's blur leaves as it was, so a peak too
     /// narrow to resolve (`depth_unresolved`, the lightest kit presses) does not spoil it;
     /// nor does it spoil the area against the depth *as measured*, which is how a frame is
-    /// later compared with the calibrated indenter (`Flag::PhaseSlope`).
+    /// later compared with the calibrated indenter (`Flag::PhaseSlope`). A depth model
+    /// that misses its own held-out presses (`depth_uncertain`) says nothing against any
+    /// one frame.
     fn tolerates(self, flag: Flag) -> bool {
         matches!(
             (self, flag),
-            (Label::Shape | Label::Force, Flag::DepthUnresolved)
+            (Label::Shape | Label::Force, Flag::DepthUnresolved) | (_, Flag::DepthUncertain)
         )
     }
 }
@@ -871,6 +873,17 @@ fn force_model<O: Observer>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `depth_uncertain` speaks of the depth model being fitted, not of a kit frame: no
+    /// stage leaves a frame out for it, while every other flag keeps its say.
+    #[test]
+    fn no_stage_leaves_a_frame_out_for_the_depth_models_own_miss() {
+        for label in [Label::Depth, Label::Shape, Label::Force] {
+            assert!(label.tolerates(Flag::DepthUncertain));
+            assert!(!label.tolerates(Flag::PhaseSlope));
+        }
+        assert!(!Label::Depth.tolerates(Flag::DepthUnresolved));
+    }
 
     /// A frame left out of two stages for different reasons is named once, with both
     /// stages and every reason once; frames are named in the order first met.

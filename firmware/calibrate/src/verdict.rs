@@ -8,6 +8,9 @@
 //! will show.
 
 use vistaf_pipeline::calibration::Calibration;
+use vistaf_pipeline::measure::{
+    depth_uncertain_below_mm, DEPTH_CONFIDENCE_SIGMAS, DEPTH_TOLERANCE_SHARE, DEPTH_TOLERANCE_UM,
+};
 
 /// Depth target, mm.
 pub const DEPTH_TARGET_MM: f64 = 0.02;
@@ -95,6 +98,17 @@ pub fn report(verdicts: &[Verdict]) -> (String, bool) {
             "  {name:<24} held-out RMSE {:>8.4} {unit}  target ≤ {} {unit}  {mark}\n",
             v.error, v.target
         ));
+        let below_mm = depth_uncertain_below_mm(v.error);
+        if v.model == Model::Depth && below_mm > 0.0 {
+            text.push_str(&format!(
+                "  {:<24} peak depths under {below_mm:.2} mm will carry depth_uncertain: the \
+                 depth tolerance ({} % + {} mm) is less than {DEPTH_CONFIDENCE_SIGMAS} times \
+                 this error there\n",
+                "",
+                100.0 * DEPTH_TOLERANCE_SHARE,
+                DEPTH_TOLERANCE_UM / 1000.0,
+            ));
+        }
     }
     (text, verdicts.iter().all(Verdict::pass))
 }
@@ -121,6 +135,21 @@ mod tests {
         let (text, pass) = report(&v);
         assert!(
             !pass && text.contains("FAIL") && text.contains("0.3380"),
+            "{text}"
+        );
+    }
+
+    /// A depth model that missed its kit's presses by 0.03 mm says from which depth down
+    /// its readings will be flagged: where 3 % of the depth + 0.02 mm is under 0.06 mm.
+    #[test]
+    fn a_depth_model_over_its_target_says_which_depths_it_cannot_hold() {
+        let mut c = Calibration::default_sim();
+        let (text, _) = report(&verdicts(&c));
+        assert!(!text.contains("depth_uncertain"), "{text}");
+        c.depth.cv_rmse = 0.03;
+        let (text, pass) = report(&verdicts(&c));
+        assert!(
+            !pass && text.contains("under 1.33 mm will carry depth_uncertain"),
             "{text}"
         );
     }

@@ -365,3 +365,37 @@ fn a_press_near_the_noise_floor_is_within_tolerance_or_flagged() {
         }
     }
 }
+
+/// A unit whose calibration could not hold its own kit's presses (its depth model's
+/// held-out error, `depth.cv_rmse`) cannot hold the depth tolerance either where that is
+/// under twice the error: a shallow press is flagged `depth_uncertain` there, a deep one
+/// (whose tolerance, 3 % of the depth + 20 µm, is wider) is not, and on a calibration that
+/// held its kit neither is.
+#[test]
+fn a_depth_model_that_missed_its_kit_flags_the_depths_it_cannot_hold() {
+    let r = Renderer::new(unit());
+    let (reference, _) = r.render(&SkinState::idle(ROOM_C), 1);
+    let opts = AnalyzerOptions {
+        force_calibration: true,
+        ..Default::default()
+    };
+    let held = Calibration::default_sim();
+    let mut missed = held.clone();
+    missed.depth.cv_rmse = 0.03;
+    for imp in [Implementation::Fixed, Implementation::Float] {
+        for (depth_mm, uncertain) in [(0.5, true), (1.8, false)] {
+            let (img, _) = r.render(&sphere(SPHERE_R_MM, depth_mm), 9);
+            for (calib, want) in [(&held, false), (&missed, uncertain)] {
+                let a = Analyzer::new(&reference, calib.clone(), imp, opts).unwrap();
+                let m = a.analyze(&img).unwrap();
+                assert!(m.peak_depth_mm > 0.0, "{imp:?} {depth_mm} mm: {m:?}");
+                assert_eq!(
+                    m.flags.contains(Flag::DepthUncertain),
+                    want,
+                    "{imp:?} {depth_mm} mm, depth model's held-out error {} mm: {m:?}",
+                    calib.depth.cv_rmse
+                );
+            }
+        }
+    }
+}

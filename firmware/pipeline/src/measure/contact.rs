@@ -9,9 +9,9 @@ use super::features::slope_p98_exceeds;
 use super::profile::Shape;
 use super::window::upsample2;
 use super::{
-    Context, Grid, Unwrap, BAND_LOSS_FRACTION, BAND_LOSS_MIN, BLUNTNESS_RATIO, DEPTH_RANGE_SLACK,
-    DIPOLE_RATIO, LOAD_RATIO, MAX_RESIDUES, SHARPNESS_RATIO, SLOPE_LIMIT, TILE_PX,
-    UNWRAP_TRIGGER_RAD,
+    depth_uncertain_below_mm, Context, Grid, Unwrap, BAND_LOSS_FRACTION, BAND_LOSS_MIN,
+    BLUNTNESS_RATIO, DEPTH_RANGE_SLACK, DIPOLE_RATIO, LOAD_RATIO, MAX_RESIDUES, SHARPNESS_RATIO,
+    SLOPE_LIMIT, TILE_PX, UNWRAP_TRIGGER_RAD,
 };
 use crate::calibration::{ForceInputs, LoadSignature};
 use crate::ftp::band::BAND_HALF_WIDTH;
@@ -357,6 +357,11 @@ impl<P> Limits<'_, P> {
         // Deeper than the calibration saw: the depth model extrapolates.
         if beyond {
             flags.insert(Flag::DepthOutOfRange);
+        }
+        // The calibration's depth model missed its own kit by more than this depth's
+        // tolerance allows.
+        if f64::from(read.peak_mm) < depth_uncertain_below_mm(ctx.calib.depth.cv_rmse) {
+            flags.insert(Flag::DepthUncertain);
         }
         if !self.resolved {
             flags.insert(Flag::DepthUnresolved);

@@ -77,6 +77,36 @@ pub const LOW_CONTRAST_RATIO: f32 = 0.32;
 pub const NOISY_RAD: f32 = 0.024;
 /// Depth beyond the deepest calibrated indentation by this factor is flagged.
 pub const DEPTH_RANGE_SLACK: f64 = 1.1;
+/// The tolerance a peak depth is held to: this share of the depth…
+pub const DEPTH_TOLERANCE_SHARE: f32 = 0.03;
+/// …plus this much, µm.
+pub const DEPTH_TOLERANCE_UM: f32 = 20.0;
+/// A peak depth is flagged `depth_uncertain` where the tolerance is less than this many
+/// times the calibration's held-out depth error (its depth model's cross-validated RMSE,
+/// each kit depth read blind): two, so that about 19 readings in 20 of an error of that
+/// spread fall within the tolerance. The calibration measured that error on this unit,
+/// with its light, noise and grating; nothing else in a frame says how well the depth
+/// model fits the unit.
+pub const DEPTH_CONFIDENCE_SIGMAS: f64 = 2.0;
+
+/// The depth tolerance at a depth of `depth_um`, µm.
+pub fn depth_tolerance_um(depth_um: f32) -> f32 {
+    DEPTH_TOLERANCE_SHARE * depth_um + DEPTH_TOLERANCE_UM
+}
+
+/// The peak depth under which a calibration whose depth model missed its held-out kit
+/// presses by `cv_rmse_mm` (RMSE, mm) flags `depth_uncertain`: where the depth tolerance
+/// is less than [`DEPTH_CONFIDENCE_SIGMAS`] times that error, mm; 0 where it nowhere is.
+pub fn depth_uncertain_below_mm(cv_rmse_mm: f64) -> f64 {
+    let floor_mm = f64::from(DEPTH_TOLERANCE_UM) / 1000.0;
+    let below =
+        (DEPTH_CONFIDENCE_SIGMAS * cv_rmse_mm - floor_mm) / f64::from(DEPTH_TOLERANCE_SHARE);
+    if below > 0.0 {
+        below
+    } else {
+        0.0
+    }
+}
 /// Force beyond the largest calibrated force by this factor is flagged: the model is read
 /// beyond its kit there ([`bounded_force`]).
 pub const FORCE_RANGE_SLACK: f64 = 1.1;

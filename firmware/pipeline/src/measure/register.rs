@@ -51,22 +51,17 @@ pub(super) enum RegisteredOn {
     Nothing,
 }
 
-/// The most the registration may have taken of a contact's skirt for the contact's depth
-/// to be read without that doubt: the depth tolerance, this share of the depth…
-const SKIRT_FREE_SHARE: f32 = 0.03;
-/// …plus this much, µm. Registered beside the contact, the skirt there lies below the
-/// contact threshold, so a threshold within the tolerance bounds what it took.
-const SKIRT_FREE_UM: f32 = 20.0;
-
 impl<P> Background<P> {
     /// Whether the contact's skirt cannot have sunk the registration by more than the
-    /// depth tolerance, for a contact `depth_um` deep read with a threshold of
-    /// `threshold_um`.
+    /// depth tolerance ([`super::DEPTH_TOLERANCE_SHARE`], [`super::DEPTH_TOLERANCE_UM`]),
+    /// for a contact `depth_um` deep read with a threshold of `threshold_um`. Registered
+    /// beside the contact, the skirt there lies below the contact threshold, so a threshold
+    /// within the tolerance bounds what it took.
     pub(super) fn skirt_free(&self, threshold_um: i32, depth_um: f32) -> bool {
         match self.registered_on {
             RegisteredOn::ClearOfSkirt => true,
             RegisteredOn::BesideContact => {
-                threshold_um as f32 <= SKIRT_FREE_SHARE * depth_um + SKIRT_FREE_UM
+                threshold_um as f32 <= super::depth_tolerance_um(depth_um)
             }
             RegisteredOn::Nothing => false,
         }
