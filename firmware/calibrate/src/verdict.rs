@@ -98,8 +98,11 @@ pub fn report(verdicts: &[Verdict]) -> (String, bool) {
             "  {name:<24} held-out RMSE {:>8.4} {unit}  target ≤ {} {unit}  {mark}\n",
             v.error, v.target
         ));
-        let below_mm = depth_uncertain_below_mm(v.error);
-        if v.model == Model::Depth && below_mm > 0.0 {
+        let below_mm = match v.model {
+            Model::Depth => depth_uncertain_below_mm(v.error),
+            Model::Force | Model::Temperature => 0.0,
+        };
+        if below_mm > 0.0 {
             text.push_str(&format!(
                 "  {:<24} peak depths under {below_mm:.2} mm will carry depth_uncertain: the \
                  depth tolerance ({} % + {} mm) is less than {DEPTH_CONFIDENCE_SIGMAS} times \

@@ -89,24 +89,6 @@ pub const DEPTH_TOLERANCE_UM: f32 = 20.0;
 /// model fits the unit.
 pub const DEPTH_CONFIDENCE_SIGMAS: f64 = 2.0;
 
-/// The depth tolerance at a depth of `depth_um`, µm.
-pub fn depth_tolerance_um(depth_um: f32) -> f32 {
-    DEPTH_TOLERANCE_SHARE * depth_um + DEPTH_TOLERANCE_UM
-}
-
-/// The peak depth under which a calibration whose depth model missed its held-out kit
-/// presses by `cv_rmse_mm` (RMSE, mm) flags `depth_uncertain`: where the depth tolerance
-/// is less than [`DEPTH_CONFIDENCE_SIGMAS`] times that error, mm; 0 where it nowhere is.
-pub fn depth_uncertain_below_mm(cv_rmse_mm: f64) -> f64 {
-    let floor_mm = f64::from(DEPTH_TOLERANCE_UM) / 1000.0;
-    let below =
-        (DEPTH_CONFIDENCE_SIGMAS * cv_rmse_mm - floor_mm) / f64::from(DEPTH_TOLERANCE_SHARE);
-    if below > 0.0 {
-        below
-    } else {
-        0.0
-    }
-}
 /// Force beyond the largest calibrated force by this factor is flagged: the model is read
 /// beyond its kit there ([`bounded_force`]).
 pub const FORCE_RANGE_SLACK: f64 = 1.1;
@@ -156,6 +138,25 @@ pub const MISREGISTRATION_RAD: f32 = 0.8 * std::f32::consts::PI;
 pub const OVER_EXPOSED_FRACTION: f32 = 0.002;
 /// Residues in the contact region tolerated before the unwrap is distrusted.
 pub const MAX_RESIDUES: usize = 2;
+
+/// The depth tolerance at a depth of `depth_um`, µm.
+pub fn depth_tolerance_um(depth_um: f32) -> f32 {
+    DEPTH_TOLERANCE_SHARE * depth_um + DEPTH_TOLERANCE_UM
+}
+
+/// The peak depth under which a calibration whose depth model missed its held-out kit
+/// presses by `cv_rmse_mm` (RMSE, mm) flags `depth_uncertain`: where the depth tolerance
+/// is less than [`DEPTH_CONFIDENCE_SIGMAS`] times that error, mm; 0 where it nowhere is.
+pub fn depth_uncertain_below_mm(cv_rmse_mm: f64) -> f64 {
+    let floor_mm = f64::from(DEPTH_TOLERANCE_UM) / 1000.0;
+    let below =
+        (DEPTH_CONFIDENCE_SIGMAS * cv_rmse_mm - floor_mm) / f64::from(DEPTH_TOLERANCE_SHARE);
+    if below > 0.0 {
+        below
+    } else {
+        0.0
+    }
+}
 
 /// What the measurement needs besides the phase.
 #[derive(Debug, Clone, Copy)]
