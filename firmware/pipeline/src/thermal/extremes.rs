@@ -264,10 +264,17 @@ fn ranks(near: &mut [(f32, f32)]) -> ((f32, f32), (f32, f32)) {
     let Some(last) = near.len().checked_sub(1) else {
         return ((f32::NAN, f32::NAN), (f32::NAN, f32::NAN));
     };
+    let hot = (last + 1).saturating_sub(MIN_NEIGHBOURS);
+    let cold = (MIN_NEIGHBOURS - 1).min(last);
     let by_reading = |a: &(f32, f32), b: &(f32, f32)| a.0.total_cmp(&b.0);
-    let mut at = |k: usize| *near.select_nth_unstable_by(k.min(last), by_reading).1;
-    let n = last + 1;
-    (at(n.saturating_sub(MIN_NEIGHBOURS)), at(MIN_NEIGHBOURS - 1))
+    // One selection places the hot rank; the cold one lies on its side of it.
+    let (below, &mut warm, above) = near.select_nth_unstable_by(hot, by_reading);
+    let cool = match cold.cmp(&hot) {
+        std::cmp::Ordering::Equal => warm,
+        std::cmp::Ordering::Greater => *above.select_nth_unstable_by(cold - hot - 1, by_reading).1,
+        std::cmp::Ordering::Less => *below.select_nth_unstable_by(cold, by_reading).1,
+    };
+    (warm, cool)
 }
 
 #[cfg(test)]
@@ -320,6 +327,27 @@ mod tests {
         }
         let e = extremes(&m, &vec![FINE_C2; bw * bh], (bw, bh), standard);
         assert_eq!((e.min_c, e.max_c, e.hottest), (38.0, 38.0, None));
+    }
+
+    /// The ranks are those of the sorted readings for every count a neighbourhood can
+    /// hold, each with its own variance.
+    #[test]
+    fn ranks_are_the_sorted_readings_at_the_majority() {
+        let mut rng = crate::test_rng::XorShift(0x5851_f42d_4c95_7f2d);
+        for n in MIN_NEIGHBOURS..=25 {
+            let mut near: Vec<(f32, f32)> = (0..n)
+                .map(|_| {
+                    let v = (rng.next() % 1000) as f32 / 10.0;
+                    (v, v + 0.5)
+                })
+                .collect();
+            let mut sorted = near.clone();
+            sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let (hot, cold) = ranks(&mut near);
+            assert_eq!(hot.0, sorted[n - MIN_NEIGHBOURS].0, "{n} blocks");
+            assert_eq!(cold.0, sorted[MIN_NEIGHBOURS - 1].0, "{n} blocks");
+            assert_eq!((hot.1, cold.1), (hot.0 + 0.5, cold.0 + 0.5));
+        }
     }
 
     /// Two misread 2 × 2 cells side by side at the border (a row the FTP did not trust
