@@ -4,7 +4,7 @@
 //! such readings is mostly the noisiest one, so the skin's extremes taken block by block
 //! sit well outside its true range even on a uniform skin. Each block is therefore read as
 //! what more than half of its 5 × 5 neighbourhood reads before the extremes are taken
-//! ([`ranks`]): a place is as warm as its [`MIN_NEIGHBOURS`]-th warmest block and as cold
+//! (`ranks`): a place is as warm as its [`MIN_NEIGHBOURS`]-th warmest block and as cold
 //! as its [`MIN_NEIGHBOURS`]-th coldest.
 //!
 //! The neighbourhood is that wide because neighbouring blocks are not independent: the
@@ -28,12 +28,13 @@
 //! moves by a fraction of a per cent per degree) a block's reading scatters by degrees,
 //! and even the median of a neighbourhood scatters by about a degree: the most extreme of
 //! a few hundred such medians would still sit degrees off on a uniform skin. So a
-//! neighbourhood is a hot (cold) place only where its median departs from the median of
+//! neighbourhood is a hot (cold) place only where its reading departs from the median of
 //! the whole map (the skin) by more than [`STAND_OUT_SIGMAS`] of its own noise, read from
-//! the calibration's variance of its middle block ([`median_sigma_c`]). Where none does,
-//! the skin has no hottest (coldest) place and its median stands for both. The threshold
-//! follows the noise: inside the transition, where a block reads to a few tenths of a
-//! degree or better, a place a degree warmer than the skin stands out.
+//! the calibration's variance of the block that gives the reading, as a median's
+//! ([`median_sigma_c`]). Where none does, the skin has no hottest (coldest) place and its
+//! median stands for both. The threshold follows the noise: inside the transition, where
+//! a block reads to a few tenths of a degree or better, a place a degree warmer than the
+//! skin stands out.
 //!
 //! The noise is the larger of the place's own and the skin's (the variance of the block
 //! that reads the skin's median): a place at the skin's temperature scatters as the skin
