@@ -162,17 +162,18 @@ struct LeftOut {
 impl<O: Observer> Run<'_, O> {
     /// Records `frame` (`set: file`) left out of `stage`'s fit for `reasons`.
     fn left_out(&mut self, frame: String, stage: &str, reasons: Vec<String>) {
-        let at = self.left.iter().position(|l| l.frame == frame);
-        let at = at.unwrap_or_else(|| {
-            let (stages, reasons) = (Vec::new(), Vec::new());
-            self.left.push(LeftOut {
-                frame,
-                stages,
-                reasons,
-            });
-            self.left.len() - 1
-        });
-        let l = &mut self.left[at];
+        let l = match self.left.iter().position(|l| l.frame == frame) {
+            Some(at) => &mut self.left[at],
+            None => {
+                self.left.push(LeftOut {
+                    frame,
+                    stages: Vec::new(),
+                    reasons: Vec::new(),
+                });
+                let last = self.left.len() - 1;
+                &mut self.left[last]
+            }
+        };
         if !l.stages.iter().any(|s| s == stage) {
             l.stages.push(stage.to_string());
         }

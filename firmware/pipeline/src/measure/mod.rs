@@ -149,13 +149,8 @@ pub fn depth_tolerance_um(depth_um: f32) -> f32 {
 /// is less than [`DEPTH_CONFIDENCE_SIGMAS`] times that error, mm; 0 where it nowhere is.
 pub fn depth_uncertain_below_mm(cv_rmse_mm: f64) -> f64 {
     let floor_mm = f64::from(DEPTH_TOLERANCE_UM) / 1000.0;
-    let below =
-        (DEPTH_CONFIDENCE_SIGMAS * cv_rmse_mm - floor_mm) / f64::from(DEPTH_TOLERANCE_SHARE);
-    if below > 0.0 {
-        below
-    } else {
-        0.0
-    }
+    // `max` also takes an error that is not a number to 0: nothing is flagged for it.
+    ((DEPTH_CONFIDENCE_SIGMAS * cv_rmse_mm - floor_mm) / f64::from(DEPTH_TOLERANCE_SHARE)).max(0.0)
 }
 
 /// What the measurement needs besides the phase.

@@ -53,6 +53,7 @@ pub const REACH: usize = 2;
 /// More than half of a neighbourhood's 25 blocks: the fewest it must have measured to
 /// stand for its block, and how many of them must read as warm (cold) as a place.
 pub const MIN_NEIGHBOURS: usize = 13;
+const _: () = assert!((2 * REACH + 1) * (2 * REACH + 1) < 2 * MIN_NEIGHBOURS);
 /// Standard deviations of its median by which a neighbourhood must depart from the skin's
 /// median to be an extreme, at least: beyond what the largest of a few hundred medians of
 /// independent noise reaches (a map holds a few hundred disjoint neighbourhoods).
@@ -268,12 +269,13 @@ fn ranks(near: &mut [(f32, f32)]) -> ((f32, f32), (f32, f32)) {
     let hot = (last + 1).saturating_sub(MIN_NEIGHBOURS);
     let cold = (MIN_NEIGHBOURS - 1).min(last);
     let by_reading = |a: &(f32, f32), b: &(f32, f32)| a.0.total_cmp(&b.0);
-    // One selection places the hot rank; the cold one lies on its side of it.
-    let (below, &mut warm, above) = near.select_nth_unstable_by(hot, by_reading);
-    let cool = match cold.cmp(&hot) {
-        std::cmp::Ordering::Equal => warm,
-        std::cmp::Ordering::Greater => *above.select_nth_unstable_by(cold - hot - 1, by_reading).1,
-        std::cmp::Ordering::Less => *below.select_nth_unstable_by(cold, by_reading).1,
+    // One selection places the hot rank. A neighbourhood holds fewer than twice
+    // MIN_NEIGHBOURS blocks, so the cold rank is never below it: it is the hot block
+    // itself, or among those the selection left above.
+    let (_, &mut warm, above) = near.select_nth_unstable_by(hot, by_reading);
+    let cool = match cold.saturating_sub(hot).checked_sub(1) {
+        None => warm,
+        Some(k) => *above.select_nth_unstable_by(k, by_reading).1,
     };
     (warm, cool)
 }
