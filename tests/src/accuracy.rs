@@ -663,6 +663,59 @@ pub fn run_units(
 
 /// The battery's report as Markdown: per scene kind, the error spread and the failures,
 /// silent ones first; then every silent failure by name.
+/// `name n` pairs of `names`, most frequent first (ties by name), comma-separated.
+fn count_by<'a>(names: impl Iterator<Item = &'a str>) -> String {
+    let mut counts: Vec<(&str, usize)> = Vec::new();
+    for name in names {
+        match counts.iter_mut().find(|(n, _)| *n == name) {
+            Some((_, c)) => *c += 1,
+            None => counts.push((name, 1)),
+        }
+    }
+    counts.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(b.0)));
+    let pairs: Vec<String> = counts.iter().map(|(n, c)| format!("{n} {c}")).collect();
+    pairs.join(", ")
+}
+
+/// One silent failure for the report: the unit, the scene, what failed, and the frame's
+/// depth, force and centre errors, signed (reading minus truth), with each temperature
+/// error that failed; quantities not scored are left out.
+fn silent_line(f: &Scored) -> String {
+    let failed = |name: &str| f.failures.contains(&name);
+    let mut errs = Vec::new();
+    if let Some(e) = f.depth_err_mm {
+        errs.push(format!("depth {e:+.3} mm of {:.2} mm", f.depth_mm));
+    }
+    if let Some((e, t)) = f.force_err_n {
+        errs.push(format!("force {e:+.2} N of {t:.2} N"));
+    }
+    if let Some(e) = f.centre_err_mm {
+        errs.push(format!("centre {e:.2} mm off"));
+    }
+    let temperatures = [
+        ("contact temperature", f.contact_temp_err_c),
+        ("mean temperature", f.mean_temp_err_c),
+        ("hottest block", f.max_temp_excess_c),
+        ("coldest block", f.min_temp_deficit_c.map(|d| -d)),
+    ];
+    for (name, err) in temperatures {
+        if let Some(e) = err.filter(|_| failed(name)) {
+            errs.push(format!("{name} {e:+.2} °C"));
+        }
+    }
+    let scene = match f.depth_err_mm {
+        Some(_) => format!("{}, read as {}", f.indenter, f.shape),
+        None => f.indenter.clone(),
+    };
+    format!(
+        "unit {} {} ({scene}): {} failed; {}",
+        f.unit,
+        f.kind.name(),
+        f.failures.join(", "),
+        errs.join(", ")
+    )
+}
+
 pub fn report(results: &[UnitResult]) -> String {
     use std::fmt::Write as _;
     let frames: Vec<&Scored> = results.iter().flatten().flatten().collect();
@@ -766,20 +819,15 @@ pub fn report(results: &[UnitResult]) -> String {
     );
     let silent: Vec<&&Scored> = frames.iter().filter(|f| f.silent()).collect();
     let _ = writeln!(s, "\n### Silent failures ({})\n", silent.len());
-    for f in silent {
+    if !silent.is_empty() {
         let _ = writeln!(
             s,
-            "- unit {} {} at {:.2} mm: {} (depth err {:?} mm, force err {:?}, centre err {:?} mm, contact temp err {:?} °C, mean temp err {:?} °C)",
-            f.unit,
-            f.kind.name(),
-            f.depth_mm,
-            f.failures.join(", "),
-            f.depth_err_mm.map(|e| (e * 1000.0).round() / 1000.0),
-            f.force_err_n.map(|(e, t)| format!("{e:.2} N of {t:.2} N")),
-            f.centre_err_mm.map(|e| (e * 100.0).round() / 100.0),
-            f.contact_temp_err_c.map(|e| (e * 100.0).round() / 100.0),
-            f.mean_temp_err_c.map(|e| (e * 100.0).round() / 100.0),
+            "By indenter: {}.\n",
+            count_by(silent.iter().map(|f| f.indenter.as_str()))
         );
+    }
+    for f in silent {
+        let _ = writeln!(s, "- {}", silent_line(f));
     }
     if !refused.is_empty() {
         let _ = writeln!(s, "\n### Units refused\n");
@@ -830,5 +878,62 @@ mod tests {
             assert_ne!(off, unit, "{e} changed nothing");
             assert_eq!(without(off.clone(), &[e.to_string()]), off, "{e} twice");
         }
+    }
+
+    /// A silent failure reads as what failed and by how much, signed, with the indenter
+    /// and the shape the pipeline read; the per-indenter count puts the commonest first.
+    #[test]
+    fn a_silent_failure_names_its_indenter_and_signed_errors() {
+        let f = Scored {
+            unit: 7,
+            kind: Kind::Cylinder,
+            indenter: "disc r2".into(),
+            depth_mm: 0.57,
+            rim_inside_mm: Some(3.0),
+            depth_err_mm: Some(0.0718),
+            centre_err_mm: Some(0.016),
+            force_err_n: Some((-0.378, 4.676)),
+            contact_temp_err_c: None,
+            mean_temp_err_c: Some(-0.01),
+            contact_temp_sigma_c: None,
+            contact_temp_c: None,
+            skin_temp_c: None,
+            max_temp_excess_c: None,
+            min_temp_deficit_c: None,
+            uniform_spread_c: None,
+            missed: false,
+            phantom: false,
+            failures: vec!["depth"],
+            flags: Vec::new(),
+            noise_rad: 0.002,
+            shape: "unknown",
+        };
+        assert_eq!(
+            silent_line(&f),
+            "unit 7 flat cylinders (disc r2, read as unknown): depth failed; depth +0.072 mm \
+             of 0.57 mm, force -0.38 N of 4.68 N, centre 0.02 mm off"
+        );
+        let uniform = Scored {
+            kind: Kind::Uniform,
+            indenter: "none".into(),
+            depth_mm: 0.0,
+            depth_err_mm: None,
+            centre_err_mm: None,
+            force_err_n: None,
+            max_temp_excess_c: Some(1.85),
+            min_temp_deficit_c: Some(1.95),
+            failures: vec!["hottest block", "coldest block"],
+            ..f
+        };
+        assert_eq!(
+            silent_line(&uniform),
+            "unit 7 uniform skin (none): hottest block, coldest block failed; hottest block \
+             +1.85 °C, coldest block -1.95 °C"
+        );
+        let names = ["sphere R10", "disc r2", "none", "disc r2"];
+        assert_eq!(
+            count_by(names.into_iter()),
+            "disc r2 2, none 1, sphere R10 1"
+        );
     }
 }
