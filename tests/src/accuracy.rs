@@ -661,8 +661,6 @@ pub fn run_units(
         .collect()
 }
 
-/// The battery's report as Markdown: per scene kind, the error spread and the failures,
-/// silent ones first; then every silent failure by name.
 /// `name n` pairs of `names`, most frequent first (ties by name), comma-separated.
 fn count_by<'a>(names: impl Iterator<Item = &'a str>) -> String {
     let mut counts: Vec<(&str, usize)> = Vec::new();
@@ -716,6 +714,8 @@ fn silent_line(f: &Scored) -> String {
     )
 }
 
+/// The battery's report as Markdown: per scene kind, the error spread and the failures,
+/// silent ones first; then the silent failures, counted by indenter and each by name.
 pub fn report(results: &[UnitResult]) -> String {
     use std::fmt::Write as _;
     let frames: Vec<&Scored> = results.iter().flatten().flatten().collect();
@@ -799,15 +799,7 @@ pub fn report(results: &[UnitResult]) -> String {
         .iter()
         .filter(|f| f.failures.is_empty() && !f.flags.is_empty())
         .collect();
-    let mut by_flag: Vec<(&str, usize)> = Vec::new();
-    for name in false_flags.iter().flat_map(|f| f.flags.iter()) {
-        match by_flag.iter_mut().find(|(n, _)| n == name) {
-            Some((_, c)) => *c += 1,
-            None => by_flag.push((name, 1)),
-        }
-    }
-    by_flag.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(b.0)));
-    let named: Vec<String> = by_flag.iter().map(|(n, c)| format!("{n} {c}")).collect();
+    let named = count_by(false_flags.iter().flat_map(|f| f.flags.iter().copied()));
     let _ = writeln!(
         s,
         "Flagged without failure: {} of {} frames ({:.1} %){}{}.",
@@ -815,7 +807,7 @@ pub fn report(results: &[UnitResult]) -> String {
         frames.len(),
         100.0 * false_flags.len() as f64 / frames.len().max(1) as f64,
         if named.is_empty() { "" } else { ": " },
-        named.join(", ")
+        named
     );
     let silent: Vec<&&Scored> = frames.iter().filter(|f| f.silent()).collect();
     let _ = writeln!(s, "\n### Silent failures ({})\n", silent.len());
