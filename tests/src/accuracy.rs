@@ -65,6 +65,31 @@ impl Kind {
     }
 }
 
+/// The names a frame's failures go by ([`Scored::failures`]), one per quantity scored; the
+/// tolerances are the scoring's (`score`, `score_temperature`).
+pub mod failure {
+    /// The peak depth beyond its tolerance.
+    pub const DEPTH: &str = "depth";
+    /// The force beyond its tolerance (tighter for the calibrated sphere).
+    pub const FORCE: &str = "force";
+    /// The contact's centre beyond its tolerance.
+    pub const CENTRE: &str = "centre";
+    /// A press deep enough to be seen reported as no contact.
+    pub const MISSED: &str = "missed";
+    /// A contact reported away from every press.
+    pub const PHANTOM: &str = "phantom";
+    /// No temperature read.
+    pub const NO_TEMPERATURE: &str = "no temperature";
+    /// The contact temperature beyond its tolerance.
+    pub const CONTACT_TEMPERATURE: &str = "contact temperature";
+    /// A skin at one temperature read beyond the tolerance on average.
+    pub const MEAN_TEMPERATURE: &str = "mean temperature";
+    /// The hottest place beyond the tolerance above the truth's hottest point.
+    pub const HOTTEST_BLOCK: &str = "hottest block";
+    /// The coldest place beyond the tolerance below the truth's coldest point.
+    pub const COLDEST_BLOCK: &str = "coldest block";
+}
+
 /// One scored frame.
 #[derive(Debug, Clone)]
 pub struct Scored {
@@ -104,11 +129,11 @@ pub struct Scored {
     /// Hottest minus coldest block on a skin at one temperature (untouched, or pressed at
     /// that temperature), °C.
     pub uniform_spread_c: Option<f32>,
-    /// A press of 0.2 mm or more reported as no contact.
+    /// A press deep enough to be seen reported as no contact.
     pub missed: bool,
     /// A contact reported away from every press.
     pub phantom: bool,
-    /// Which quantities failed their tolerance.
+    /// Which quantities failed their tolerance ([`failure`]).
     pub failures: Vec<&'static str>,
     /// Flags raised.
     pub flags: Vec<&'static str>,
@@ -490,7 +515,7 @@ fn score(
         let e = m.peak_depth_mm - truth.peak_depth_mm;
         s.depth_err_mm = Some(e);
         if e.abs() > 0.03 * truth.peak_depth_mm + 0.02 {
-            s.failures.push("depth");
+            s.failures.push(failure::DEPTH);
         }
         s.missed = truth.peak_depth_mm >= 0.2 && !m.contact;
         let f = truth.force_n;
@@ -501,7 +526,7 @@ fn score(
             0.25
         };
         if (m.force_n - f).abs() > rel * f + 0.3 {
-            s.failures.push("force");
+            s.failures.push(failure::FORCE);
         }
     }
     if let (Some(t), Some(c)) = (truth.contact_px, m.centroid_px) {
@@ -509,16 +534,16 @@ fn score(
         s.centre_err_mm = Some(e);
         s.phantom = e > 3.0;
         if e > 1.5 {
-            s.failures.push("centre");
+            s.failures.push(failure::CENTRE);
         }
     } else if !pressed && m.contact {
         s.phantom = true;
     }
     if s.missed {
-        s.failures.push("missed");
+        s.failures.push(failure::MISSED);
     }
     if s.phantom {
-        s.failures.push("phantom");
+        s.failures.push(failure::PHANTOM);
     }
     score_temperature(&mut s, state, truth, m);
     s
@@ -575,7 +600,7 @@ pub fn frames_csv(results: &[UnitResult]) -> String {
 
 fn score_temperature(s: &mut Scored, state: &SkinState, truth: &Truth, m: &Measurement) {
     let Some(t) = &m.temperature else {
-        s.failures.push("no temperature");
+        s.failures.push(failure::NO_TEMPERATURE);
         return;
     };
     s.skin_temp_c = Some(state.temperature.base_c);
@@ -585,7 +610,7 @@ fn score_temperature(s: &mut Scored, state: &SkinState, truth: &Truth, m: &Measu
         s.contact_temp_sigma_c = t.contact_sigma_c;
         s.contact_temp_c = Some(want);
         if e.abs() > 1.0 {
-            s.failures.push("contact temperature");
+            s.failures.push(failure::CONTACT_TEMPERATURE);
         }
     }
     let hottest = truth.temperature_c.iter().copied().fold(f32::MIN, f32::max);
@@ -593,19 +618,19 @@ fn score_temperature(s: &mut Scored, state: &SkinState, truth: &Truth, m: &Measu
         let e = t.mean_c - state.temperature.base_c;
         s.mean_temp_err_c = Some(e);
         if e.abs() > 1.0 || e.is_nan() {
-            s.failures.push("mean temperature");
+            s.failures.push(failure::MEAN_TEMPERATURE);
         }
     }
     let excess = t.max_c - hottest;
     s.max_temp_excess_c = Some(excess);
     if excess > 1.5 || excess.is_nan() {
-        s.failures.push("hottest block");
+        s.failures.push(failure::HOTTEST_BLOCK);
     }
     let coldest = truth.temperature_c.iter().copied().fold(f32::MAX, f32::min);
     let deficit = coldest - t.min_c;
     s.min_temp_deficit_c = Some(deficit);
     if deficit > 1.5 || deficit.is_nan() {
-        s.failures.push("coldest block");
+        s.failures.push(failure::COLDEST_BLOCK);
     }
     if state.temperature.sources.is_empty() {
         s.uniform_spread_c = Some(t.max_c - t.min_c);
@@ -663,14 +688,13 @@ pub fn run_units(
 
 /// `name n` pairs of `names`, most frequent first (ties by name), comma-separated.
 fn count_by<'a>(names: impl Iterator<Item = &'a str>) -> String {
-    let mut counts: Vec<(&str, usize)> = Vec::new();
+    let mut counts = std::collections::BTreeMap::new();
     for name in names {
-        match counts.iter_mut().find(|(n, _)| *n == name) {
-            Some((_, c)) => *c += 1,
-            None => counts.push((name, 1)),
-        }
+        *counts.entry(name).or_insert(0usize) += 1;
     }
-    counts.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(b.0)));
+    let mut counts: Vec<(&str, usize)> = counts.into_iter().collect();
+    // Stable: names of equal count stay in the map's order.
+    counts.sort_by_key(|&(_, n)| std::cmp::Reverse(n));
     let pairs: Vec<String> = counts.iter().map(|(n, c)| format!("{n} {c}")).collect();
     pairs.join(", ")
 }
@@ -691,10 +715,10 @@ fn silent_line(f: &Scored) -> String {
         errs.push(format!("centre {e:.2} mm off"));
     }
     let temperatures = [
-        ("contact temperature", f.contact_temp_err_c),
-        ("mean temperature", f.mean_temp_err_c),
-        ("hottest block", f.max_temp_excess_c),
-        ("coldest block", f.min_temp_deficit_c.map(|d| -d)),
+        (failure::CONTACT_TEMPERATURE, f.contact_temp_err_c),
+        (failure::MEAN_TEMPERATURE, f.mean_temp_err_c),
+        (failure::HOTTEST_BLOCK, f.max_temp_excess_c),
+        (failure::COLDEST_BLOCK, f.min_temp_deficit_c.map(|d| -d)),
     ];
     for (name, err) in temperatures {
         if let Some(e) = err.filter(|_| failed(name)) {
@@ -895,7 +919,7 @@ mod tests {
             uniform_spread_c: None,
             missed: false,
             phantom: false,
-            failures: vec!["depth"],
+            failures: vec![failure::DEPTH],
             flags: Vec::new(),
             noise_rad: 0.002,
             shape: "unknown",
@@ -914,7 +938,7 @@ mod tests {
             force_err_n: None,
             max_temp_excess_c: Some(1.85),
             min_temp_deficit_c: Some(1.95),
-            failures: vec!["hottest block", "coldest block"],
+            failures: vec![failure::HOTTEST_BLOCK, failure::COLDEST_BLOCK],
             ..f
         };
         assert_eq!(

@@ -7,7 +7,7 @@
 //! them.)
 #![allow(clippy::unwrap_used)] // tests unwrap: a failure is the test failing
 
-use vistaf_tests::accuracy::{run_units, Kind, Scored};
+use vistaf_tests::accuracy::{failure, run_units, Kind, Scored};
 
 #[test]
 fn wide_units_calibrate_and_report_every_press_where_it_is() {
@@ -123,7 +123,7 @@ fn temperatures_a_calibration_cannot_read_are_flagged() {
         let temperature = f
             .failures
             .iter()
-            .any(|q| matches!(*q, "contact temperature" | "mean temperature"));
+            .any(|q| [failure::CONTACT_TEMPERATURE, failure::MEAN_TEMPERATURE].contains(q));
         if temperature {
             checked += 1;
             let flagged = f.flags.iter().any(|n| n.starts_with("temperature_"));
