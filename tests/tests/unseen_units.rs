@@ -10,6 +10,7 @@
 
 use vistaf_calibrate::{calibrate, Notes};
 use vistaf_hardware::frameset::FrameSet;
+use vistaf_pipeline::calibration::Calibration;
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation};
 use vistaf_protocol::Flag;
 use vistaf_sim::contact::{Contact, Footprint, Indenter};
@@ -18,10 +19,11 @@ use vistaf_sim::sets::{kit_states, write_states, SetOptions};
 use vistaf_sim::thermal::HeatSource;
 use vistaf_sim::{Renderer, SensorUnit, SkinState};
 
-fn check_unit(seed: u64) {
-    let unit = SensorUnit::from_seed(seed);
-    let dir = std::env::temp_dir().join(format!("vistaf-unseen-{seed}-{}", std::process::id()));
-    let [depth, force, temps] = kit_states(&unit);
+/// Renders `unit`'s calibration kit (as frame sets, read back) and calibrates it: the
+/// calibration and its remarks.
+fn calibrate_kit(unit: &SensorUnit, seed: u64, name: &str) -> (Calibration, Notes) {
+    let dir = std::env::temp_dir().join(format!("vistaf-{name}-{seed}-{}", std::process::id()));
+    let [depth, force, temps] = kit_states(unit);
     let opts = SetOptions {
         truth_maps: false,
         seed: 5,
@@ -35,12 +37,18 @@ fn check_unit(seed: u64) {
     ]
     .iter()
     .map(|(name, states)| {
-        write_states(&dir.join(name), name, &unit, states, &opts, |_, _| {}).unwrap()
+        write_states(&dir.join(name), name, unit, states, &opts, |_, _| {}).unwrap()
     })
     .collect();
     let mut notes = Notes::default();
-    let calib = calibrate(&sets, Implementation::Fixed, &mut notes).unwrap();
+    let calib = calibrate(&sets, Implementation::Fixed, &mut notes);
     std::fs::remove_dir_all(&dir).unwrap();
+    (calib.unwrap(), notes)
+}
+
+fn check_unit(seed: u64) {
+    let unit = SensorUnit::from_seed(seed);
+    let (calib, notes) = calibrate_kit(&unit, seed, "unseen");
     // A frame left out of several stages, for one reason or several, is reported once.
     let left_out: Vec<&str> = notes
         .0
@@ -207,6 +215,56 @@ fn unit_54_meets_the_targets_on_its_own_calibration() {
 #[test]
 fn unit_55_meets_the_targets_on_its_own_calibration() {
     check_unit(55);
+}
+
+/// A unit whose fine stripes are too faint for its noisy sensor in every frame: each kit
+/// frame carries `low_contrast`. That is the unit's condition, not a frame's: its
+/// calibration takes the frames and says so (where leaving them out refused the unit, and
+/// the robot had no reading at all), and every frame measured with it, a press reported at
+/// its place or the skin at rest, carries the flag as the kit's did.
+#[test]
+fn a_unit_noisy_throughout_calibrates_and_flags_every_frame() {
+    let unit = SensorUnit {
+        period_px: 7.5,
+        blur_px: 1.7,
+        noise_dn: 3.5,
+        ..SensorUnit::reference()
+    };
+    let (calib, notes) = calibrate_kit(&unit, 0, "noisy");
+    assert!(
+        notes
+            .0
+            .iter()
+            .any(|n| n.contains("depth frames carry low_contrast")),
+        "{:?}",
+        notes.0
+    );
+    let r = Renderer::new(unit.clone());
+    let (reference, _) = r.render(&SkinState::idle(ROOM_C), 77);
+    let a = Analyzer::new(
+        &reference,
+        calib,
+        Implementation::Fixed,
+        AnalyzerOptions::default(),
+    )
+    .unwrap();
+    let c = center_mm(&unit);
+    let mut pressed = SkinState::idle(ROOM_C);
+    pressed.contacts.push(Contact {
+        indenter: Indenter::Sphere { r_mm: SPHERE_R_MM },
+        center_mm: (c.0 + 1.5, c.1 - 2.0),
+        depth_mm: 1.2,
+    });
+    for (k, state) in [SkinState::idle(ROOM_C), pressed].iter().enumerate() {
+        let (img, truth) = r.render(state, 4000 + k as u64);
+        let d = a.analyze(&img).unwrap();
+        assert!(d.flags.contains(Flag::LowContrast), "{k}: {:?}", d.flags);
+        assert_eq!(d.contact, truth.contact_px.is_some(), "{k}: {d:?}");
+        if let (Some((tx, ty)), Some((cx, cy))) = (truth.contact_px, d.centroid_px) {
+            let err_mm = (cx - tx).hypot(cy - ty) * unit.mm_per_px();
+            assert!(err_mm <= 1.5, "press read {err_mm} mm from its place");
+        }
+    }
 }
 
 /// Any units: `VISTAF_UNITS=21,22 cargo test --release -p vistaf-tests --test unseen_units

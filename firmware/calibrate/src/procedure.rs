@@ -12,7 +12,11 @@
 //!
 //! Frames whose analysis carries a quality flag are left out of the fits (and reported once,
 //! with every stage that left them out and why, after the fits):
-//! a flagged number is not trusted, so it must not teach the model either. A frame of the
+//! a flagged number is not trusted, so it must not teach the model either. A flag that
+//! most of the kit's depth frames carry (`low_contrast`: fringes too faint or too noisy for
+//! the sensor) speaks of the unit, not of a frame: leaving those frames out would refuse
+//! the unit outright, so the fits take them, the calibration says so, and every frame it
+//! reads carries the flag as before ([`KIT_WIDE_FLAGS`]). A frame of the
 //! skin at one temperature (labelled without contact) in which the phase shows a contact
 //! keeps all its blocks but those around that spot: the label says the skin is at rest, so
 //! the spot is the phase misreading (a pigment dark at that temperature lowers the
@@ -36,7 +40,7 @@ use vistaf_pipeline::thermal::model::{
     STAND_OUT_MARGIN,
 };
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement};
-use vistaf_protocol::Flag;
+use vistaf_protocol::{Flag, QualityFlags};
 
 use crate::fit::{fit_depth, fit_force, Sample};
 use crate::temperature::rms;
@@ -110,6 +114,12 @@ fn sha_of(set: &FrameSet) -> Result<String, CalibrateError> {
     Ok(h.finalize().iter().map(|b| format!("{b:02x}")).collect())
 }
 
+/// Flags that, carried by more than half the kit's depth frames, are the unit's and not a
+/// frame's: the fits take frames carrying them. A skin whose fringes are faint or noisy
+/// throughout is measured with that flag on every frame; refusing its calibration would
+/// leave the robot no reading at all.
+pub const KIT_WIDE_FLAGS: [Flag; 1] = [Flag::LowContrast];
+
 /// Which label a stage fits.
 #[derive(Clone, Copy)]
 enum Label {
@@ -147,6 +157,10 @@ struct Run<'a, O: Observer> {
     /// stage's model adds (`depth_out_of_range`), and is reported once, with every stage
     /// and reason ([`Run::report_left_out`]).
     left: Vec<LeftOut>,
+    /// Flags the fits take because the unit carries them ([`KIT_WIDE_FLAGS`]).
+    kit_wide: QualityFlags,
+    /// Frames the last stage analysed, and how many carried each of [`KIT_WIDE_FLAGS`].
+    tally: (usize, [usize; KIT_WIDE_FLAGS.len()]),
 }
 
 /// A kit frame left out of one or more fits.
@@ -184,6 +198,39 @@ impl<O: Observer> Run<'_, O> {
         }
     }
 
+    /// Counts a frame analysed, and the kit-wide flags it carries.
+    fn count(&mut self, flags: QualityFlags) {
+        self.tally.0 += 1;
+        for (n, f) in self.tally.1.iter_mut().zip(KIT_WIDE_FLAGS) {
+            *n += usize::from(flags.contains(f));
+        }
+    }
+
+    /// Takes every flag of [`KIT_WIDE_FLAGS`] that more than half the frames of the last
+    /// stage carried, says so, and forgets the frames left out so far (the stage runs again
+    /// with the flag taken). Whether any was taken.
+    fn take_kit_wide(&mut self) -> bool {
+        let (seen, carried) = std::mem::take(&mut self.tally);
+        let mut taken = false;
+        for (n, f) in carried.into_iter().zip(KIT_WIDE_FLAGS) {
+            if n * 2 > seen && !self.kit_wide.contains(f) {
+                self.kit_wide.insert(f);
+                self.obs.note(format!(
+                    "{n} of {seen} depth frames carry {}: the unit's fringes are faint or \
+                     noisy throughout, so the fits take such frames, and every frame this \
+                     calibration reads will carry {} as these do",
+                    f.name(),
+                    f.name()
+                ));
+                taken = true;
+            }
+        }
+        if taken {
+            self.left.clear();
+        }
+        taken
+    }
+
     /// Notes each frame left out of a fit, once: the stages that left it out and why.
     fn report_left_out(&mut self) {
         for l in std::mem::take(&mut self.left) {
@@ -214,6 +261,7 @@ impl<O: Observer> Run<'_, O> {
         let mut done = 0;
         let mut out = Vec::new();
         let mut frame = Decoded::default();
+        self.tally = Default::default();
         for s in self.sets {
             let set = s.dir().display().to_string();
             let reference = s.decoded_reference(self.scale)?;
@@ -241,15 +289,25 @@ impl<O: Observer> Run<'_, O> {
                         cause,
                     })?;
                 let frame_name = || format!("{set}: {}", f.file);
+                self.count(d.flags);
                 if d.shape == Shape::Flat {
                     // The kit's indenter is a sphere: a press whose profile reads as a
                     // plateau was read with a punch's depth, not the sphere's apex.
                     let why = "its profile reads as a flat punch's".to_string();
                     self.left_out(frame_name(), stage, vec![why]);
-                } else if d.flags.iter().all(|f| label.tolerates(f)) {
+                } else if d
+                    .flags
+                    .iter()
+                    .all(|f| label.tolerates(f) || self.kit_wide.contains(f))
+                {
                     out.push((y, d));
                 } else {
-                    let names = d.flags.iter().map(|f| f.name().to_string()).collect();
+                    let names = d
+                        .flags
+                        .iter()
+                        .filter(|f| !self.kit_wide.contains(*f))
+                        .map(|f| f.name().to_string())
+                        .collect();
                     self.left_out(frame_name(), stage, names);
                 }
             }
@@ -666,6 +724,8 @@ pub fn calibrate<O: Observer>(
         obs,
         scale: unit.decode_scale,
         left: Vec::new(),
+        kit_wide: QualityFlags::NONE,
+        tally: Default::default(),
     };
     // The frames left out are reported whether the fits succeed or not: a fit refused for
     // too few frames is explained by them.
@@ -691,7 +751,10 @@ fn fit_models<O: Observer>(
     run: &mut Run<'_, O>,
     unit: &UnitGeometry,
 ) -> Result<Calibration, CalibrateError> {
-    let sign = phase_sign(run, unit)?;
+    let mut sign = phase_sign(run, unit)?;
+    if run.take_kit_wide() {
+        sign = phase_sign(run, unit)?;
+    }
     let mut calib = identity(unit, sign);
     calib.depth = depth_model(run, &calib)?;
     calib.shape = shape_signature(run, &calib)?;
@@ -897,6 +960,8 @@ mod tests {
             obs: &mut notes,
             scale: 1,
             left: Vec::new(),
+            kit_wide: QualityFlags::NONE,
+            tally: Default::default(),
         };
         let why = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
         run.left_out(
@@ -921,6 +986,39 @@ mod tests {
                 "depth: f2.png left out of phase → depth (low_contrast)",
             ]
         );
+    }
+
+    /// A flag on more than half the last stage's frames is the unit's: taken once, said
+    /// once, and the frames it left out forgotten; on half of them, a frame's.
+    #[test]
+    fn a_flag_on_most_of_the_kit_is_taken_and_said_once() {
+        let mut notes = Notes::default();
+        let mut run = Run {
+            sets: &[],
+            imp: Implementation::Fixed,
+            obs: &mut notes,
+            scale: 1,
+            left: Vec::new(),
+            kit_wide: QualityFlags::NONE,
+            tally: Default::default(),
+        };
+        let faint = QualityFlags::NONE.with(Flag::LowContrast);
+        for flags in [faint, faint, QualityFlags::NONE, QualityFlags::NONE] {
+            run.count(flags);
+        }
+        assert!(!run.take_kit_wide());
+        for flags in [faint, faint, QualityFlags::NONE] {
+            run.count(flags);
+        }
+        run.left_out("depth: f2.png".into(), "phase sign", vec![]);
+        assert!(run.take_kit_wide());
+        assert!(run.kit_wide.contains(Flag::LowContrast) && run.left.is_empty());
+        for _ in 0..3 {
+            run.count(faint);
+        }
+        assert!(!run.take_kit_wide());
+        assert_eq!(notes.0.len(), 1);
+        assert!(notes.0[0].starts_with("2 of 3 depth frames carry low_contrast"));
     }
 
     /// The mean's table keeps the longest stretch of setpoints over which the kit's mean

@@ -327,6 +327,53 @@ fn an_apex_beside_a_lost_fringe_is_flagged() {
     }
 }
 
+/// The band is lost where a press took the fringe away, not where the skin never showed
+/// one: a square of two periods on the calibrated sphere's flank (beyond the apex reading's
+/// reach) whose fringe is gone in the frame alone carries `phase_slope`; the same square
+/// gone in the reference too (a pale patch of pigment, a glare spot) is a part of the skin
+/// no frame can read, and leaves the press unflagged, as the clean frame is.
+#[test]
+fn a_fringe_the_reference_never_had_is_not_a_lost_band() {
+    let r = Renderer::new(unit());
+    let (reference, _) = r.render(&SkinState::idle(ROOM_C), 1);
+    let (img, truth) = r.render(&sphere(SPHERE_R_MM, 1.5), 9);
+    let at = truth.contact_px.unwrap();
+    let period = unit().period_px;
+    let flank = (at.0 + 2.5 * period, at.1);
+    let side = (2.0 * period).round() as u32;
+    let opts = AnalyzerOptions {
+        force_calibration: true,
+        ..Default::default()
+    };
+    let pale_reference = blot(&reference, flank, side);
+    for imp in [Implementation::Fixed, Implementation::Float] {
+        for (what, reference, frame, want) in [
+            ("clean", &reference, img.clone(), false),
+            (
+                "lost in the frame",
+                &reference,
+                blot(&img, flank, side),
+                true,
+            ),
+            (
+                "never there",
+                &pale_reference,
+                blot(&img, flank, side),
+                false,
+            ),
+        ] {
+            let a = Analyzer::new(reference, Calibration::default_sim(), imp, opts).unwrap();
+            let d = a.analyze(&frame).unwrap();
+            assert!(d.contact, "{imp:?}, {what}: {d:?}");
+            assert_eq!(
+                d.flags.contains(Flag::PhaseSlope),
+                want,
+                "{imp:?}, {what}: {d:?}"
+            );
+        }
+    }
+}
+
 /// A shallow press standing little above a noisy unit's contact threshold cannot show its
 /// width: the noise is a share of its region and of both blurred readings at its apex, and
 /// a contact narrower than the band can pass for a resolved one at a fraction of its depth.

@@ -250,6 +250,8 @@ pub(super) struct Coarse<'a, P> {
     /// Samples inside the margin, and those reliable.
     pub(super) inside_n: usize,
     pub(super) reliable_n: usize,
+    /// The amplitude a reliable sample exceeds in both maps.
+    pub(super) lim: u32,
 }
 
 /// The coarse samples (`cw × ch`) inside `m`, one run per row: columns `cx` with `cx·GRID`
@@ -304,6 +306,7 @@ pub(super) fn read_coarse<'a, M: PhaseMap>(
         rel_contact,
         inside_n,
         reliable_n,
+        lim,
     }
 }
 

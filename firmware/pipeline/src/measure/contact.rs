@@ -406,7 +406,9 @@ impl<P> Limits<'_, P> {
     /// fringe amplitude falling (by the filter's response at the local frequency offset).
     /// Deformed samples whose amplitude fell below half the reference's (after the frame's
     /// overall contrast change, so a dimmer or washed-out frame does not count), or that
-    /// became unreliable, mean the spectrum has left the band there.
+    /// became unreliable, mean the spectrum has left the band there. A sample whose
+    /// reference fringe was already too faint to read (a pale patch of pigment, a glare
+    /// spot) says nothing about the band: it was never readable, so it is not counted.
     fn band_lost(&self) -> bool {
         let c = self.coarse;
         let ((x0, y0), (bw, _)) = self.win.pixels();
@@ -421,10 +423,11 @@ impl<P> Limits<'_, P> {
         {
             let (x, y) = (cx * GRID, cy * GRID);
             let lj = (y - y0) * bw + (x - x0);
-            if lj >= m || !self.pass.deformed[lj] || !self.margin.contains(x, y) {
+            let k = cy * c.cw + cx;
+            let outside = lj >= m || !self.pass.deformed[lj] || !self.margin.contains(x, y);
+            if outside || c.amp_r.get(k).is_none_or(|&a| a <= c.lim) {
                 continue;
             }
-            let k = cy * c.cw + cx;
             seen += 1;
             if self.fringe_lost(k) {
                 lost += 1;
