@@ -55,10 +55,15 @@ fn sphere_presses_meet_the_depth_and_centre_tolerances() {
             let want = f.depth_mm.unwrap() as f32;
             let tol = 0.03 * want + 0.02;
             // The 0.1 mm press touches 1 mm of radius, narrower than the band resolves:
-            // it may read low, and says so. The others meet the tolerance unflagged.
+            // it may read low, and says so. The others meet the tolerance; the 0.9 mm one,
+            // whose profile is not yet clearly a dome's, is also the map a 2 mm punch
+            // would leave a tenth shallower, and says its depth is open to that. The
+            // deeper ones are unflagged.
             let narrow = want < 0.5;
             let expected = if narrow {
                 vec![Flag::DepthUnresolved]
+            } else if want < 1.0 {
+                vec![Flag::DepthUncertain]
             } else {
                 vec![]
             };

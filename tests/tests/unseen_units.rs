@@ -100,8 +100,9 @@ fn check_unit(seed: u64) {
         // about 1.6 mm: about 0.26 mm deep for this 10 mm sphere; the bound below leaves
         // room for the unit's own blur) may read low, and then says so, and a shallow one
         // may carry `depth_uncertain` where its tolerance is narrower than the calibration's
-        // own held-out error allows for; a wider one meets the tolerance and carries no
-        // flag.
+        // own held-out error allows for, or where its profile is not yet clearly a dome's
+        // and a narrow flat punch a little shallower would leave the same map; from 1.5 mm,
+        // wider, it meets the tolerance and carries no flag.
         let unresolved = d.flags.contains(Flag::DepthUnresolved);
         assert!(
             (d.peak_depth_mm - depth).abs() <= tol || unresolved,
@@ -119,7 +120,7 @@ fn check_unit(seed: u64) {
             d.flags
                 .iter()
                 .all(|f| matches!(f, Flag::DepthUnresolved | Flag::DepthUncertain))
-                && (depth < 0.6 || d.flags.is_empty()),
+                && (depth < 1.5 || d.flags.is_empty()),
             "{label}: {depth} mm flagged {:?}",
             d.flags
         );

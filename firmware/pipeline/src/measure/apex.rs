@@ -36,11 +36,17 @@
 //! contacts): a depth model that took up their loss would read every wider contact of
 //! that phase deep. The table does not run on below the resolved size to read such a
 //! contact as a sphere: its steeper gains would amplify the noise of shallow presses past
-//! the tolerance more often than they mend a low reading (`docs/pipeline.md`). A flat punch of a few σ, which loses less than a sphere of the
-//! same `q`, reads deep: a sphere's and a punch's blurred profiles, surrounds included,
-//! match closely at depths a tenth apart (a test below holds them within a percent), so
-//! the map cannot tell them. Contacts much blunter or sharper than the calibrated
-//! indenter are flagged ([`super::BLUNTNESS_RATIO`], [`super::SHARPNESS_RATIO`]).
+//! the tolerance more often than they mend a low reading (`docs/pipeline.md`).
+//!
+//! A flat punch of a few σ, which loses less than a sphere of the same `q`, reads deep: a
+//! sphere's and a punch's blurred profiles, surrounds included, match closely at depths a
+//! tenth apart (a test below holds them within a percent), so the map cannot tell them.
+//! Contacts much blunter or sharper than the calibrated indenter are flagged
+//! ([`super::BLUNTNESS_RATIO`], [`super::SHARPNESS_RATIO`]). So is one whose profile
+//! neither family describes, where a punch of its sharpness would read deeper than the
+//! tolerance allows: the plan tabulates a punch's loss beside the sphere's, read up to the
+//! width at which a punch's profile shows its plateau ([`BlurLoss::punch_excess`],
+//! [`super::punch_beyond_tolerance`]).
 
 use crate::ftp::band::box2_sigma_px;
 
@@ -55,7 +61,7 @@ const RADIUS_STEP: f64 = 1.07;
 const GAIN_END: f64 = 5e-4;
 
 /// A contact's apex: its blur-corrected peak and where it is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Apex {
     /// The peak with the blur taken out, in the units of the map it was read from.
     pub peak: i32,
@@ -64,16 +70,23 @@ pub struct Apex {
     /// Whether the contact is as wide as the table resolves ([`RESOLVED_SIGMAS`]): below,
     /// the peak is raised by the table's first gain only, and reads low.
     pub resolved: bool,
+    /// Its sharpness `q = s₂/s₁` (see the module documentation): 1 for a flat map, less
+    /// the sharper the apex.
+    pub q: f64,
 }
 
-/// The blur's share of a sphere's apex for one demodulator kernel: `d/s₁` against
-/// `q = s₂/s₁` (see the module documentation), built once per plan.
+/// The blur's share of a sphere's apex for one demodulator kernel, and of a flat punch's:
+/// `d/s₁` against `q = s₂/s₁` (see the module documentation), built once per plan.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BlurLoss {
     /// The kernel's two-box lengths `(lx, ly)`, working pixels.
     lengths: (usize, usize),
     /// `(q, d/s₁)` for growing contact radii, `q` increasing.
     rows: Vec<(f64, f64)>,
+    /// The same for a flat punch's surface (Boussinesq's), from one kernel σ of radius…
+    punch_rows: Vec<(f64, f64)>,
+    /// …and each of those rows' contact radius, kernel σ.
+    punch_sigmas: Vec<f64>,
 }
 
 impl BlurLoss {
@@ -86,21 +99,50 @@ impl BlurLoss {
         let k3 = (convolve(&k2.0, &k1.0), convolve(&k2.1, &k1.1));
         let sigma_px = box2_sigma_px(lengths);
         let decay_px = LAYER_DECAY_MM / f64::from(px_mm).max(1e-6);
-        let mut rows: Vec<(f64, f64)> = Vec::new();
-        let mut a = RESOLVED_SIGMAS * sigma_px;
-        loop {
-            let s1 = centre_sum(&k2, a, decay_px);
-            let s2 = centre_sum(&k3, a, decay_px);
-            let (q, gain) = (s2 / s1, 1.0 / s1);
-            if rows.last().is_none_or(|&(q0, _)| q > q0) {
-                rows.push((q, gain));
+        let table = |surface: fn(f64, f64, f64) -> f64, from: f64| {
+            let (mut rows, mut sigmas): (Vec<(f64, f64)>, Vec<f64>) = (Vec::new(), Vec::new());
+            let mut a = from * sigma_px;
+            loop {
+                let s1 = centre_sum(&k2, a, decay_px, surface);
+                let s2 = centre_sum(&k3, a, decay_px, surface);
+                let (q, gain) = (s2 / s1, 1.0 / s1);
+                if rows.last().is_none_or(|&(q0, _)| q > q0) {
+                    rows.push((q, gain));
+                    sigmas.push(a / sigma_px);
+                }
+                if gain < 1.0 + GAIN_END || rows.len() >= 200 {
+                    break;
+                }
+                a *= RADIUS_STEP;
             }
-            if gain < 1.0 + GAIN_END || rows.len() >= 200 {
-                break;
-            }
-            a *= RADIUS_STEP;
+            (rows, sigmas)
+        };
+        let (punch_rows, punch_sigmas) = table(punch, 1.0);
+        BlurLoss {
+            lengths,
+            rows: table(hertz, RESOLVED_SIGMAS).0,
+            punch_rows,
+            punch_sigmas,
         }
-        BlurLoss { lengths, rows }
+    }
+
+    /// How much deeper an apex of sharpness `q` reads as a sphere's than as a flat punch's
+    /// (`d/s₁` of one over the other's, minus one): what the map cannot say of a contact
+    /// whose profile neither family clearly describes. Zero where a punch of that
+    /// sharpness is `shown_sigmas` kernel σ wide or wider, wide enough for its profile to
+    /// show its plateau (`super::profile::FLAT_MIN_SIGMAS`).
+    pub fn punch_excess(&self, q: f64, shown_sigmas: f64) -> f64 {
+        let narrow = self
+            .punch_rows
+            .iter()
+            .zip(&self.punch_sigmas)
+            .find(|&(&(qk, _), _)| qk >= q)
+            .is_some_and(|(_, &a_sigmas)| a_sigmas < shown_sigmas);
+        if narrow {
+            gain_at(&self.rows, q) / gain_at(&self.punch_rows, q) - 1.0
+        } else {
+            0.0
+        }
     }
 
     /// The kernel's two-box lengths, working pixels.
@@ -117,20 +159,35 @@ impl BlurLoss {
     /// `d/s₁` at `q`: the table's first gain below it (a contact under the resolved size),
     /// and towards 1 at `q = 1` beyond its last (at a maximum a blur cannot raise the peak).
     fn gain(&self, q: f64) -> f64 {
-        let Some(&first) = self.rows.first() else {
-            return 1.0;
-        };
-        if q <= first.0 {
-            return first.1;
-        }
-        let next = self.rows.iter().position(|&(qk, _)| qk >= q);
-        let ((q0, g0), (q1, g1)) = match next {
-            Some(k) => (self.rows[k - 1], self.rows[k]),
-            None if q < 1.0 => (self.rows[self.rows.len() - 1], (1.0, 1.0)),
-            None => return 1.0,
-        };
-        g0 + (g1 - g0) * (q - q0) / (q1 - q0)
+        gain_at(&self.rows, q)
     }
+}
+
+/// `d/s₁` at `q` in `rows`: the first row's below it, and towards 1 at `q = 1` beyond the
+/// last.
+fn gain_at(rows: &[(f64, f64)], q: f64) -> f64 {
+    let Some(&first) = rows.first() else {
+        return 1.0;
+    };
+    if q <= first.0 {
+        return first.1;
+    }
+    let next = rows.iter().position(|&(qk, _)| qk >= q);
+    let ((q0, g0), (q1, g1)) = match next {
+        Some(k) => (rows[k - 1], rows[k]),
+        None if q < 1.0 => (rows[rows.len() - 1], (1.0, 1.0)),
+        None => return 1.0,
+    };
+    g0 + (g1 - g0) * (q - q0) / (q1 - q0)
+}
+
+/// The unit-depth surface of a flat punch of radius `a` at radius `r` (Boussinesq, the
+/// surround decaying over `decay` beyond the edge), both in pixels.
+pub(super) fn punch(r: f64, a: f64, decay: f64) -> f64 {
+    if r <= a {
+        return 1.0;
+    }
+    2.0 / std::f64::consts::PI * (a / r).asin() * (-(r - a) / decay).exp()
 }
 
 /// The unit-depth surface of a sphere's contact of radius `a` at radius `r` (Hertz, the
@@ -145,17 +202,22 @@ pub(super) fn hertz(r: f64, a: f64, decay: f64) -> f64 {
     half_space * (-(r - a) / decay).exp()
 }
 
-/// The separable kernel `kx ⊗ ky` (centred, odd lengths) applied to the unit Hertz surface
-/// of contact radius `a` at its centre. The kernel's symmetry lets one quadrant stand for
+/// The separable kernel `kx ⊗ ky` (centred, odd lengths) applied to the unit `surface`
+/// ([`hertz`], [`punch`]) of contact radius `a` at its centre. The kernel's symmetry lets one quadrant stand for
 /// all four.
-fn centre_sum((kx, ky): &(Vec<f64>, Vec<f64>), a: f64, decay: f64) -> f64 {
+fn centre_sum(
+    (kx, ky): &(Vec<f64>, Vec<f64>),
+    a: f64,
+    decay: f64,
+    surface: fn(f64, f64, f64) -> f64,
+) -> f64 {
     let (cx, cy) = (kx.len() / 2, ky.len() / 2);
     let mut sum = 0.0;
     for (j, wy) in ky[cy..].iter().enumerate() {
         let wy = if j == 0 { *wy } else { 2.0 * wy };
         for (i, wx) in kx[cx..].iter().enumerate() {
             let wx = if i == 0 { *wx } else { 2.0 * wx };
-            sum += wx * wy * hertz((i as f64).hypot(j as f64), a, decay);
+            sum += wx * wy * surface((i as f64).hypot(j as f64), a, decay);
         }
     }
     sum
@@ -219,6 +281,7 @@ pub fn apex(map: &[i32], w: usize, region: &[usize], loss: &BlurLoss) -> Option<
         peak: (s1 * loss.gain(s2 / s1)).round() as i32,
         at: ay * w + ax,
         resolved: loss.resolves(s2 / s1),
+        q: s2 / s1,
     })
 }
 
@@ -490,6 +553,40 @@ mod tests {
         let z = blurred(punch, 8.0 * sigma(l), d, (n, 0.0), l);
         let got = corrected(&z, n, (l, l));
         assert!((995..=1010).contains(&got), "punch at 8σ: {got}");
+    }
+
+    /// What a punch's reading owes to the sphere's correction is what the table says of its
+    /// sharpness: a punch of 2–2.8σ, read as a sphere, reads deep by its `punch_excess`
+    /// (within a percent of the depth, on a map blurred and sampled as the demodulator's
+    /// is); a sphere of the same sharpness is told the same excess, since the map does not
+    /// say which pressed; and a sharpness only a punch at least `shown` σ wide shows carries
+    /// none.
+    #[test]
+    fn a_narrow_punch_reads_deep_by_its_punch_excess() {
+        let (l, n, d) = (7, 161, 1000.0);
+        let read = |z: &[i32]| {
+            let region = super::super::features::dominant_component(z, n, 0);
+            apex(z, n, &region, &BlurLoss::new((l, l), PX_MM)).unwrap()
+        };
+        // Boussinesq's punch with the surround decaying as the table assumes.
+        let layer_punch = |r: f64, a: f64| super::punch(r, a, LAYER_DECAY_MM / f64::from(PX_MM));
+        let table = BlurLoss::new((l, l), PX_MM);
+        let shown = 3.0;
+        let excess = |a: &Apex| table.punch_excess(a.q, shown);
+        for a_sigmas in [2.0, 2.4, 2.8] {
+            let a = read(&blurred(layer_punch, a_sigmas * sigma(l), d, (n, 0.0), l));
+            let over = f64::from(a.peak) / d - 1.0;
+            assert!(over > 0.04, "punch at {a_sigmas}σ: {over}");
+            assert!(
+                (over - excess(&a)).abs() <= 0.01 * (1.0 + over),
+                "punch at {a_sigmas}σ reads {over} deep, excess {}",
+                excess(&a)
+            );
+        }
+        let wide = read(&blurred(layer_punch, 4.0 * sigma(l), d, (n, 0.0), l));
+        assert_eq!(excess(&wide), 0.0);
+        let dome = read(&blurred(sphere, 2.5 * sigma(l), d, (n, 0.0), l));
+        assert!(excess(&dome) > 0.04, "{dome:?}");
     }
 
     /// …and the map cannot tell them there: a sphere of contact radius 2σ and a punch of

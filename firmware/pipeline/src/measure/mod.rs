@@ -153,6 +153,21 @@ pub fn depth_uncertain_below_mm(cv_rmse_mm: f64) -> f64 {
     ((DEPTH_CONFIDENCE_SIGMAS * cv_rmse_mm - floor_mm) / f64::from(DEPTH_TOLERANCE_SHARE)).max(0.0)
 }
 
+/// Whether a peak read `peak_mm` deep through the sphere's blur correction would lie
+/// beyond the depth tolerance if the contact were a flat punch of the same blurred
+/// sharpness, `punch_excess` deeper as a sphere's ([`apex::BlurLoss::punch_excess`]; zero
+/// where such a punch is wide enough for its profile to show its plateau). Below that
+/// width a punch's blurred map is a sphere's a little deeper, surround included, and the
+/// calibrated sphere's area and load at that depth are the punch's too: nothing in the map
+/// says which pressed, so a contact whose profile is neither family's carries
+/// `depth_uncertain` there. Contact mechanics sets the margin (Hertz's and Boussinesq's
+/// surfaces through the plan's own kernel), not a tuned factor.
+pub fn punch_beyond_tolerance(punch_excess: f64, peak_mm: f64) -> bool {
+    let tolerance_mm =
+        f64::from(DEPTH_TOLERANCE_SHARE) * peak_mm + f64::from(DEPTH_TOLERANCE_UM) / 1000.0;
+    punch_excess / (1.0 + punch_excess) * peak_mm > tolerance_mm
+}
+
 /// What the measurement needs besides the phase.
 #[derive(Debug, Clone, Copy)]
 pub struct Context<'a> {
@@ -602,6 +617,13 @@ impl<M: PhaseMap> Found<'_, M> {
         let rings = load::rings(&pass.depth_um, bw, centre, PROFILE_REACH * b_px);
         let shape = ctx.shapes.fit(&rings);
         let mut resolved = apex.resolved && map_peak_um >= RESOLVED_THRESHOLDS * threshold_um;
+        // Neither family describes the profile: a punch too narrow to show its plateau reads
+        // deep by what the sphere's correction took out and its own blur did not.
+        let punch_open = shape.shape == Shape::Unknown
+            && punch_beyond_tolerance(
+                ctx.blur_loss.punch_excess(apex.q, profile::FLAT_MIN_SIGMAS),
+                f64::from(feats.peak_mm),
+            );
         if shape.shape == Shape::Flat {
             // A plateau's level, not a dome's blurred apex.
             feats.peak_mm = (shape.depth / 1000.0) as f32;
@@ -624,6 +646,9 @@ impl<M: PhaseMap> Found<'_, M> {
             apex_px: (x0 + apex.at % bw, y0 + apex.at / bw),
         };
         let mut flags = limits.flags(&inputs, carrier, ctx);
+        if punch_open {
+            flags.insert(Flag::DepthUncertain);
+        }
         // Half the contact's depth reaching where the kernel averages padding: the contact
         // may run on past the image, and nothing beyond it is seen.
         if !window_inside && !contact.iter().all(kernel_inside) {

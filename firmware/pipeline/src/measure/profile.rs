@@ -34,7 +34,7 @@
 //! shape unless its skirt may have sunk the frame's registration (`docs/pipeline.md` gives
 //! the measured trade).
 
-use super::apex::{hertz, LAYER_DECAY_MM, RESOLVED_SIGMAS};
+use super::apex::{hertz, punch, LAYER_DECAY_MM, RESOLVED_SIGMAS};
 use super::load::Rings;
 use crate::ftp::band::box2_sigma_px;
 
@@ -317,15 +317,6 @@ fn cut_profile(rings: &Rings) -> Option<Profile> {
         spread += (sq - n * m * m).max(0.0);
     }
     None
-}
-
-/// The unit-depth surface of a flat punch of radius `a` at radius `r` (Boussinesq, the
-/// surround decaying over `decay` beyond the edge), both in pixels.
-fn punch(r: f64, a: f64, decay: f64) -> f64 {
-    if r <= a {
-        return 1.0;
-    }
-    2.0 / std::f64::consts::PI * (a / r).asin() * (-(r - a) / decay).exp()
 }
 
 /// The radially symmetric `surface` blurred by an isotropic Gaussian of `sigma` pixels,
