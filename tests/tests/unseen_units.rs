@@ -46,6 +46,19 @@ fn calibrate_kit(unit: &SensorUnit, seed: u64, name: &str) -> (Calibration, Note
     (calib.unwrap(), notes)
 }
 
+/// The device path with `calib`, on a reference of the skin at rest that `r` renders with
+/// its own noise draw.
+fn analyzer(r: &Renderer, calib: Calibration) -> Analyzer {
+    let (reference, _) = r.render(&SkinState::idle(ROOM_C), 77);
+    Analyzer::new(
+        &reference,
+        calib,
+        Implementation::Fixed,
+        AnalyzerOptions::default(),
+    )
+    .unwrap()
+}
+
 fn check_unit(seed: u64) {
     let unit = SensorUnit::from_seed(seed);
     let (calib, notes) = calibrate_kit(&unit, seed, "unseen");
@@ -64,14 +77,7 @@ fn check_unit(seed: u64) {
     }
 
     let r = Renderer::new(unit.clone());
-    let (reference, _) = r.render(&SkinState::idle(ROOM_C), 77);
-    let a = Analyzer::new(
-        &reference,
-        calib,
-        Implementation::Fixed,
-        AnalyzerOptions::default(),
-    )
-    .unwrap();
+    let a = analyzer(&r, calib);
     let c = center_mm(&unit);
     let fov = unit.height_px as f32 * unit.mm_per_px();
     let at = (c.0 + 0.05 * fov, c.1 - 0.15 * fov); // not a kit position
@@ -220,9 +226,9 @@ fn unit_55_meets_the_targets_on_its_own_calibration() {
 
 /// A unit whose fine stripes are too faint for its noisy sensor in every frame: each kit
 /// frame carries `low_contrast`. That is the unit's condition, not a frame's: its
-/// calibration takes the frames and says so (where leaving them out refused the unit, and
-/// the robot had no reading at all), and every frame measured with it, a press reported at
-/// its place or the skin at rest, carries the flag as the kit's did.
+/// calibration takes the frames and says so (leaving them out would refuse the unit, and
+/// leave the robot no reading at all), and every frame measured with it, a press reported
+/// at its place or the skin at rest, carries the flag as the kit's did.
 #[test]
 fn a_unit_noisy_throughout_calibrates_and_flags_every_frame() {
     let unit = SensorUnit {
@@ -241,14 +247,7 @@ fn a_unit_noisy_throughout_calibrates_and_flags_every_frame() {
         notes.0
     );
     let r = Renderer::new(unit.clone());
-    let (reference, _) = r.render(&SkinState::idle(ROOM_C), 77);
-    let a = Analyzer::new(
-        &reference,
-        calib,
-        Implementation::Fixed,
-        AnalyzerOptions::default(),
-    )
-    .unwrap();
+    let a = analyzer(&r, calib);
     let c = center_mm(&unit);
     let mut pressed = SkinState::idle(ROOM_C);
     pressed.contacts.push(Contact {

@@ -16,7 +16,7 @@
 //! most of the kit's depth frames carry (`low_contrast`: fringes too faint or too noisy for
 //! the sensor) speaks of the unit, not of a frame: leaving those frames out would refuse
 //! the unit outright, so the fits take them, the calibration says so, and every frame it
-//! reads carries the flag as before ([`KIT_WIDE_FLAGS`]). A frame of the
+//! reads carries the flag as the kit's did ([`KIT_WIDE_FLAGS`]). A frame of the
 //! skin at one temperature (labelled without contact) in which the phase shows a contact
 //! keeps all its blocks but those around that spot: the label says the skin is at rest, so
 //! the spot is the phase misreading (a pigment dark at that temperature lowers the
@@ -173,7 +173,20 @@ struct LeftOut {
     reasons: Vec<String>,
 }
 
-impl<O: Observer> Run<'_, O> {
+impl<'a, O: Observer> Run<'a, O> {
+    /// A run over `sets`, decoded at `1/scale`, before any frame is analysed.
+    fn new(sets: &'a [FrameSet], imp: Implementation, obs: &'a mut O, scale: u32) -> Self {
+        Run {
+            sets,
+            imp,
+            obs,
+            scale,
+            left: Vec::new(),
+            kit_wide: QualityFlags::NONE,
+            tally: Default::default(),
+        }
+    }
+
     /// Records `frame` (`set: file`) left out of `stage`'s fit for `reasons`.
     fn left_out(&mut self, frame: String, stage: &str, reasons: Vec<String>) {
         let l = match self.left.iter().position(|l| l.frame == frame) {
@@ -718,15 +731,7 @@ pub fn calibrate<O: Observer>(
         }
     }
     let unit = unit_geometry(first)?;
-    let mut run = Run {
-        sets,
-        imp,
-        obs,
-        scale: unit.decode_scale,
-        left: Vec::new(),
-        kit_wide: QualityFlags::NONE,
-        tally: Default::default(),
-    };
+    let mut run = Run::new(sets, imp, obs, unit.decode_scale);
     // The frames left out are reported whether the fits succeed or not: a fit refused for
     // too few frames is explained by them.
     let fitted = fit_models(&mut run, &unit);
@@ -954,15 +959,7 @@ mod tests {
     #[test]
     fn a_frame_left_out_of_several_stages_is_named_once_with_every_reason() {
         let mut notes = Notes::default();
-        let mut run = Run {
-            sets: &[],
-            imp: Implementation::Fixed,
-            obs: &mut notes,
-            scale: 1,
-            left: Vec::new(),
-            kit_wide: QualityFlags::NONE,
-            tally: Default::default(),
-        };
+        let mut run = Run::new(&[], Implementation::Fixed, &mut notes, 1);
         let why = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
         run.left_out(
             "depth: f7.png".into(),
@@ -993,15 +990,7 @@ mod tests {
     #[test]
     fn a_flag_on_most_of_the_kit_is_taken_and_said_once() {
         let mut notes = Notes::default();
-        let mut run = Run {
-            sets: &[],
-            imp: Implementation::Fixed,
-            obs: &mut notes,
-            scale: 1,
-            left: Vec::new(),
-            kit_wide: QualityFlags::NONE,
-            tally: Default::default(),
-        };
+        let mut run = Run::new(&[], Implementation::Fixed, &mut notes, 1);
         let faint = QualityFlags::NONE.with(Flag::LowContrast);
         for flags in [faint, faint, QualityFlags::NONE, QualityFlags::NONE] {
             run.count(flags);

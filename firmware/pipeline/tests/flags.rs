@@ -317,34 +317,26 @@ fn blot(img: &image::RgbImage, (x, y): (f32, f32), side_px: u32) -> image::RgbIm
     out
 }
 
-/// The apex is read from the map blurred over the demodulator's kernel: where the fringe
-/// was lost within its reach, it averages a phase nobody read, and the press is flagged.
-/// The calibrated sphere reads clean; with the fringe lost over a square of one period at
-/// its apex (too few samples for the band-loss count of the whole contact) it carries
-/// `phase_slope`; with the same square lost away from the contact, it does not.
-#[test]
-fn an_apex_beside_a_lost_fringe_is_flagged() {
+/// The calibrated sphere pressed 1.5 mm at the view's centre: the reference, the frame and
+/// the contact's centre, px.
+fn deep_sphere() -> (image::RgbImage, image::RgbImage, (f32, f32)) {
     let r = Renderer::new(unit());
     let (reference, _) = r.render(&SkinState::idle(ROOM_C), 1);
     let (img, truth) = r.render(&sphere(SPHERE_R_MM, 1.5), 9);
-    let at = truth.contact_px.unwrap();
-    let side = unit().period_px.round() as u32;
-    let far = (
-        at.0 + 0.3 * unit().width_px as f32,
-        at.1 + 0.25 * unit().height_px as f32,
-    );
+    (reference, img, truth.contact_px.unwrap())
+}
+
+/// On both paths, each case's frame against its reference reports the press, and carries
+/// `phase_slope` as the case wants.
+fn phase_slope_as(cases: &[(&str, &image::RgbImage, image::RgbImage, bool)]) {
     let opts = AnalyzerOptions {
         force_calibration: true,
         ..Default::default()
     };
     for imp in [Implementation::Fixed, Implementation::Float] {
-        let a = Analyzer::new(&reference, Calibration::default_sim(), imp, opts).unwrap();
-        for (what, frame, want) in [
-            ("clean", img.clone(), false),
-            ("lost at the apex", blot(&img, at, side), true),
-            ("lost away from the contact", blot(&img, far, side), false),
-        ] {
-            let d = a.analyze(&frame).unwrap();
+        for &(what, reference, ref frame, want) in cases {
+            let a = Analyzer::new(reference, Calibration::default_sim(), imp, opts).unwrap();
+            let d = a.analyze(frame).unwrap();
             assert!(d.contact, "{imp:?}, {what}: {d:?}");
             assert_eq!(
                 d.flags.contains(Flag::PhaseSlope),
@@ -355,6 +347,31 @@ fn an_apex_beside_a_lost_fringe_is_flagged() {
     }
 }
 
+/// The apex is read from the map blurred over the demodulator's kernel: where the fringe
+/// was lost within its reach, it averages a phase nobody read, and the press is flagged.
+/// The calibrated sphere reads clean; with the fringe lost over a square of one period at
+/// its apex (too few samples for the band-loss count of the whole contact) it carries
+/// `phase_slope`; with the same square lost away from the contact, it does not.
+#[test]
+fn an_apex_beside_a_lost_fringe_is_flagged() {
+    let (reference, img, at) = deep_sphere();
+    let side = unit().period_px.round() as u32;
+    let far = (
+        at.0 + 0.3 * unit().width_px as f32,
+        at.1 + 0.25 * unit().height_px as f32,
+    );
+    phase_slope_as(&[
+        ("clean", &reference, img.clone(), false),
+        ("lost at the apex", &reference, blot(&img, at, side), true),
+        (
+            "lost away from the contact",
+            &reference,
+            blot(&img, far, side),
+            false,
+        ),
+    ]);
+}
+
 /// The band is lost where a press took the fringe away, not where the skin never showed
 /// one: a square of two periods on the calibrated sphere's flank (beyond the apex reading's
 /// reach) whose fringe is gone in the frame alone carries `phase_slope`; the same square
@@ -362,44 +379,26 @@ fn an_apex_beside_a_lost_fringe_is_flagged() {
 /// no frame can read, and leaves the press unflagged, as the clean frame is.
 #[test]
 fn a_fringe_the_reference_never_had_is_not_a_lost_band() {
-    let r = Renderer::new(unit());
-    let (reference, _) = r.render(&SkinState::idle(ROOM_C), 1);
-    let (img, truth) = r.render(&sphere(SPHERE_R_MM, 1.5), 9);
-    let at = truth.contact_px.unwrap();
+    let (reference, img, at) = deep_sphere();
     let period = unit().period_px;
     let flank = (at.0 + 2.5 * period, at.1);
     let side = (2.0 * period).round() as u32;
-    let opts = AnalyzerOptions {
-        force_calibration: true,
-        ..Default::default()
-    };
     let pale_reference = blot(&reference, flank, side);
-    for imp in [Implementation::Fixed, Implementation::Float] {
-        for (what, reference, frame, want) in [
-            ("clean", &reference, img.clone(), false),
-            (
-                "lost in the frame",
-                &reference,
-                blot(&img, flank, side),
-                true,
-            ),
-            (
-                "never there",
-                &pale_reference,
-                blot(&img, flank, side),
-                false,
-            ),
-        ] {
-            let a = Analyzer::new(reference, Calibration::default_sim(), imp, opts).unwrap();
-            let d = a.analyze(&frame).unwrap();
-            assert!(d.contact, "{imp:?}, {what}: {d:?}");
-            assert_eq!(
-                d.flags.contains(Flag::PhaseSlope),
-                want,
-                "{imp:?}, {what}: {d:?}"
-            );
-        }
-    }
+    phase_slope_as(&[
+        ("clean", &reference, img.clone(), false),
+        (
+            "lost in the frame",
+            &reference,
+            blot(&img, flank, side),
+            true,
+        ),
+        (
+            "never there",
+            &pale_reference,
+            blot(&img, flank, side),
+            false,
+        ),
+    ]);
 }
 
 /// A shallow press standing little above a noisy unit's contact threshold cannot show its

@@ -132,16 +132,12 @@ impl BlurLoss {
     /// sharpness is `shown_sigmas` kernel σ wide or wider, wide enough for its profile to
     /// show its plateau (`super::profile::FLAT_MIN_SIGMAS`).
     pub fn punch_excess(&self, q: f64, shown_sigmas: f64) -> f64 {
-        let narrow = self
-            .punch_rows
-            .iter()
-            .zip(&self.punch_sigmas)
-            .find(|&(&(qk, _), _)| qk >= q)
-            .is_some_and(|(_, &a_sigmas)| a_sigmas < shown_sigmas);
-        if narrow {
-            gain_at(&self.rows, q) / gain_at(&self.punch_rows, q) - 1.0
-        } else {
-            0.0
+        // The narrowest tabulated punch at least as blunt as the apex.
+        match self.punch_rows.iter().position(|&(qk, _)| qk >= q) {
+            Some(k) if self.punch_sigmas[k] < shown_sigmas => {
+                gain_at(&self.rows, q) / gain_at(&self.punch_rows, q) - 1.0
+            }
+            _ => 0.0,
         }
     }
 

@@ -162,10 +162,10 @@ pub fn depth_uncertain_below_mm(cv_rmse_mm: f64) -> f64 {
 /// says which pressed, so a contact whose profile is neither family's carries
 /// `depth_uncertain` there. Contact mechanics sets the margin (Hertz's and Boussinesq's
 /// surfaces through the plan's own kernel), not a tuned factor.
-pub fn punch_beyond_tolerance(punch_excess: f64, peak_mm: f64) -> bool {
-    let tolerance_mm =
-        f64::from(DEPTH_TOLERANCE_SHARE) * peak_mm + f64::from(DEPTH_TOLERANCE_UM) / 1000.0;
-    punch_excess / (1.0 + punch_excess) * peak_mm > tolerance_mm
+pub fn punch_beyond_tolerance(punch_excess: f64, peak_mm: f32) -> bool {
+    let peak_um = 1000.0 * peak_mm;
+    punch_excess / (1.0 + punch_excess) * f64::from(peak_um)
+        > f64::from(depth_tolerance_um(peak_um))
 }
 
 /// What the measurement needs besides the phase.
@@ -622,7 +622,7 @@ impl<M: PhaseMap> Found<'_, M> {
         let punch_open = shape.shape == Shape::Unknown
             && punch_beyond_tolerance(
                 ctx.blur_loss.punch_excess(apex.q, profile::FLAT_MIN_SIGMAS),
-                f64::from(feats.peak_mm),
+                feats.peak_mm,
             );
         if shape.shape == Shape::Flat {
             // A plateau's level, not a dome's blurred apex.
