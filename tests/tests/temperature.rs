@@ -26,17 +26,14 @@ fn bench() -> Bench {
 }
 
 fn bench_of(unit: SensorUnit) -> Bench {
+    bench_calibrated(unit, Calibration::default_sim())
+}
+
+fn bench_calibrated(unit: SensorUnit, calib: Calibration) -> Bench {
     let r = Renderer::new(unit);
     let (reference, _) = r.render(&SkinState::idle(ROOM_C), 4242);
-    let an = |imp| {
-        Analyzer::new(
-            &reference,
-            Calibration::default_sim(),
-            imp,
-            AnalyzerOptions::default(),
-        )
-        .unwrap()
-    };
+    let an =
+        |imp| Analyzer::new(&reference, calib.clone(), imp, AnalyzerOptions::default()).unwrap();
     Bench {
         fixed: an(Implementation::Fixed),
         float: an(Implementation::Float),
@@ -281,6 +278,40 @@ fn a_contact_temperature_says_how_sure_it_is() {
         inside.iter().all(|&sd| sd < 0.5),
         "inside the transition σ {inside:?}"
     );
+}
+
+/// A press moves the contact's chromaticity by what the camera's blur and chroma
+/// compression do to squeezed stripes; the calibration measures the scatter on its own
+/// kit's presses (`TemperatureModel::contact_chroma_spread`), and a contact's σ carries it.
+/// Inside the coloured transition the colour moves fast with temperature, and σ grows by
+/// hundredths of a degree. At its top (33.5–34.5 °C) the colour slows, the coloured
+/// stripes still hold the blend, and the same scatter adds a tenth or more. Above it the black
+/// stripes' ratio already dominates σ. On both paths alike.
+#[test]
+fn a_contacts_sigma_carries_what_a_press_does_to_its_colour() {
+    let u = SensorUnit::reference();
+    let with = |spread: f64| {
+        let mut calib = Calibration::default_sim();
+        calib.temperature.as_mut().unwrap().contact_chroma_spread = [spread; 2];
+        bench_calibrated(u.clone(), calib)
+    };
+    let (plain, spread) = (with(0.0), with(0.005));
+    let c = center_mm(&u);
+    for (k, hot) in [28.0f32, 31.0, 33.5, 34.0, 34.5].into_iter().enumerate() {
+        let s = heated_press(c, 1.0, hot);
+        let sigma = |b: &Bench| {
+            let (fx, fl, _) = b.run(&s, 1600 + k as u64);
+            [fx, fl].map(|d| d.temperature.unwrap().contact_sigma_c.unwrap())
+        };
+        let (was, now) = (sigma(&plain), sigma(&spread));
+        let grew = [now[0] - was[0], now[1] - was[1]];
+        let want = if hot < 33.0 { 0.0..0.05 } else { 0.1..1.0 };
+        assert!(
+            grew.iter().all(|g| want.contains(g)),
+            "{hot} °C: σ {was:?} without the spread, {now:?} with it"
+        );
+        assert!((now[0] - now[1]).abs() <= 0.05, "{hot} °C: paths {now:?}");
+    }
 }
 
 /// An LED ring lighting the skin obliquely brightens the side of a dimple facing it and

@@ -36,8 +36,8 @@ use vistaf_pipeline::input::decode_scale;
 use vistaf_pipeline::measure::profile::Shape;
 use vistaf_pipeline::thermal::extremes::{departures_sigmas, STAND_OUT_SIGMAS};
 use vistaf_pipeline::thermal::model::{
-    mean_read_rises, MeanRead, StandOut, TemperatureModel, MEAN_READ_MIN_SLOPE, STAND_OUT_LIMIT,
-    STAND_OUT_MARGIN,
+    mean_read_rises, MeanRead, StandOut, TemperatureModel, CHROMA_SPREAD_LIMIT,
+    CHROMA_SPREAD_MIN_PRESSES, MEAN_READ_MIN_SLOPE, STAND_OUT_LIMIT, STAND_OUT_MARGIN,
 };
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement};
 use vistaf_protocol::{Flag, QualityFlags};
@@ -765,7 +765,51 @@ fn fit_models<O: Observer>(
     calib.shape = shape_signature(run, &calib)?;
     calib.force = force_model(run, &calib)?;
     calib.temperature = temperature_model(run, &calib)?;
+    if calib.temperature.is_some() {
+        let spread = contact_chroma_spread(run, &calib)?;
+        if let Some(m) = calib.temperature.as_mut() {
+            m.contact_chroma_spread = spread;
+        }
+    }
     Ok(calib)
+}
+
+/// How far the kit's presses move the contact's chromaticity from the skin's
+/// ([`TemperatureModel::contact_chroma_spread`]): the RMS over the trusted depth frames
+/// whose contact the thermometer read, each of `r` and `g`; zero, with a note, with fewer
+/// than [`CHROMA_SPREAD_MIN_PRESSES`].
+fn contact_chroma_spread<O: Observer>(
+    run: &mut Run<'_, O>,
+    calib: &Calibration,
+) -> Result<[f64; 2], CalibrateError> {
+    let presses = run.analyze(calib, Label::Depth, "contact colour", &|_| true)?;
+    let shifts: Vec<[f32; 2]> = presses
+        .iter()
+        .filter_map(|(_, d)| d.temperature.as_ref()?.contact_chroma_vs_skin)
+        .filter(|s| s.iter().all(|v| v.is_finite()))
+        .collect();
+    if shifts.len() < CHROMA_SPREAD_MIN_PRESSES {
+        run.obs.note(format!(
+            "{} kit presses show the contact's colour (at least {CHROMA_SPREAD_MIN_PRESSES} \
+             needed): a contact's temperature σ holds no term for what a press does to its \
+             chromaticity",
+            shifts.len()
+        ));
+        return Ok([0.0; 2]);
+    }
+    let rms_of = |k: usize| {
+        let v: Vec<f64> = shifts.iter().map(|s| f64::from(s[k])).collect();
+        rms(&v).min(CHROMA_SPREAD_LIMIT)
+    };
+    let spread = [rms_of(0), rms_of(1)];
+    run.obs.note(format!(
+        "a press moves the contact's chromaticity from the skin's by {:.2} % (r) and {:.2} % \
+         (g) RMS over {} kit presses; a contact's temperature σ carries it",
+        100.0 * spread[0],
+        100.0 * spread[1],
+        shifts.len()
+    ));
+    Ok(spread)
 }
 
 /// The unit geometry (carrier period, orientation, image size) from the first set's

@@ -743,7 +743,7 @@ mod tests {
                 .to_string()
         };
         type Edit<'a> = &'a dyn Fn(&mut serde_json::Value);
-        let cases: [(&str, Edit<'_>); 16] = [
+        let cases: [(&str, Edit<'_>); 18] = [
             ("`shape`", &|v| {
                 v["shape"]["area_mm2"] = serde_json::json!([1.0])
             }),
@@ -830,6 +830,12 @@ mod tests {
                     {"setpoint_c": 22.0, "sigmas": 4.0},
                     {"setpoint_c": 20.0, "sigmas": 5.0}
                 ])
+            }),
+            ("`temperature.contact_chroma_spread`", &|v| {
+                v["temperature"]["contact_chroma_spread"] = serde_json::json!([0.01, -0.01])
+            }),
+            ("`temperature.contact_chroma_spread`", &|v| {
+                v["temperature"]["contact_chroma_spread"] = serde_json::json!([0.01, 3.0])
             }),
         ];
         for (key, edit) in cases {

@@ -6,7 +6,7 @@
 
 use super::{Calibration, DepthModel, FitRange, ForceForm, ForceModel, ShapeSignature};
 use crate::thermal::model::{
-    mean_read_rises, stand_out_ordered, MEAN_READ_MIN_SLOPE, STAND_OUT_LIMIT,
+    mean_read_rises, stand_out_ordered, CHROMA_SPREAD_LIMIT, MEAN_READ_MIN_SLOPE, STAND_OUT_LIMIT,
 };
 
 /// A broken rule: the key's path and why.
@@ -94,6 +94,16 @@ pub fn check(c: &Calibration) -> Check {
                     "must hold finite setpoints in increasing order, each with a departure of \
                      0…{STAND_OUT_LIMIT} standard deviations"
                 ),
+            ));
+        }
+        if !t
+            .contact_chroma_spread
+            .iter()
+            .all(|s| (0.0..=CHROMA_SPREAD_LIMIT).contains(s))
+        {
+            return Err(bad(
+                "temperature.contact_chroma_spread",
+                format!("must be two relative spreads of 0…{CHROMA_SPREAD_LIMIT}"),
             ));
         }
         if !t.is_consistent() {

@@ -32,6 +32,15 @@ pub trait Evaluator {
     fn black_with_ratio_scaled(&self, s: &Sums, scale_q16: i64) -> Option<Self::Estimate>;
     /// An integer that orders estimates as their temperatures.
     fn key(e: &Self::Estimate) -> i64;
+    /// Both populations' estimates of `s` (against its own black stripes) with the coloured
+    /// stripes' chromaticity `r` and `g` each scaled by 1 + `shift_q16` (Q16).
+    fn chroma_shifted(
+        &self,
+        s: &Sums,
+        shift_q16: [i64; 2],
+    ) -> Option<(Self::Estimate, Self::Estimate)>;
+    /// [`TemperatureModel::contact_chroma_spread`], Q16.
+    fn chroma_spread_q16(&self) -> [i64; 2];
     /// The blend's first pass at a black estimate.
     fn guess(&self, black: Self::Estimate) -> Self::Guess;
     /// The inverse-variance blend of a coloured and a black estimate.
@@ -66,6 +75,24 @@ impl Evaluator for FloatModel {
         b ^ (((b >> 63) as u64) >> 1) as i64
     }
 
+    fn chroma_shifted(&self, s: &Sums, shift_q16: [i64; 2]) -> Option<((f64, bool), (f64, bool))> {
+        let mut v = s.invariants(s)?;
+        let [dr, dg] = shift_q16.map(|d| d as f64 / ONE as f64);
+        v.r *= 1.0 + dr;
+        v.g *= 1.0 + dg;
+        let inside = self.0.domain.contains(&v);
+        Some((
+            (self.0.population(Population::Coloured, &v), inside),
+            (self.0.population(Population::Black, &v), inside),
+        ))
+    }
+
+    fn chroma_spread_q16(&self) -> [i64; 2] {
+        self.0
+            .contact_chroma_spread
+            .map(|s| (s * ONE as f64).round() as i64)
+    }
+
     fn guess(&self, black: (f64, bool)) -> f64 {
         black.0
     }
@@ -98,6 +125,18 @@ impl Evaluator for FixedModel {
 
     fn key(e: &(i64, bool)) -> i64 {
         e.0
+    }
+
+    fn chroma_shifted(&self, s: &Sums, shift_q16: [i64; 2]) -> Option<((i64, bool), (i64, bool))> {
+        let mut v = invariants_q16(s, s)?;
+        for (x, d) in v.iter_mut().zip(shift_q16) {
+            *x += (*x * d) >> 16;
+        }
+        Some(self.both(v))
+    }
+
+    fn chroma_spread_q16(&self) -> [i64; 2] {
+        self.chroma_spread
     }
 
     fn guess(&self, black: (i64, bool)) -> i64 {
@@ -151,9 +190,9 @@ pub trait Temperatures: std::fmt::Debug + Send + Sync {
     fn read(&self, own: &Sums, pooled: &Sums) -> Option<Reading>;
     /// A contact region's reading from its own sums, its variance widened by what the
     /// calibration's flat frames cannot show: the scatter of a contact's black/coloured
-    /// ratio ([`CONTACT_RATIO_SPREAD`]), carried through the blend as the reading moves
-    /// with the ratio. Whether it is trusted is decided on the calibrated variance alone,
-    /// as for any block.
+    /// ratio ([`CONTACT_RATIO_SPREAD`]) and of its chromaticity (the kit's presses',
+    /// [`chroma_variance`]), each carried through the blend as the reading moves with it.
+    /// Whether it is trusted is decided on the calibrated variance alone, as for any block.
     fn read_contact(&self, s: &Sums) -> Option<Reading>;
     /// Every block of a `bw × bh` frame (see the module doc).
     fn map(&self, blocks: &[Sums], bw: usize, bh: usize) -> BlockMap;
@@ -180,6 +219,30 @@ fn both<E: Evaluator>(
     Some((c, b, e.guess(b)))
 }
 
+/// The variance (°C²) a contact reading `t_c` takes from the scatter a press puts on the
+/// chromaticity of the region `s` ([`Evaluator::chroma_spread_q16`]): `r` and `g` are each
+/// shifted by their spread either way, both populations are read again and blended at the
+/// shifted black estimate's guess, and half of each span, squared, is added. Inside the
+/// coloured stripes' transition the colour moves fast with temperature and the span is
+/// small. At its top the colour slows while the coloured stripes still hold the blend, and
+/// a shift the kit's presses show moves the reading by tenths of a degree or more.
+fn chroma_variance<E: Evaluator>(e: &E, s: &Sums, t_c: f32) -> f32 {
+    let spread = e.chroma_spread_q16();
+    let read = |shift: [i64; 2]| {
+        e.chroma_shifted(s, shift)
+            .map_or(t_c, |(c, b)| e.fuse(c, b, e.guess(b)).t_c)
+    };
+    (0..2)
+        .filter(|&k| spread[k] > 0)
+        .map(|k| {
+            let mut up = [0; 2];
+            up[k] = spread[k];
+            let half_c = (read(up) - read(up.map(|v| -v))) / 2.0;
+            half_c * half_c
+        })
+        .sum()
+}
+
 impl<E: Evaluator + std::fmt::Debug + Send + Sync> Temperatures for E {
     fn read(&self, own: &Sums, pooled: &Sums) -> Option<Reading> {
         let (c, b, guess) = both(self, own, pooled)?;
@@ -195,7 +258,7 @@ impl<E: Evaluator + std::fmt::Debug + Send + Sync> Temperatures for E {
         };
         let half_span_c = (moved(ONE + SPREAD_Q16) - moved(ONE - SPREAD_Q16)) / 2.0;
         Some(Reading {
-            var_c2: r.var_c2 + half_span_c * half_span_c,
+            var_c2: r.var_c2 + half_span_c * half_span_c + chroma_variance(self, s, r.t_c),
             ..r
         })
     }

@@ -372,6 +372,8 @@ pub struct FixedModel {
     /// [`TemperatureModel::blind_above_c`], Q16 °C.
     blind_above: Option<i64>,
     domain: [[i64; 2]; 3],
+    /// [`TemperatureModel::contact_chroma_spread`], Q16.
+    pub(super) chroma_spread: [i64; 2],
 }
 
 /// Invariants of a block in Q16 (r, g, q; see [`super::lab::Invariants`]), the coloured
@@ -413,7 +415,18 @@ impl FixedModel {
             range: [q16(model.range_c[0]), q16(model.range_c[1])],
             blind_above: model.blind_above_c.map(q16),
             domain: [d.r, d.g, d.q].map(|r| [q16(r[0]), q16(r[1])]),
+            chroma_spread: model.contact_chroma_spread.map(q16),
         }
+    }
+
+    /// Both populations' estimates (Q16 °C) from one region's invariants `v` (Q16), as a
+    /// contact reads them: the coloured stripes' chromaticity against the region's own
+    /// black stripes.
+    pub fn both(&self, v: [i64; 3]) -> ((i64, bool), (i64, bool)) {
+        (
+            self.population(Population::Coloured, v),
+            self.population(Population::Black, v),
+        )
     }
 
     /// CIELAB `f` of a Q16 ratio.

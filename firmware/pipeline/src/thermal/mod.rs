@@ -70,9 +70,14 @@ pub struct Temperature {
     /// Temperature over the contact region, °C, when there is contact.
     pub contact_c: Option<f32>,
     /// Its standard deviation, °C: the calibration's variance tables, widened by how
-    /// far the reading moves with the contact's stripe ratio
+    /// far the reading moves with the contact's stripe ratio and with its chromaticity
     /// ([`Temperatures::read_contact`]).
     pub contact_sigma_c: Option<f32>,
+    /// The contact region's chromaticity (`r`, `g`) over the skin's (every measured
+    /// block's stripes summed), less one, when there is contact. On a skin at one
+    /// temperature it is what the press alone does to the colour; the calibration takes
+    /// its scatter over the kit's presses ([`TemperatureModel::contact_chroma_spread`]).
+    pub contact_chroma_vs_skin: Option<[f32; 2]>,
     /// A block read outside the calibrated range (or outside the calibrated colours), or a
     /// coldest or hottest place read beyond it.
     pub out_of_range: bool,
@@ -393,6 +398,7 @@ impl Thermometer {
             var_c2: map.var_c2,
             contact_c: contact.map(|r| r.t_c),
             contact_sigma_c: contact.map(|r| r.var_c2.max(0.0).sqrt()),
+            contact_chroma_vs_skin: regions.and_then(|_| chroma_vs_skin(&region, &blocks)),
             out_of_range,
             calibration_misses,
             measured: n,
@@ -409,6 +415,21 @@ fn misses_near(model: &TemperatureModel, readings: &[f32]) -> bool {
         .iter()
         .filter(|t| t.is_finite())
         .any(|&t| model.held_out_error_c(f64::from(t)) > f64::from(HELD_OUT_MISS_LIMIT_C))
+}
+
+/// The chromaticity (`r`, `g`) of `region` over that of every block's stripes summed,
+/// less one; `None` where either has no colour to read.
+fn chroma_vs_skin(region: &Sums, blocks: &[Sums]) -> Option<[f32; 2]> {
+    let mut skin = Sums::default();
+    for b in blocks {
+        skin.add(b);
+    }
+    let (own, all) = (
+        fixed::invariants_q16(region, region)?,
+        fixed::invariants_q16(&skin, &skin)?,
+    );
+    let rel = |k: usize| (own[k] as f64 / all[k].max(1) as f64 - 1.0) as f32;
+    Some([rel(0), rel(1)])
 }
 
 /// Empties the blocks the camera clipped ([`Sums::is_clipped`]): what is left of their

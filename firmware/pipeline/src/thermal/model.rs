@@ -500,6 +500,26 @@ pub struct TemperatureModel {
     /// before it.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub stand_out: Vec<StandOut>,
+    /// How far a press moves the contact's chromaticity (`r`, `g`) from the skin's,
+    /// relative: the RMS over the kit's trusted presses, whose skin is at one temperature
+    /// throughout, so that the press alone moves it. The camera's blur and its chroma
+    /// compression act on stripes that a press squeezes, which flat frames never show. A
+    /// contact's reading carries this scatter in its variance
+    /// ([`super::Temperatures::read_contact`]). Zero where it was not measured (files
+    /// written before it, or a kit with fewer than [`CHROMA_SPREAD_MIN_PRESSES`] presses).
+    #[serde(default, skip_serializing_if = "is_zero_pair")]
+    pub contact_chroma_spread: [f64; 2],
+}
+
+/// Fewest trusted presses of the kit that measure [`TemperatureModel::contact_chroma_spread`].
+pub const CHROMA_SPREAD_MIN_PRESSES: usize = 3;
+
+/// Largest [`TemperatureModel::contact_chroma_spread`] a calibration file may hold: a
+/// chromaticity moved by half of itself is no colour the models read.
+pub const CHROMA_SPREAD_LIMIT: f64 = 0.5;
+
+fn is_zero_pair(v: &[f64; 2]) -> bool {
+    *v == [0.0; 2]
 }
 
 /// The largest departure of a place from the skin on the kit's uniform frames at one
