@@ -138,12 +138,13 @@ fn temperatures_a_calibration_cannot_read_are_flagged() {
 
 /// These units' cameras compress their frames to JPEG, which halves the chroma across the
 /// stripes and quantises it per 8 × 8 block. A press squeezes the stripes and moves the
-/// contact's chromaticity further than the calibration's flat frames show. Just above the
-/// coloured transition the chromaticity hardly changes with temperature: a heated contact
-/// read 3.4 °C low with a σ of 0.27 °C on unit 159, and 4.6 °C low with 0.95 °C on unit
-/// 185. The calibration measures how far its own kit's presses move a contact's
-/// chromaticity (`TemperatureModel::contact_chroma_spread`), and a contact's σ carries
-/// that: every contact temperature off by more than 1 °C carries `temperature_uncertain`.
+/// contact's chromaticity further than the calibration's flat frames show, and at the top
+/// of the coloured transition, where the chromaticity hardly changes with temperature,
+/// each unit has a heated contact that the shift carries degrees off
+/// (`docs/temperature.md`). The calibration measures how far its own kit's presses move a
+/// contact's chromaticity (`TemperatureModel::contact_chroma_spread`), and a contact's σ
+/// carries that: every contact temperature off by more than 1 °C carries
+/// `temperature_uncertain`.
 #[test]
 fn a_jpeg_cameras_misread_contact_temperature_is_flagged() {
     let mut checked = 0;

@@ -39,7 +39,7 @@ use vistaf_pipeline::thermal::model::{
     mean_read_rises, MeanRead, StandOut, TemperatureModel, CHROMA_SPREAD_LIMIT,
     CHROMA_SPREAD_MIN_PRESSES, MEAN_READ_MIN_SLOPE, STAND_OUT_LIMIT, STAND_OUT_MARGIN,
 };
-use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement};
+use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement, PipelineError};
 use vistaf_protocol::{Flag, QualityFlags};
 
 use crate::fit::{fit_depth, fit_force, Sample};
@@ -66,7 +66,7 @@ pub enum CalibrateError {
         /// The set.
         set: String,
         /// Why.
-        cause: vistaf_pipeline::PipelineError,
+        cause: PipelineError,
     },
     /// A file could not be hashed.
     #[error("{0}: {1}")]
@@ -266,6 +266,21 @@ impl<'a, O: Observer> Run<'a, O> {
         stage: &str,
         only: &dyn Fn(f64) -> bool,
     ) -> Result<Vec<(f64, Measurement)>, CalibrateError> {
+        let read = |an: &Analyzer, f: &Decoded| an.analyze(f).map(|d| (d, ()));
+        let out = self.analyze_by(calib, label, stage, only, read)?;
+        Ok(out.into_iter().map(|(y, d, ())| (y, d)).collect())
+    }
+
+    /// As [`Run::analyze`], each frame read by `read`, which gives what else it reads
+    /// beside the measurement.
+    fn analyze_by<X>(
+        &mut self,
+        calib: &Calibration,
+        label: Label,
+        stage: &str,
+        only: &dyn Fn(f64) -> bool,
+        read: impl Fn(&Analyzer, &Decoded) -> Result<(Measurement, X), PipelineError>,
+    ) -> Result<Vec<(f64, Measurement, X)>, CalibrateError> {
         let opts = AnalyzerOptions {
             force_calibration: true,
             ..Default::default()
@@ -295,12 +310,10 @@ impl<'a, O: Observer> Run<'a, O> {
                     continue;
                 };
                 s.decoded_frame(i, self.scale, &mut frame)?;
-                let d = an
-                    .analyze(&frame)
-                    .map_err(|cause| CalibrateError::Pipeline {
-                        set: set.clone(),
-                        cause,
-                    })?;
+                let (d, extra) = read(&an, &frame).map_err(|cause| CalibrateError::Pipeline {
+                    set: set.clone(),
+                    cause,
+                })?;
                 let frame_name = || format!("{set}: {}", f.file);
                 self.count(d.flags);
                 if d.shape == Shape::Flat {
@@ -313,7 +326,7 @@ impl<'a, O: Observer> Run<'a, O> {
                     .iter()
                     .all(|f| label.tolerates(f) || self.kit_wide.contains(f))
                 {
-                    out.push((y, d));
+                    out.push((y, d, extra));
                 } else {
                     let names = d
                         .flags
@@ -782,10 +795,11 @@ fn contact_chroma_spread<O: Observer>(
     run: &mut Run<'_, O>,
     calib: &Calibration,
 ) -> Result<[f64; 2], CalibrateError> {
-    let presses = run.analyze(calib, Label::Depth, "contact colour", &|_| true)?;
+    let read = |an: &Analyzer, f: &Decoded| an.analyze_contact_chroma(f);
+    let presses = run.analyze_by(calib, Label::Depth, "contact colour", &|_| true, read)?;
     let shifts: Vec<[f32; 2]> = presses
-        .iter()
-        .filter_map(|(_, d)| d.temperature.as_ref()?.contact_chroma_vs_skin)
+        .into_iter()
+        .filter_map(|(_, _, shift)| shift)
         .filter(|s| s.iter().all(|v| v.is_finite()))
         .collect();
     if shifts.len() < CHROMA_SPREAD_MIN_PRESSES {

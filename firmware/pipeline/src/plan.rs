@@ -28,7 +28,7 @@ use crate::measure::profile::Shapes;
 use crate::measure::{self, Context, Unwrap};
 use crate::phase::WrappedPhase;
 use crate::thermal::stripes::{region, Geometry, Regions, Sums};
-use crate::thermal::Thermometer;
+use crate::thermal::{self, Thermometer};
 use crate::Measurement;
 
 /// Which implementation runs per frame.
@@ -110,35 +110,8 @@ fn with_temperature(
     if !thermo.has_model() {
         return d;
     }
-    // Over the contact window only (clipped to the map): depth is zero outside it.
-    let window = d.window_px.filter(|_| d.contact).map(|[x0, y0, x1, y1]| {
-        let (x1, y1) = (x1.min(d.width_px), y1.min(d.height_px));
-        [x0.min(x1), y0.min(y1), x1, y1]
-    });
-    // The thresholds are fractions of the map's own deepest value (the reported peak has
-    // the band's blur taken out and may lie above every pixel of the map).
-    let peak_um = d.map_peak_um as f32;
-    let (half, core) = (
-        (peak_um * 0.5).round() as i32,
-        (peak_um * 0.75).round() as i32,
-    );
-    // Branch-free, so the pass over the map vectorises: the codes count the thresholds
-    // passed.
-    const _: () = assert!(region::NONE == 0 && region::CONTACT == 1 && region::CORE == 2);
-    let (half, core) = (half.max(1), core.max(1));
-    let mut codes = Vec::new();
-    if let Some([x0, y0, x1, y1]) = window {
-        codes.reserve((x1 - x0) * (y1 - y0));
-        for y in y0..y1 {
-            let row = &d.depth_um[y * d.width_px + x0..y * d.width_px + x1];
-            codes.extend(
-                row.iter()
-                    .map(|&u| u8::from(u >= half) + u8::from(u >= core)),
-            );
-        }
-    }
-    let regions = window.map(|[x0, y0, x1, _]| Regions::new(&codes, x0, y0, x1 - x0));
-    d.temperature = thermo.measure(frame, phase, &d.reliable, regions);
+    let codes = ContactCodes::of(&d);
+    d.temperature = thermo.measure(frame, phase, &d.reliable, codes.regions());
     if let Some(t) = &d.temperature {
         if t.out_of_range {
             d.flags.insert(vistaf_protocol::Flag::TemperatureOutOfRange);
@@ -148,6 +121,52 @@ fn with_temperature(
         }
     }
     d
+}
+
+/// The contact region (depth ≥ half the map's peak) and its core (≥ ¾) as
+/// [`region`] codes over the contact window.
+struct ContactCodes {
+    codes: Vec<u8>,
+    /// The contact window clipped to the map, working pixels; `None` without contact.
+    window: Option<[usize; 4]>,
+}
+
+impl ContactCodes {
+    fn of(d: &Measurement) -> ContactCodes {
+        // Over the contact window only (clipped to the map): depth is zero outside it.
+        let window = d.window_px.filter(|_| d.contact).map(|[x0, y0, x1, y1]| {
+            let (x1, y1) = (x1.min(d.width_px), y1.min(d.height_px));
+            [x0.min(x1), y0.min(y1), x1, y1]
+        });
+        // The thresholds are fractions of the map's own deepest value (the reported peak
+        // has the band's blur taken out and may lie above every pixel of the map).
+        let peak_um = d.map_peak_um as f32;
+        let (half, core) = (
+            (peak_um * 0.5).round() as i32,
+            (peak_um * 0.75).round() as i32,
+        );
+        // Branch-free, so the pass over the map vectorises: the codes count the
+        // thresholds passed.
+        const _: () = assert!(region::NONE == 0 && region::CONTACT == 1 && region::CORE == 2);
+        let (half, core) = (half.max(1), core.max(1));
+        let mut codes = Vec::new();
+        if let Some([x0, y0, x1, y1]) = window {
+            codes.reserve((x1 - x0) * (y1 - y0));
+            for y in y0..y1 {
+                let row = &d.depth_um[y * d.width_px + x0..y * d.width_px + x1];
+                codes.extend(
+                    row.iter()
+                        .map(|&u| u8::from(u >= half) + u8::from(u >= core)),
+                );
+            }
+        }
+        ContactCodes { codes, window }
+    }
+
+    fn regions(&self) -> Option<Regions<'_>> {
+        self.window
+            .map(|[x0, y0, x1, _]| Regions::new(&self.codes, x0, y0, x1 - x0))
+    }
 }
 
 /// One FTP implementation, prepared for a reference: what the plan runs per frame.
@@ -368,6 +387,25 @@ impl Analyzer {
                 None,
             );
             (d, s)
+        })
+    }
+
+    /// As [`Analyzer::analyze`], and with a contact, how far it moves the contact region's
+    /// chromaticity from the skin's ([`thermal::chroma_vs_skin`]): what the calibration
+    /// measures on its kit's presses. The service never asks for it.
+    pub fn analyze_contact_chroma<'i>(
+        &self,
+        frame: impl Into<Pixels<'i>>,
+    ) -> Result<(Measurement, Option<[f32; 2]>), PipelineError> {
+        let frame = frame.into();
+        self.run(frame, &mut Scratch::default(), |d, wrapped| {
+            let phase = |y: usize, r: &[u16], row: &mut [u16]| wrapped.frame_row(y, r, row);
+            let codes = ContactCodes::of(&d);
+            let shift = codes.regions().and_then(|regions| {
+                let (blocks, contact) = self.thermo.sums(frame, phase, &d.reliable, Some(regions));
+                thermal::chroma_vs_skin(&thermal::reading_region(contact), &blocks)
+            });
+            (with_temperature(d, frame, &self.thermo, phase), shift)
         })
     }
 

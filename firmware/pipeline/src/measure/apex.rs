@@ -55,6 +55,12 @@ use crate::ftp::band::box2_sigma_px;
 pub const LAYER_DECAY_MM: f64 = 3.0;
 /// The smallest contact radius the blur correction resolves, in kernel σ.
 pub const RESOLVED_SIGMAS: f64 = 2.0;
+/// A plateau is chosen only for a contact at least this many kernel σ in radius (its
+/// fit's, `super::profile`): it keeps its level in the blurred map only where the kernel,
+/// which reaches about 2.5 σ, lies wholly on it, and below that size the two families'
+/// blurred profiles differ by little more than a real skin's departures from either. The
+/// punch table ([`BlurLoss::punch_excess`]) stops short of it.
+pub const FLAT_MIN_SIGMAS: f64 = 3.0;
 /// Successive tabulated contact radii grow by this factor.
 const RADIUS_STEP: f64 = 1.07;
 /// Tabulated contact radii stop where the gain is within this of 1.
@@ -83,10 +89,9 @@ pub struct BlurLoss {
     lengths: (usize, usize),
     /// `(q, d/s₁)` for growing contact radii, `q` increasing.
     rows: Vec<(f64, f64)>,
-    /// The same for a flat punch's surface (Boussinesq's), from one kernel σ of radius…
+    /// The same for a flat punch's surface (Boussinesq's), from one kernel σ of radius to
+    /// short of [`FLAT_MIN_SIGMAS`]: the punches too narrow to show their plateau.
     punch_rows: Vec<(f64, f64)>,
-    /// …and each of those rows' contact radius, kernel σ.
-    punch_sigmas: Vec<f64>,
 }
 
 impl BlurLoss {
@@ -99,45 +104,45 @@ impl BlurLoss {
         let k3 = (convolve(&k2.0, &k1.0), convolve(&k2.1, &k1.1));
         let sigma_px = box2_sigma_px(lengths);
         let decay_px = LAYER_DECAY_MM / f64::from(px_mm).max(1e-6);
-        let table = |surface: fn(f64, f64, f64) -> f64, from: f64| {
-            let (mut rows, mut sigmas): (Vec<(f64, f64)>, Vec<f64>) = (Vec::new(), Vec::new());
+        // Contact radii from `from` to short of `to` kernel σ, or until the blur's loss
+        // fades.
+        let table = |surface: fn(f64, f64, f64) -> f64, from: f64, to: f64| {
+            let mut rows: Vec<(f64, f64)> = Vec::new();
             let mut a = from * sigma_px;
-            loop {
+            while a < to * sigma_px {
                 let s1 = centre_sum(&k2, a, decay_px, surface);
                 let s2 = centre_sum(&k3, a, decay_px, surface);
                 let (q, gain) = (s2 / s1, 1.0 / s1);
                 if rows.last().is_none_or(|&(q0, _)| q > q0) {
                     rows.push((q, gain));
-                    sigmas.push(a / sigma_px);
                 }
                 if gain < 1.0 + GAIN_END || rows.len() >= 200 {
                     break;
                 }
                 a *= RADIUS_STEP;
             }
-            (rows, sigmas)
+            rows
         };
-        let (punch_rows, punch_sigmas) = table(punch, 1.0);
         BlurLoss {
             lengths,
-            rows: table(hertz, RESOLVED_SIGMAS).0,
-            punch_rows,
-            punch_sigmas,
+            rows: table(hertz, RESOLVED_SIGMAS, f64::INFINITY),
+            punch_rows: table(punch, 1.0, FLAT_MIN_SIGMAS),
         }
     }
 
     /// How much deeper an apex of sharpness `q` reads as a sphere's than as a flat punch's
     /// (`d/s₁` of one over the other's, minus one): what the map cannot say of a contact
-    /// whose profile neither family clearly describes. Zero where a punch of that
-    /// sharpness is `shown_sigmas` kernel σ wide or wider, wide enough for its profile to
-    /// show its plateau (`super::profile::FLAT_MIN_SIGMAS`).
-    pub fn punch_excess(&self, q: f64, shown_sigmas: f64) -> f64 {
-        // The narrowest tabulated punch at least as blunt as the apex.
-        match self.punch_rows.iter().position(|&(qk, _)| qk >= q) {
-            Some(k) if self.punch_sigmas[k] < shown_sigmas => {
-                gain_at(&self.rows, q) / gain_at(&self.punch_rows, q) - 1.0
-            }
-            _ => 0.0,
+    /// whose profile neither family clearly describes. Zero where only a punch wide enough
+    /// to show its plateau ([`FLAT_MIN_SIGMAS`]) is as blunt as the apex.
+    pub fn punch_excess(&self, q: f64) -> f64 {
+        if self
+            .punch_rows
+            .last()
+            .is_some_and(|&(widest, _)| widest >= q)
+        {
+            gain_at(&self.rows, q) / gain_at(&self.punch_rows, q) - 1.0
+        } else {
+            0.0
         }
     }
 
@@ -555,8 +560,8 @@ mod tests {
     /// sharpness: a punch of 2–2.8σ, read as a sphere, reads deep by its `punch_excess`
     /// (within a percent of the depth, on a map blurred and sampled as the demodulator's
     /// is); a sphere of the same sharpness is told the same excess, since the map does not
-    /// say which pressed; and a sharpness only a punch at least `shown` σ wide shows carries
-    /// none.
+    /// say which pressed; and a sharpness only a punch at least [`FLAT_MIN_SIGMAS`] wide
+    /// shows carries none.
     #[test]
     fn a_narrow_punch_reads_deep_by_its_punch_excess() {
         let (l, n, d) = (7, 161, 1000.0);
@@ -567,8 +572,7 @@ mod tests {
         // Boussinesq's punch with the surround decaying as the table assumes.
         let layer_punch = |r: f64, a: f64| super::punch(r, a, LAYER_DECAY_MM / f64::from(PX_MM));
         let table = BlurLoss::new((l, l), PX_MM);
-        let shown = 3.0;
-        let excess = |a: &Apex| table.punch_excess(a.q, shown);
+        let excess = |a: &Apex| table.punch_excess(a.q);
         for a_sigmas in [2.0, 2.4, 2.8] {
             let a = read(&blurred(layer_punch, a_sigmas * sigma(l), d, (n, 0.0), l));
             let over = f64::from(a.peak) / d - 1.0;

@@ -251,7 +251,14 @@ pub(super) struct Coarse<'a, P> {
     pub(super) inside_n: usize,
     pub(super) reliable_n: usize,
     /// The amplitude a reliable sample exceeds in both maps.
-    pub(super) lim: u32,
+    lim: u32,
+}
+
+impl<P> Coarse<'_, P> {
+    /// Whether the reference's fringe at sample `k` was bright enough to read.
+    pub(super) fn reference_readable(&self, k: usize) -> bool {
+        self.amp_r.get(k).is_some_and(|&a| a > self.lim)
+    }
 }
 
 /// The coarse samples (`cw × ch`) inside `m`, one run per row: columns `cx` with `cx·GRID`

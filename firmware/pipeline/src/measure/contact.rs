@@ -425,7 +425,7 @@ impl<P> Limits<'_, P> {
             let lj = (y - y0) * bw + (x - x0);
             let k = cy * c.cw + cx;
             let outside = lj >= m || !self.pass.deformed[lj] || !self.margin.contains(x, y);
-            if outside || c.amp_r.get(k).is_none_or(|&a| a <= c.lim) {
+            if outside || !c.reference_readable(k) {
                 continue;
             }
             seen += 1;

@@ -620,10 +620,7 @@ impl<M: PhaseMap> Found<'_, M> {
         // Neither family describes the profile: a punch too narrow to show its plateau reads
         // deep by what the sphere's correction took out and its own blur did not.
         let punch_open = shape.shape == Shape::Unknown
-            && punch_beyond_tolerance(
-                ctx.blur_loss.punch_excess(apex.q, profile::FLAT_MIN_SIGMAS),
-                feats.peak_mm,
-            );
+            && punch_beyond_tolerance(ctx.blur_loss.punch_excess(apex.q), feats.peak_mm);
         if shape.shape == Shape::Flat {
             // A plateau's level, not a dome's blurred apex.
             feats.peak_mm = (shape.depth / 1000.0) as f32;

@@ -58,11 +58,7 @@ pub const FLAT_FIT_LIMIT: f64 = 0.12;
 /// clearly less than a plateau does, while a punch whose blurred rim a dome half follows
 /// still leaves the dome more.
 pub const FLAT_CLEAR_RATIO: f64 = 2.0;
-/// A plateau is chosen only for a contact at least this many kernel σ in radius (its
-/// fit's): it keeps its level in the blurred map only where the kernel, which reaches about
-/// 2.5 σ, lies wholly on it, and below that size the two families' blurred profiles differ
-/// by little more than a real skin's departures from either.
-pub const FLAT_MIN_SIGMAS: f64 = 3.0;
+pub use super::apex::FLAT_MIN_SIGMAS;
 /// A dome is chosen only for a contact at least this many kernel σ in radius (its fit's)…
 pub const SPHERE_MIN_SIGMAS: f64 = 4.5;
 /// …and, narrower than this many, only when the plateau's fit of the ring means leaves

@@ -73,11 +73,6 @@ pub struct Temperature {
     /// far the reading moves with the contact's stripe ratio and with its chromaticity
     /// ([`Temperatures::read_contact`]).
     pub contact_sigma_c: Option<f32>,
-    /// The contact region's chromaticity (`r`, `g`) over the skin's (every measured
-    /// block's stripes summed), less one, when there is contact. On a skin at one
-    /// temperature it is what the press alone does to the colour; the calibration takes
-    /// its scatter over the kit's presses ([`TemperatureModel::contact_chroma_spread`]).
-    pub contact_chroma_vs_skin: Option<[f32; 2]>,
     /// A block read outside the calibrated range (or outside the calibrated colours), or a
     /// coldest or hottest place read beyond it.
     pub out_of_range: bool,
@@ -311,13 +306,9 @@ impl Thermometer {
     ) -> Option<Temperature> {
         let evaluator = self.evaluator.as_ref()?;
         let g = &self.geom;
-        let (blocks, [inside, core]) = self.sums(frame, &phase, reliable, regions);
+        let (blocks, contact_sums) = self.sums(frame, &phase, reliable, regions);
         let map = evaluator.map(&blocks, g.bw, g.bh);
-        let region = if core.n[0] >= CORE_SAMPLES && core.n[1] >= CORE_SAMPLES {
-            core
-        } else {
-            inside
-        };
+        let region = reading_region(contact_sums);
         let n = map.measured;
         let mut out_of_range = map.outside >= OUT_OF_RANGE_BLOCKS.max(n / 100);
         // A clipped contact is read but not trusted: a hot object on a camera near full
@@ -398,7 +389,6 @@ impl Thermometer {
             var_c2: map.var_c2,
             contact_c: contact.map(|r| r.t_c),
             contact_sigma_c: contact.map(|r| r.var_c2.max(0.0).sqrt()),
-            contact_chroma_vs_skin: regions.and_then(|_| chroma_vs_skin(&region, &blocks)),
             out_of_range,
             calibration_misses,
             measured: n,
@@ -417,9 +407,22 @@ fn misses_near(model: &TemperatureModel, readings: &[f32]) -> bool {
         .any(|&t| model.held_out_error_c(f64::from(t)) > f64::from(HELD_OUT_MISS_LIMIT_C))
 }
 
-/// The chromaticity (`r`, `g`) of `region` over that of every block's stripes summed,
-/// less one; `None` where either has no colour to read.
-fn chroma_vs_skin(region: &Sums, blocks: &[Sums]) -> Option<[f32; 2]> {
+/// The sums a contact's temperature is read from, of the contact region's and its core's
+/// (as [`Thermometer::sums`] gives them): the core's where it holds [`CORE_SAMPLES`] of
+/// each population (the region's edge is where heat spreads into the cooler skin around).
+pub fn reading_region([inside, core]: [Sums; 2]) -> Sums {
+    if core.n[0] >= CORE_SAMPLES && core.n[1] >= CORE_SAMPLES {
+        core
+    } else {
+        inside
+    }
+}
+
+/// The chromaticity (`r`, `g`) of a contact's `region` over that of every block's stripes
+/// summed, less one; `None` where either has no colour to read. On a skin at one
+/// temperature it is what the press alone does to the colour; the calibration takes its
+/// scatter over the kit's presses ([`TemperatureModel::contact_chroma_spread`]).
+pub fn chroma_vs_skin(region: &Sums, blocks: &[Sums]) -> Option<[f32; 2]> {
     let mut skin = Sums::default();
     for b in blocks {
         skin.add(b);
