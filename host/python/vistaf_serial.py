@@ -44,6 +44,26 @@ FLAG_NAMES = [
     "contact_at_edge",
     "depth_uncertain",
 ]
+# The summary's readings, and which of them each flag says may lie beyond its tolerance
+# (vistaf_protocol::Flag::concerns; the interop test holds the two to each other).
+READINGS = ["peak_depth", "force", "contact", "contact_temperature", "temperature"]
+_GEOMETRY = ["peak_depth", "force", "contact"]
+_COLOURS = ["contact_temperature", "temperature"]
+FLAG_CONCERNS = {
+    "low_contrast": READINGS,
+    "phase_slope": _GEOMETRY + ["contact_temperature"],
+    "unwrap_failure": _GEOMETRY + ["contact_temperature"],
+    "misregistration": READINGS,
+    "over_exposure": READINGS,
+    "temperature_out_of_range": _COLOURS,
+    "stale_reference": READINGS,
+    "depth_out_of_range": ["peak_depth"],
+    "force_out_of_range": ["force"],
+    "temperature_uncertain": _COLOURS,
+    "depth_unresolved": ["peak_depth", "contact_temperature"],
+    "contact_at_edge": _GEOMETRY + ["contact_temperature"],
+    "depth_uncertain": ["peak_depth"],
+}
 RUN_STATES = ["Stopped", "Streaming", "Referencing", "CameraLost"]
 
 
@@ -138,6 +158,11 @@ def summary(r):
     bits = r.varint(16)
     m["flags"] = [name for i, name in enumerate(FLAG_NAMES) if bits >> i & 1]
     m["unknown_flag_bits"] = bits & ~((1 << len(FLAG_NAMES)) - 1)
+    # A bit this reader does not know may speak for any reading.
+    m["doubted"] = [
+        r for r in READINGS
+        if m["unknown_flag_bits"] or any(r in FLAG_CONCERNS[f] for f in m["flags"])
+    ]
     return m
 
 

@@ -8,7 +8,7 @@ use std::time::SystemTime;
 
 use serde::Serialize;
 use serde_json::{json, Value};
-use vistaf_protocol::{CalibrationId, DeviceMsg, KitCaptured, KitVerdict, Summary};
+use vistaf_protocol::{CalibrationId, DeviceMsg, KitCaptured, KitVerdict, Reading, Summary};
 
 use crate::client::Received;
 use crate::clock::{unix_s, MappedTime};
@@ -68,6 +68,9 @@ pub struct SummaryRecord {
     pub flags: Vec<&'static str>,
     /// Flag bits this host does not know (a newer device).
     pub unknown_flag_bits: u16,
+    /// The readings a raised flag concerns (`Flag::concerns`), by name: not held to their
+    /// tolerance in this frame. Every reading under a bit this host does not know.
+    pub doubted: Vec<&'static str>,
 }
 
 impl From<&Summary> for SummaryRecord {
@@ -89,6 +92,11 @@ impl From<&Summary> for SummaryRecord {
             contact_temp_c: si.contact_temp_c,
             flags: s.flags.iter().map(|f| f.name()).collect(),
             unknown_flag_bits: s.flags.unknown_bits(),
+            doubted: Reading::ALL
+                .into_iter()
+                .filter(|r| !s.flags.trusts(*r))
+                .map(Reading::name)
+                .collect(),
         }
     }
 }

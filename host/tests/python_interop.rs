@@ -99,6 +99,7 @@ fn assert_same_summary(py: &Value, s: &Summary) {
         "latency_us",
         "flags",
         "unknown_flag_bits",
+        "doubted",
         "centroid_mm",
     ] {
         let (a, b) = (&py[key], &rust[key]);

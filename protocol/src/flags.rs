@@ -3,6 +3,11 @@
 //! A flagged quantity is never silently wrong: either it is within its stated tolerance or
 //! the bit that explains why it may not be is set. Bits are append-only on the wire: a new
 //! flag takes the next free bit and bumps [`crate::PROTOCOL_VERSION`].
+//!
+//! A flag speaks for some readings of a summary and not for others: `depth_uncertain`
+//! says the peak depth may be off, not the force. [`Flag::concerns`] says which
+//! [`Reading`]s each one does, and [`QualityFlags::trusts`] whether any set flag concerns
+//! a reading, so a force controller need not drop a frame for a doubt about its depth.
 
 use postcard::experimental::max_size::MaxSize;
 use postcard_schema::Schema;
@@ -24,9 +29,13 @@ pub enum Flag {
     /// Local phase slope beyond the carrier band (the first order overlaps its neighbours,
     /// so depth at the steepest part of the indentation is underestimated), or a contact
     /// much sharper or blunter than the calibrated indenter (the band's blur takes a
-    /// different share of its peak than the calibration learnt).
+    /// different share of its peak than the calibration learnt). The force, area and
+    /// centre are read from the same map, and the contact's temperature from stripes
+    /// placed by its phase: all are doubted with the depth.
     PhaseSlope = 1,
-    /// Phase unwrapping met residues or paths that disagree.
+    /// Phase unwrapping met residues or paths that disagree: the depth map, and with it
+    /// every reading of the contact (its temperature is read over its region), may be a
+    /// turn of phase off.
     UnwrapFailure = 2,
     /// Frame and reference are shifted by more than the pipeline compensates.
     Misregistration = 3,
@@ -47,18 +56,22 @@ pub enum Flag {
     /// reading is held to: its stripes say little about the temperature there (above the
     /// coloured pigments' transition only the black stripes' faint change is left, and a
     /// contact's stripe ratio is less sure than flat skin's). Or a reported temperature
-    /// lies where the calibration's own held-out test missed by more than that. Reported
+    /// lies where the calibration's own held-out test missed by more than that. Or the
+    /// contact is the skin's hottest place and another flag doubts its temperature (the
+    /// phase its stripes are placed by): the hottest place is doubted with it. Reported
     /// as read.
     TemperatureUncertain = 9,
     /// The contact is narrower than the band resolves (a radius under two of its blur σ,
     /// about 1.6 mm whatever the camera): the band keeps a share of its peak that depends on
     /// its shape, so the peak depth reads low by an unknown part of it. Area, centre,
-    /// volume and force stand (they integrate the map, which the blur does not change).
+    /// volume and force stand (they integrate the map, which the blur does not change);
+    /// the contact's temperature does not, its stripes being placed by the blurred phase.
     DepthUnresolved = 10,
     /// Half the contact's depth or more lies within a grating period of the edge of the
     /// view, where the demodulator's kernel reaches past the image: the contact may run on
     /// past the edge, unseen, so force, area and volume may read low and the centre lie
-    /// inward; the peak is the deepest point in view.
+    /// inward; the peak is the deepest point in view, and the contact's temperature is read
+    /// from stripes placed by the phase there.
     ContactAtEdge = 11,
     /// The calibration's own held-out test of its depth model missed by more than half the
     /// depth tolerance (3 % of the depth + 20 µm) at the depth read: on this unit a peak
@@ -69,7 +82,74 @@ pub enum Flag {
     DepthUncertain = 12,
 }
 
+/// A reading of a [`crate::Summary`] that flags speak for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Reading {
+    /// `peak_depth_um`.
+    PeakDepth,
+    /// `force_mn`.
+    Force,
+    /// Where and how large the contact is: `centroid`, `contact_area_centi_mm2`,
+    /// `volume_milli_mm3`, and whether a contact is reported at all.
+    Contact,
+    /// The contact's temperature, `contact_temp_centi_c`.
+    ContactTemperature,
+    /// The skin's temperatures, `temp_min_centi_c`, `temp_mean_centi_c` and
+    /// `temp_max_centi_c`.
+    Temperature,
+}
+
+impl Reading {
+    /// Every reading.
+    pub const ALL: [Reading; 5] = [
+        Reading::PeakDepth,
+        Reading::Force,
+        Reading::Contact,
+        Reading::ContactTemperature,
+        Reading::Temperature,
+    ];
+
+    /// Stable snake_case name used in JSON output and logs.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Reading::PeakDepth => "peak_depth",
+            Reading::Force => "force",
+            Reading::Contact => "contact",
+            Reading::ContactTemperature => "contact_temperature",
+            Reading::Temperature => "temperature",
+        }
+    }
+}
+
 impl Flag {
+    /// Whether this flag says `reading` may lie beyond its tolerance. A flag about the
+    /// fringes or the frame as a whole (`low_contrast`, `misregistration`,
+    /// `over_exposure`, `stale_reference`) concerns every reading; one about the depth
+    /// model, the peak depth alone; one about the colours, the temperatures alone. One
+    /// that doubts the phase under the contact doubts the contact's temperature too: the
+    /// temperature path places the contact's coloured and black stripes by that phase.
+    /// Each flag's documentation says why.
+    pub const fn concerns(self, reading: Reading) -> bool {
+        use Reading::{ContactTemperature, Force, PeakDepth, Temperature};
+        match self {
+            Flag::LowContrast
+            | Flag::Misregistration
+            | Flag::OverExposure
+            | Flag::StaleReference => true,
+            // The phase under the contact is in doubt, and the temperature path places the
+            // contact's stripes by that phase.
+            Flag::PhaseSlope | Flag::UnwrapFailure | Flag::ContactAtEdge => {
+                !matches!(reading, Temperature)
+            }
+            Flag::DepthUnresolved => matches!(reading, PeakDepth | ContactTemperature),
+            Flag::TemperatureOutOfRange | Flag::TemperatureUncertain => {
+                matches!(reading, ContactTemperature | Temperature)
+            }
+            Flag::DepthOutOfRange | Flag::DepthUncertain => matches!(reading, PeakDepth),
+            Flag::ForceOutOfRange => matches!(reading, Force),
+        }
+    }
+
     /// Every flag, in bit order.
     pub const ALL: [Flag; 13] = [
         Flag::LowContrast,
@@ -158,6 +238,13 @@ impl QualityFlags {
         let known = Flag::ALL.iter().fold(0u16, |acc, f| acc | f.bit());
         self.0 & !known
     }
+
+    /// Whether no set flag concerns `reading` ([`Flag::concerns`]): the reading is held to
+    /// its tolerance. A bit this build has no name for (from a newer device) concerns
+    /// every reading, since what it says is unknown here.
+    pub fn trusts(self, reading: Reading) -> bool {
+        self.unknown_bits() == 0 && !self.iter().any(|f| f.concerns(reading))
+    }
 }
 
 impl FromIterator<Flag> for QualityFlags {
@@ -183,6 +270,29 @@ mod tests {
             seen |= f.bit();
         }
         assert_eq!(Flag::from_name("nonsense"), None);
+    }
+
+    /// Each flag concerns some reading; the frame-wide ones every reading; a doubt about
+    /// the depth leaves the force and the skin's temperature trusted, and a doubt about the
+    /// colours the geometry; a bit from a newer device leaves nothing trusted.
+    #[test]
+    fn flags_speak_for_their_readings() {
+        for f in Flag::ALL {
+            assert!(Reading::ALL.into_iter().any(|r| f.concerns(r)), "{f:?}");
+        }
+        let none = QualityFlags::NONE;
+        assert!(Reading::ALL.into_iter().all(|r| none.trusts(r)));
+        let frame_wide = none.with(Flag::LowContrast);
+        assert!(Reading::ALL.into_iter().all(|r| !frame_wide.trusts(r)));
+        let depth = none.with(Flag::DepthUncertain).with(Flag::DepthUnresolved);
+        assert!(!depth.trusts(Reading::PeakDepth) && !depth.trusts(Reading::ContactTemperature));
+        assert!(depth.trusts(Reading::Force) && depth.trusts(Reading::Contact));
+        assert!(depth.trusts(Reading::Temperature));
+        let colour = none.with(Flag::TemperatureUncertain);
+        assert!(colour.trusts(Reading::PeakDepth) && colour.trusts(Reading::Force));
+        assert!(!colour.trusts(Reading::ContactTemperature));
+        let newer = QualityFlags(0x8000);
+        assert!(Reading::ALL.into_iter().all(|r| !newer.trusts(r)));
     }
 
     #[test]

@@ -55,7 +55,7 @@ pub mod msg;
 pub mod schema;
 pub mod units;
 
-pub use flags::{Flag, QualityFlags};
+pub use flags::{Flag, QualityFlags, Reading};
 pub use frame::{encode, Decoder, DeviceDecoder, DropCounts, FrameError, HostDecoder};
 pub use msg::{
     CalibrationFitted, CentroidDeciMm, ClockReading, Command, DeviceError, DeviceMsg, ErrorCode,

@@ -45,7 +45,12 @@ fn summary_schema() -> String {
             "temp_mean_c": num,
             "temp_max_c": num,
             "contact_temp_c": num,
-            "flags": { "type": "array", "items": { "type": "string" } }
+            "flags": { "type": "array", "items": { "type": "string" } },
+            "doubted": {
+                "type": "array",
+                "items": { "type": "string" },
+                "description": "readings a raised flag concerns"
+            }
         }
     })
     .to_string()
