@@ -15,6 +15,8 @@
 //! [`FixedFtp`] (integer arithmetic per frame, the device path). Both hand the measurement a
 //! [`PhaseMap`](crate::phase::PhaseMap), and [`measure::measure`] turns either into the same features.
 
+use vistaf_protocol::{Flag, QualityFlags, Reading};
+
 use crate::input::Pixels;
 
 use crate::calibration::{Calibration, CalibrationError};
@@ -28,7 +30,7 @@ use crate::measure::profile::Shapes;
 use crate::measure::{self, Context, Unwrap};
 use crate::phase::WrappedPhase;
 use crate::thermal::stripes::{region, Geometry, Regions, Sums};
-use crate::thermal::{self, Thermometer};
+use crate::thermal::{self, Temperature, Thermometer};
 use crate::Measurement;
 
 /// Which implementation runs per frame.
@@ -113,14 +115,24 @@ fn with_temperature(
     let codes = ContactCodes::of(&d);
     d.temperature = thermo.measure(frame, phase, &d.reliable, codes.regions());
     if let Some(t) = &d.temperature {
-        if t.out_of_range {
-            d.flags.insert(vistaf_protocol::Flag::TemperatureOutOfRange);
-        }
-        if t.uncertain() {
-            d.flags.insert(vistaf_protocol::Flag::TemperatureUncertain);
-        }
+        temperature_flags(&mut d.flags, t);
     }
     d
+}
+
+/// Raises the temperature flags `t` calls for beside the force side's `flags`. Where the
+/// contact is the hottest place, a doubt about its temperature (its stripes placed by a
+/// phase the contact's flags doubt) is one about the skin's hottest place too, which only
+/// the temperature flags speak for.
+fn temperature_flags(flags: &mut QualityFlags, t: &Temperature) {
+    if t.out_of_range {
+        flags.insert(Flag::TemperatureOutOfRange);
+    }
+    let only_contact_doubted =
+        !flags.trusts(Reading::ContactTemperature) && flags.trusts(Reading::Temperature);
+    if t.uncertain() || (t.max_at_contact && only_contact_doubted) {
+        flags.insert(Flag::TemperatureUncertain);
+    }
 }
 
 /// The contact region (depth ≥ half the map's peak) and its core (≥ ¾) as
@@ -468,5 +480,51 @@ impl Analyzer {
                 wrapped.frame_row(y, r, row)
             })
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A skin at 25 °C whose contact, read at 27.5 °C with σ 0.2 °C, is its hottest place
+    /// or not.
+    fn warm_contact(max_at_contact: bool) -> Temperature {
+        Temperature {
+            bw: 1,
+            bh: 1,
+            block_mm: 2.0,
+            map_c: vec![25.0],
+            var_c2: vec![0.01],
+            min_c: 25.0,
+            mean_c: 25.0,
+            max_c: if max_at_contact { 27.5 } else { 25.0 },
+            hottest_px: max_at_contact.then_some((10.0, 10.0)),
+            max_at_contact,
+            contact_c: Some(27.5),
+            contact_sigma_c: Some(0.2),
+            out_of_range: false,
+            calibration_misses: false,
+            measured: 1,
+        }
+    }
+
+    /// A contact whose phase a flag doubts, read as the skin's hottest place: the hottest
+    /// place carries `temperature_uncertain`; the same contact beside a hotter place, or
+    /// under a doubt about the depth model alone, leaves the skin's temperatures trusted.
+    #[test]
+    fn a_doubted_contact_that_is_the_hottest_place_doubts_the_skins_hottest() {
+        let read = |flags: QualityFlags, max_at_contact: bool| {
+            let mut flags = flags;
+            temperature_flags(&mut flags, &warm_contact(max_at_contact));
+            flags
+        };
+        let sloped = QualityFlags::NONE.with(Flag::PhaseSlope);
+        assert!(read(sloped, true).contains(Flag::TemperatureUncertain));
+        assert!(!read(sloped, true).trusts(Reading::Temperature));
+        assert_eq!(read(sloped, false), sloped);
+        let depth_model = QualityFlags::NONE.with(Flag::DepthUncertain);
+        assert_eq!(read(depth_model, true), depth_model);
+        assert_eq!(read(QualityFlags::NONE, true), QualityFlags::NONE);
     }
 }

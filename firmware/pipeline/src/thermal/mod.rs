@@ -67,6 +67,9 @@ pub struct Temperature {
     pub max_c: f32,
     /// Centre of the hottest place, input pixels (`None` where no place stands out).
     pub hottest_px: Option<(f32, f32)>,
+    /// The hottest place is the contact's own reading (warmer than every neighbourhood):
+    /// whatever doubts the contact's temperature doubts `max_c`.
+    pub max_at_contact: bool,
     /// Temperature over the contact region, °C, when there is contact.
     pub contact_c: Option<f32>,
     /// Its standard deviation, °C: the calibration's variance tables, widened by how
@@ -385,6 +388,7 @@ impl Thermometer {
             mean_c,
             max_c,
             hottest_px,
+            max_at_contact: at.is_some(),
             map_c: map.map_c,
             var_c2: map.var_c2,
             contact_c: contact.map(|r| r.t_c),
