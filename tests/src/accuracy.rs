@@ -20,6 +20,7 @@ use vistaf_calibrate::{calibrate, Quiet};
 use vistaf_hardware::decode::Decoded;
 use vistaf_hardware::encode::Encoding;
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement};
+use vistaf_protocol::{Flag, QualityFlags, Reading};
 use vistaf_sim::contact::{Contact, Footprint, Indenter};
 use vistaf_sim::rng::Rng;
 use vistaf_sim::scene::{ROOM_C, SPHERE_R_MM};
@@ -88,6 +89,20 @@ pub mod failure {
     pub const HOTTEST_BLOCK: &str = "hottest block";
     /// The coldest place beyond the tolerance below the truth's coldest point.
     pub const COLDEST_BLOCK: &str = "coldest block";
+
+    use vistaf_protocol::Reading;
+
+    /// The summary's reading a failure of `name` is one of: a press missed or a contact
+    /// reported away from every press is the contact's failure, its centre too.
+    pub fn reading(name: &str) -> Reading {
+        match name {
+            DEPTH => Reading::PeakDepth,
+            FORCE => Reading::Force,
+            CENTRE | MISSED | PHANTOM => Reading::Contact,
+            CONTACT_TEMPERATURE => Reading::ContactTemperature,
+            _ => Reading::Temperature,
+        }
+    }
 }
 
 /// One scored frame.
@@ -147,6 +162,28 @@ impl Scored {
     /// A failure no flag warned of.
     pub fn silent(&self) -> bool {
         !self.failures.is_empty() && self.flags.is_empty()
+    }
+
+    /// Whether `reading` failed its tolerance.
+    pub fn failed(&self, reading: Reading) -> bool {
+        self.failures.iter().any(|f| failure::reading(f) == reading)
+    }
+
+    /// Whether a raised flag concerns `reading` ([`Flag::concerns`]).
+    pub fn flagged(&self, reading: Reading) -> bool {
+        let set: QualityFlags = self
+            .flags
+            .iter()
+            .filter_map(|n| Flag::from_name(n))
+            .collect();
+        !set.trusts(reading)
+    }
+
+    /// A failure of `reading` that no flag speaking for it warned of: silent to a robot
+    /// that reads each reading with the flags that concern it, even where a flag about
+    /// another reading was raised.
+    pub fn silent_in(&self, reading: Reading) -> bool {
+        self.failed(reading) && !self.flagged(reading)
     }
 }
 
@@ -738,6 +775,46 @@ fn silent_line(f: &Scored) -> String {
     )
 }
 
+/// The report's section by reading: per reading of the summary, its failures, those no
+/// flag concerning it warned of ([`Scored::silent_in`]) and the frames whose flags doubted
+/// it where it held; then the frames a flag about another reading alone excused.
+fn by_reading(frames: &[&Scored]) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::from(
+        "\n### By reading\n\nEach reading judged by the flags that concern it \
+         (`Flag::concerns`), as a robot reading it alone would: a depth failure under \
+         `temperature_uncertain` alone is silent here.\n\n\
+         | reading | failures | silent | flagged without failure |\n|---|---:|---:|---:|\n",
+    );
+    for r in Reading::ALL {
+        let failed = frames.iter().filter(|f| f.failed(r)).count();
+        let silent = frames.iter().filter(|f| f.silent_in(r)).count();
+        let doubted = frames
+            .iter()
+            .filter(|f| !f.failed(r) && f.flagged(r))
+            .count();
+        let _ = writeln!(
+            s,
+            "| {} | {failed} | {silent} | {doubted} ({:.1} %) |",
+            r.name(),
+            100.0 * doubted as f64 / frames.len().max(1) as f64
+        );
+    }
+    let excused: Vec<&&Scored> = frames
+        .iter()
+        .filter(|f| !f.silent() && Reading::ALL.into_iter().any(|r| f.silent_in(r)))
+        .collect();
+    let _ = writeln!(
+        s,
+        "\nFailures only a flag about another reading excused ({}):\n",
+        excused.len()
+    );
+    for f in excused {
+        let _ = writeln!(s, "- {}; flags: {}", silent_line(f), f.flags.join(", "));
+    }
+    s
+}
+
 /// The battery's report as Markdown: per scene kind, the error spread and the failures,
 /// silent ones first; then the silent failures, counted by indenter and each by name.
 pub fn report(results: &[UnitResult]) -> String {
@@ -845,6 +922,7 @@ pub fn report(results: &[UnitResult]) -> String {
     for f in silent {
         let _ = writeln!(s, "- {}", silent_line(f));
     }
+    s.push_str(&by_reading(&frames));
     if !refused.is_empty() {
         let _ = writeln!(s, "\n### Units refused\n");
         for r in refused {
@@ -939,7 +1017,7 @@ mod tests {
             max_temp_excess_c: Some(1.85),
             min_temp_deficit_c: Some(1.95),
             failures: vec![failure::HOTTEST_BLOCK, failure::COLDEST_BLOCK],
-            ..f
+            ..f.clone()
         };
         assert_eq!(
             silent_line(&uniform),
@@ -950,6 +1028,28 @@ mod tests {
         assert_eq!(
             count_by(names.into_iter()),
             "disc r2 2, none 1, sphere R10 1"
+        );
+        // A contact temperature off under a doubt about the depth model alone is silent
+        // for the contact's temperature, not for the frame; under a doubt about the phase
+        // beneath the contact it is not.
+        let warm = Scored {
+            failures: vec![failure::CONTACT_TEMPERATURE],
+            flags: vec!["depth_uncertain"],
+            ..f.clone()
+        };
+        assert!(!warm.silent() && warm.silent_in(Reading::ContactTemperature));
+        assert!(!warm.silent_in(Reading::PeakDepth) && warm.flagged(Reading::PeakDepth));
+        let sloped = Scored {
+            flags: vec!["phase_slope"],
+            ..warm.clone()
+        };
+        assert!(!sloped.silent_in(Reading::ContactTemperature));
+        let report = by_reading(&[&f, &warm, &sloped]);
+        assert!(
+            report.contains("| contact_temperature | 2 | 1 | 0 (0.0 %) |")
+                && report.contains("| peak_depth | 1 | 1 | 2 (66.7 %) |")
+                && report.contains("excused (1)"),
+            "{report}"
         );
     }
 }
