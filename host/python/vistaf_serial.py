@@ -60,7 +60,7 @@ FLAG_CONCERNS = {
     "depth_out_of_range": ["peak_depth"],
     "force_out_of_range": ["force"],
     "temperature_uncertain": _COLOURS,
-    "depth_unresolved": ["peak_depth", "contact_temperature"],
+    "depth_unresolved": ["peak_depth", "contact", "contact_temperature"],
     "contact_at_edge": _GEOMETRY + ["contact_temperature"],
     "depth_uncertain": ["peak_depth"],
 }

@@ -63,9 +63,11 @@ pub enum Flag {
     TemperatureUncertain = 9,
     /// The contact is narrower than the band resolves (a radius under two of its blur σ,
     /// about 1.6 mm whatever the camera): the band keeps a share of its peak that depends on
-    /// its shape, so the peak depth reads low by an unknown part of it. Area, centre,
-    /// volume and force stand (they integrate the map, which the blur does not change);
-    /// the contact's temperature does not, its stripes being placed by the blurred phase.
+    /// its shape, so the peak depth reads low by an unknown part of it; or its peak stands
+    /// barely above the noise. The force stands (it integrates the map, which the blur
+    /// does not change). The contact's place rests on a few samples near the noise, and
+    /// so faint a contact may be none; its temperature is read from stripes placed by the
+    /// blurred phase: both are doubted.
     DepthUnresolved = 10,
     /// Half the contact's depth or more lies within a grating period of the edge of the
     /// view, where the demodulator's kernel reaches past the image: the contact may run on
@@ -141,7 +143,7 @@ impl Flag {
             Flag::PhaseSlope | Flag::UnwrapFailure | Flag::ContactAtEdge => {
                 !matches!(reading, Temperature)
             }
-            Flag::DepthUnresolved => matches!(reading, PeakDepth | ContactTemperature),
+            Flag::DepthUnresolved => !matches!(reading, Force | Temperature),
             Flag::TemperatureOutOfRange | Flag::TemperatureUncertain => {
                 matches!(reading, ContactTemperature | Temperature)
             }
@@ -273,8 +275,9 @@ mod tests {
     }
 
     /// Each flag concerns some reading; the frame-wide ones every reading; a doubt about
-    /// the depth leaves the force and the skin's temperature trusted, and a doubt about the
-    /// colours the geometry; a bit from a newer device leaves nothing trusted.
+    /// the depth model leaves every other reading trusted, one about a faint contact its
+    /// force, and one about the colours the geometry; a bit from a newer device leaves
+    /// nothing trusted.
     #[test]
     fn flags_speak_for_their_readings() {
         for f in Flag::ALL {
@@ -284,10 +287,12 @@ mod tests {
         assert!(Reading::ALL.into_iter().all(|r| none.trusts(r)));
         let frame_wide = none.with(Flag::LowContrast);
         assert!(Reading::ALL.into_iter().all(|r| !frame_wide.trusts(r)));
-        let depth = none.with(Flag::DepthUncertain).with(Flag::DepthUnresolved);
-        assert!(!depth.trusts(Reading::PeakDepth) && !depth.trusts(Reading::ContactTemperature));
+        let depth = none.with(Flag::DepthUncertain);
+        assert!(!depth.trusts(Reading::PeakDepth));
         assert!(depth.trusts(Reading::Force) && depth.trusts(Reading::Contact));
-        assert!(depth.trusts(Reading::Temperature));
+        assert!(depth.trusts(Reading::ContactTemperature) && depth.trusts(Reading::Temperature));
+        let faint = none.with(Flag::DepthUnresolved);
+        assert!(faint.trusts(Reading::Force) && !faint.trusts(Reading::Contact));
         let colour = none.with(Flag::TemperatureUncertain);
         assert!(colour.trusts(Reading::PeakDepth) && colour.trusts(Reading::Force));
         assert!(!colour.trusts(Reading::ContactTemperature));
