@@ -93,13 +93,15 @@ pub mod failure {
     use vistaf_protocol::Reading;
 
     /// The summary's reading a failure of `name` is one of: a press missed or a contact
-    /// reported away from every press is the contact's failure, its centre too.
+    /// reported away from every press is the contact's failure, its centre too; every
+    /// other failure is of the skin's temperatures.
     pub fn reading(name: &str) -> Reading {
         match name {
             DEPTH => Reading::PeakDepth,
             FORCE => Reading::Force,
             CENTRE | MISSED | PHANTOM => Reading::Contact,
             CONTACT_TEMPERATURE => Reading::ContactTemperature,
+            // NO_TEMPERATURE, MEAN_TEMPERATURE, HOTTEST_BLOCK, COLDEST_BLOCK.
             _ => Reading::Temperature,
         }
     }
@@ -974,11 +976,9 @@ mod tests {
         }
     }
 
-    /// A silent failure reads as what failed and by how much, signed, with the indenter
-    /// and the shape the pipeline read; the per-indenter count puts the commonest first.
-    #[test]
-    fn a_silent_failure_names_its_indenter_and_signed_errors() {
-        let f = Scored {
+    /// A flat cylinder's frame whose depth failed, unflagged.
+    fn cylinder_frame() -> Scored {
+        Scored {
             unit: 7,
             kind: Kind::Cylinder,
             indenter: "disc r2".into(),
@@ -1001,7 +1001,14 @@ mod tests {
             flags: Vec::new(),
             noise_rad: 0.002,
             shape: "unknown",
-        };
+        }
+    }
+
+    /// A silent failure reads as what failed and by how much, signed, with the indenter
+    /// and the shape the pipeline read; the per-indenter count puts the commonest first.
+    #[test]
+    fn a_silent_failure_names_its_indenter_and_signed_errors() {
+        let f = cylinder_frame();
         assert_eq!(
             silent_line(&f),
             "unit 7 flat cylinders (disc r2, read as unknown): depth failed; depth +0.072 mm \
@@ -1017,7 +1024,7 @@ mod tests {
             max_temp_excess_c: Some(1.85),
             min_temp_deficit_c: Some(1.95),
             failures: vec![failure::HOTTEST_BLOCK, failure::COLDEST_BLOCK],
-            ..f.clone()
+            ..f
         };
         assert_eq!(
             silent_line(&uniform),
@@ -1029,9 +1036,14 @@ mod tests {
             count_by(names.into_iter()),
             "disc r2 2, none 1, sphere R10 1"
         );
-        // A contact temperature off under a doubt about the depth model alone is silent
-        // for the contact's temperature, not for the frame; under a doubt about the phase
-        // beneath the contact it is not.
+    }
+
+    /// A contact temperature off under a doubt about the depth model alone is silent for
+    /// the contact's temperature, not for the frame; under a doubt about the phase beneath
+    /// the contact it is not. The section by reading counts both ways.
+    #[test]
+    fn a_reading_is_silent_where_no_flag_about_it_warned() {
+        let f = cylinder_frame();
         let warm = Scored {
             failures: vec![failure::CONTACT_TEMPERATURE],
             flags: vec!["depth_uncertain"],
