@@ -92,11 +92,7 @@ impl From<&Summary> for SummaryRecord {
             contact_temp_c: si.contact_temp_c,
             flags: s.flags.iter().map(|f| f.name()).collect(),
             unknown_flag_bits: s.flags.unknown_bits(),
-            doubted: Reading::ALL
-                .into_iter()
-                .filter(|r| !s.flags.trusts(*r))
-                .map(Reading::name)
-                .collect(),
+            doubted: s.flags.doubted().map(Reading::name).collect(),
         }
     }
 }

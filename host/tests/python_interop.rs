@@ -191,7 +191,8 @@ fn the_bridge_s_mcap_decodes_with_the_official_readers_to_what_the_device_sent()
     let summaries: Vec<Summary> = (0..120).map(common::summary).collect();
     let mut bytes = common::frame(&hello());
     for (i, s) in summaries.iter().enumerate() {
-        if i % 30 == 0 {
+        // A status a second, each after a summary that raises a flag.
+        if i % 30 == 1 {
             bytes.extend(common::frame(&status(i as u64 / 30)));
         }
         bytes.extend(common::frame(&DeviceMsg::Summary(*s)));
@@ -311,6 +312,20 @@ fn the_bridge_s_mcap_decodes_with_the_official_readers_to_what_the_device_sent()
     let values = status["values"].as_array().unwrap();
     let value = |k: &str| values.iter().find(|v| v["key"] == k).unwrap()["value"].clone();
     assert_eq!(value("calibration_id"), "b5459c92");
+    // Each report's readings doubted are those its latest summary's flags concern.
+    for d in &diag {
+        let values = d["body"]["status"][0]["values"].as_array().unwrap();
+        let value = |k: &str| values.iter().find(|v| v["key"] == k).unwrap()["value"].clone();
+        let flags: QualityFlags = value("flags")
+            .as_str()
+            .unwrap()
+            .split('|')
+            .filter_map(Flag::from_name)
+            .collect();
+        assert!(!flags.is_empty(), "{d}");
+        let doubted: Vec<&str> = flags.doubted().map(Reading::name).collect();
+        assert_eq!(value("doubted"), doubted.join("|"));
+    }
     assert_eq!(value("frames_dropped"), "1");
     // 30 summaries between reports a second apart.
     let later = diag[1]["body"]["status"][0]["values"].as_array().unwrap();

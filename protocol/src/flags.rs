@@ -247,6 +247,12 @@ impl QualityFlags {
     pub fn trusts(self, reading: Reading) -> bool {
         self.unknown_bits() == 0 && !self.iter().any(|f| f.concerns(reading))
     }
+
+    /// The readings a set flag concerns ([`QualityFlags::trusts`] denies), in
+    /// [`Reading::ALL`]'s order.
+    pub fn doubted(self) -> impl Iterator<Item = Reading> {
+        Reading::ALL.into_iter().filter(move |r| !self.trusts(*r))
+    }
 }
 
 impl FromIterator<Flag> for QualityFlags {
@@ -298,6 +304,9 @@ mod tests {
         assert!(!colour.trusts(Reading::ContactTemperature));
         let newer = QualityFlags(0x8000);
         assert!(Reading::ALL.into_iter().all(|r| !newer.trusts(r)));
+        assert!(newer.doubted().eq(Reading::ALL));
+        assert!(depth.doubted().eq([Reading::PeakDepth]));
+        assert_eq!(none.doubted().count(), 0);
     }
 
     #[test]

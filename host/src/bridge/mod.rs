@@ -15,7 +15,7 @@ pub mod mcap;
 pub mod serve;
 
 use serde_json::Value;
-use vistaf_protocol::{DeviceMsg, Hello, Map, Status, Summary};
+use vistaf_protocol::{DeviceMsg, Hello, Map, Reading, Status, Summary};
 
 use crate::client::Received;
 use crate::clock::{unix_s, MappedTime};
@@ -193,6 +193,8 @@ impl Skin {
         self.since_status.0 += 1;
         let flags: Vec<&str> = s.flags.iter().map(|f| f.name()).collect();
         self.counts.last_flags = flags.join("|");
+        let doubted: Vec<&str> = s.flags.doubted().map(Reading::name).collect();
+        self.counts.last_doubted = doubted.join("|");
         self.counts.clock_uncertainty_ms = captured
             .map(|c| format!("{:.3}", c.uncertainty_s * 1e3))
             .unwrap_or_default();

@@ -237,6 +237,7 @@ impl SkinTopics {
         let v = |k: &str, v: String| (k.to_string(), v);
         let values = vec![
             v("flags", host.last_flags.clone()),
+            v("doubted", host.last_doubted.clone()),
             v(
                 "calibration_id",
                 vistaf_protocol::CalibrationId(host.calibration_id).to_string(),
@@ -284,6 +285,8 @@ impl SkinTopics {
 pub struct HostCounts {
     /// The latest summary's flags, `|`-separated.
     pub last_flags: String,
+    /// The readings those flags doubt (`QualityFlags::doubted`), `|`-separated.
+    pub last_doubted: String,
     /// The loaded calibration's id.
     pub calibration_id: u32,
     /// Summaries received per second since the previous `Status`.
