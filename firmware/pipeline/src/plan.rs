@@ -104,7 +104,7 @@ pub struct AnalyzerOptions {
 /// the peak, read from its core at ≥ ¾ of the peak where that is big enough) gets its own
 /// temperature, and a reading outside the calibration is flagged.
 fn with_temperature(
-    mut d: Measurement,
+    d: Measurement,
     frame: Pixels<'_>,
     thermo: &Thermometer,
     phase: impl Fn(usize, &[u16], &mut [u16]),
@@ -113,7 +113,19 @@ fn with_temperature(
         return d;
     }
     let codes = ContactCodes::of(&d);
-    d.temperature = thermo.measure(frame, phase, &d.reliable, codes.regions());
+    let (blocks, contact) = thermo.sums(frame, phase, &d.reliable, codes.regions());
+    read_temperature(d, thermo, (&blocks, contact), &codes)
+}
+
+/// `d` with the temperatures its frame's colour sums give (`blocks` and `contact`, as
+/// [`Thermometer::sums`] gives them over `codes`) and the flags they call for.
+fn read_temperature(
+    mut d: Measurement,
+    thermo: &Thermometer,
+    (blocks, contact): (&[Sums], [Sums; 2]),
+    codes: &ContactCodes,
+) -> Measurement {
+    d.temperature = thermo.measure(blocks, contact, codes.regions());
     if let Some(t) = &d.temperature {
         temperature_flags(&mut d.flags, t);
     }
@@ -413,11 +425,15 @@ impl Analyzer {
         self.run(frame, &mut Scratch::default(), |d, wrapped| {
             let phase = |y: usize, r: &[u16], row: &mut [u16]| wrapped.frame_row(y, r, row);
             let codes = ContactCodes::of(&d);
-            let shift = codes.regions().and_then(|regions| {
-                let (blocks, contact) = self.thermo.sums(frame, phase, &d.reliable, Some(regions));
-                thermal::chroma_vs_skin(&thermal::reading_region(contact), &blocks)
-            });
-            (with_temperature(d, frame, &self.thermo, phase), shift)
+            // One pass over the frame's colours serves the shift and the temperatures.
+            let (blocks, contact) = self.thermo.sums(frame, phase, &d.reliable, codes.regions());
+            let shift = codes
+                .regions()
+                .and_then(|_| thermal::chroma_vs_skin(&thermal::reading_region(contact), &blocks));
+            (
+                read_temperature(d, &self.thermo, (&blocks, contact), &codes),
+                shift,
+            )
         })
     }
 

@@ -132,7 +132,10 @@ impl Evaluator for FixedModel {
         for (x, d) in v.iter_mut().zip(shift_q16) {
             *x += (*x * d) >> 16;
         }
-        Some(self.both(v))
+        Some((
+            FixedModel::population(self, Population::Coloured, v),
+            FixedModel::population(self, Population::Black, v),
+        ))
     }
 
     fn chroma_spread_q16(&self) -> [i64; 2] {

@@ -419,16 +419,6 @@ impl FixedModel {
         }
     }
 
-    /// Both populations' estimates (Q16 °C) from one region's invariants `v` (Q16), as a
-    /// contact reads them: the coloured stripes' chromaticity against the region's own
-    /// black stripes.
-    pub fn both(&self, v: [i64; 3]) -> ((i64, bool), (i64, bool)) {
-        (
-            self.population(Population::Coloured, v),
-            self.population(Population::Black, v),
-        )
-    }
-
     /// CIELAB `f` of a Q16 ratio.
     fn lab_f(&self, t: i64) -> i64 {
         let t = t.clamp(0, 4 * ONE - 1);

@@ -297,20 +297,19 @@ impl Thermometer {
         FloatModel(self.model.clone()?).read(own, pooled)
     }
 
-    /// Measures a frame (see [`Thermometer::sums`]); `None` without a model. The contact's
-    /// core gives the contact temperature when it holds enough stripe samples (the region's
-    /// edge is where heat spreads into the cooler skin around).
+    /// Measures a frame from its colour sums, `blocks` and `contact_sums` as
+    /// [`Thermometer::sums`] gives them over the contact `regions`; `None` without a model.
+    /// The contact's core gives the contact temperature when it holds enough stripe samples
+    /// (the region's edge is where heat spreads into the cooler skin around).
     pub fn measure(
         &self,
-        frame: Pixels<'_>,
-        phase: impl Fn(usize, &[u16], &mut [u16]),
-        reliable: &[bool],
+        blocks: &[Sums],
+        contact_sums: [Sums; 2],
         regions: Option<Regions<'_>>,
     ) -> Option<Temperature> {
         let evaluator = self.evaluator.as_ref()?;
         let g = &self.geom;
-        let (blocks, contact_sums) = self.sums(frame, &phase, reliable, regions);
-        let map = evaluator.map(&blocks, g.bw, g.bh);
+        let map = evaluator.map(blocks, g.bw, g.bh);
         let region = reading_region(contact_sums);
         let n = map.measured;
         let mut out_of_range = map.outside >= OUT_OF_RANGE_BLOCKS.max(n / 100);
