@@ -50,6 +50,7 @@ fn pipeline(c: &mut Criterion) {
         mm_per_px: 0.125,
         ref_saturated_fraction: 0.0,
         unwrap: Default::default(),
+        colour_phase: None,
     };
     let carrier = fixed.carrier();
     g.bench_function("Fixed_stage_measure", |b| {

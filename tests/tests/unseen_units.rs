@@ -18,6 +18,7 @@ use vistaf_sim::scene::{center_mm, ROOM_C, SPHERE_R_MM};
 use vistaf_sim::sets::{kit_states, write_states, SetOptions};
 use vistaf_sim::thermal::HeatSource;
 use vistaf_sim::{Renderer, SensorUnit, SkinState};
+use vistaf_tests::accuracy::{unit_scenes, Kind};
 
 /// Renders `unit`'s calibration kit (as frame sets, read back) and calibrates it: the
 /// calibration and its remarks.
@@ -277,4 +278,42 @@ fn units_from_the_environment_meet_the_targets() {
     for s in seeds.split(',').filter(|s| !s.trim().is_empty()) {
         check_unit(s.trim().parse().unwrap());
     }
+}
+
+/// Unit 71 of the accuracy battery: its lamp reflections pull the fringe's phase as the
+/// pigment changes colour, and two of its uniform skins far from the reference's
+/// temperature showed raised and sunk spots that read as a contact. Its calibration
+/// records the colour's field at each setpoint, and the device path takes it out: the
+/// battery's uniform skins of that unit read no contact, where the same frames read with
+/// the record dropped from the calibration show one.
+#[test]
+fn unit_71_s_warm_uniform_skins_are_no_contact() {
+    let seed = 71;
+    let unit = SensorUnit::wide(seed);
+    let (calib, _) = calibrate_kit(&unit, seed, "colour-phase");
+    assert!(calib.colour_phase.is_some());
+    let r = Renderer::new(unit.clone());
+    let with = analyzer(&r, calib.clone());
+    let without = analyzer(
+        &r,
+        Calibration {
+            colour_phase: None,
+            ..calib
+        },
+    );
+    let mut phantoms_without = 0;
+    for (k, (kind, state)) in unit_scenes(seed, &unit, &[]).into_iter().enumerate() {
+        if kind != Kind::Uniform {
+            continue;
+        }
+        let t = state.temperature.base_c;
+        let (img, _) = r.render(&state, seed * 1000 + k as u64);
+        let d = with.analyze(&img).unwrap();
+        assert!(!d.contact, "{t} °C: a contact of {} mm", d.peak_depth_mm);
+        phantoms_without += usize::from(without.analyze(&img).unwrap().contact);
+    }
+    assert!(
+        phantoms_without > 0,
+        "no spot read as a contact without the record"
+    );
 }

@@ -33,6 +33,7 @@ use vistaf_pipeline::calibration::{
 use vistaf_pipeline::ftp::carrier;
 use vistaf_pipeline::image_ops::gray_down_f32;
 use vistaf_pipeline::input::decode_scale;
+use vistaf_pipeline::measure::colour_phase::ColourPhase;
 use vistaf_pipeline::measure::profile::Shape;
 use vistaf_pipeline::thermal::extremes::{departures_sigmas, STAND_OUT_SIGMAS};
 use vistaf_pipeline::thermal::model::{
@@ -356,12 +357,21 @@ const COLOUR_FLAGS: [Flag; 3] = [
     Flag::StaleReference,
 ];
 
+/// What the uniform frames of the kit give: colour → temperature and the phase the
+/// colour moves at each setpoint.
+type UniformFits = (
+    Option<vistaf_pipeline::thermal::model::TemperatureModel>,
+    Option<ColourPhase>,
+);
+
 /// Colour → temperature from the frames labelled `temperature_c` without contact
 /// (`depth_mm` and `force_n` absent or 0); `None` (with a note) when there are too few.
+/// Beside it, the phase those frames show against their reference at each setpoint
+/// ([`ColourPhase`]), from the same frames.
 fn temperature_model<O: Observer>(
     run: &mut Run<'_, O>,
     calib: &Calibration,
-) -> Result<Option<vistaf_pipeline::thermal::model::TemperatureModel>, CalibrateError> {
+) -> Result<UniformFits, CalibrateError> {
     use crate::temperature::{fit_temperature, BlockSample};
     use vistaf_pipeline::thermal::stripes::pool;
     use vistaf_pipeline::thermal::BLACK_POOL;
@@ -384,6 +394,8 @@ fn temperature_model<O: Observer>(
     let mut kept = Vec::new();
     // Whether a frame labelled without contact whose phase shows one was explained.
     let mut explained = false;
+    // Each kept frame's setpoint and phase at the colour's nodes, and the nodes.
+    let (mut fields, mut nodes) = (Vec::new(), None);
     let mut done = 0;
     for (si, s) in run.sets.iter().enumerate() {
         if !s.manifest.frames.iter().any(no_contact) {
@@ -440,6 +452,9 @@ fn temperature_model<O: Observer>(
                     f.file,
                 ));
             }
+            let (n, at_nodes) = an.colour_phase_nodes(&frame).map_err(pipe)?;
+            nodes = Some(n);
+            fields.push((t, at_nodes));
             let g = an.thermometer().geometry();
             let pooled = pool(&sums, g.bw, g.bh, BLACK_POOL);
             // As the thermometer reads them: the coloured stripes against the
@@ -460,11 +475,12 @@ fn temperature_model<O: Observer>(
             kept.push((si, i, t));
         }
     }
+    let colour_phase = nodes.and_then(|n| ColourPhase::from_frames(n, &fields));
     if samples.is_empty() {
         run.obs.note(
             "no trusted no-contact frames labelled temperature_c: no temperature model".into(),
         );
-        return Ok(None);
+        return Ok((None, colour_phase));
     }
     let fitted: Vec<f64> = samples.iter().map(|s| s.t_c).collect();
     let mut blind_above_c = None;
@@ -495,11 +511,11 @@ fn temperature_model<O: Observer>(
             let reads = kit_reads(run, calib, &m, &kept)?;
             m.mean_read = mean_read(run, &reads);
             m.stand_out = stand_out(run, &reads);
-            Ok(Some(m))
+            Ok((Some(m), colour_phase))
         }
         Err(e) => {
             run.obs.note(format!("{e}: no temperature model"));
-            Ok(None)
+            Ok((None, colour_phase))
         }
     }
 }
@@ -727,6 +743,7 @@ fn identity(unit: &UnitGeometry, sign: f64) -> Calibration {
         force: None,
         shape: None,
         temperature: None,
+        colour_phase: None,
         sets: vec![],
     }
 }
@@ -777,7 +794,7 @@ fn fit_models<O: Observer>(
     calib.depth = depth_model(run, &calib)?;
     calib.shape = shape_signature(run, &calib)?;
     calib.force = force_model(run, &calib)?;
-    calib.temperature = temperature_model(run, &calib)?;
+    (calib.temperature, calib.colour_phase) = temperature_model(run, &calib)?;
     if calib.temperature.is_some() {
         let spread = contact_chroma_spread(run, &calib)?;
         if let Some(m) = calib.temperature.as_mut() {

@@ -209,6 +209,9 @@ pub struct WrappedPhase {
     /// [`WrappedPhase::at_rest`] puts a sample back, and how far it may have moved.
     pub(crate) offset: i32,
     pub(crate) threshold: i32,
+    /// Whether the measurement took a field of the colour's phase out before reading
+    /// ([`colour_phase`](crate::measure::colour_phase)).
+    pub(crate) colour_field: bool,
 }
 
 impl WrappedPhase {
@@ -231,6 +234,22 @@ impl WrappedPhase {
             local: None,
             offset: self.offset,
             threshold: self.threshold,
+            colour_field: self.colour_field,
+        }
+    }
+
+    /// Adds back to the contact window's pixels the field (units per coarse sample) the
+    /// measurement took out of the phase before reading them
+    /// ([`colour_phase`](crate::measure::colour_phase)), each its coarse sample's: the
+    /// stripes lie where the phase as read puts them.
+    pub fn restore_local(&mut self, field: &[i32]) {
+        let cw = self.cw;
+        if let Some((x0, y0, bw, _, v)) = &mut self.local {
+            for (i, u) in v.iter_mut().enumerate() {
+                let (x, y) = (*x0 + i % *bw, *y0 + i / *bw);
+                let f = field.get((y / GRID) * cw + x / GRID).copied().unwrap_or(0);
+                *u = i32::from(u.wrapping_add(f) as i16);
+            }
         }
     }
 
@@ -333,6 +352,7 @@ mod tests {
             local: Some((0, 0, 1, 1, vec![9_000])),
             offset,
             threshold,
+            colour_field: false,
         };
         let rest = wrapped.at_rest();
         assert_eq!(rest.coarse, read.iter().map(|r| r.1).collect::<Vec<_>>());

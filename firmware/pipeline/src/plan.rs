@@ -26,12 +26,17 @@ use crate::ftp::fixed::FixedFtp;
 use crate::ftp::float::FloatFtp;
 use crate::image_ops;
 use crate::measure::apex::BlurLoss;
+use crate::measure::colour_phase::{self, Candidates};
 use crate::measure::profile::Shapes;
 use crate::measure::{self, Context, Unwrap};
-use crate::phase::WrappedPhase;
+use crate::phase::{WrappedPhase, GRID};
 use crate::thermal::stripes::{region, Geometry, Regions, Sums};
 use crate::thermal::{self, Temperature, Thermometer};
 use crate::Measurement;
+
+/// A frame's phase at the colour's nodes ([`Analyzer::colour_phase_nodes`]): the step
+/// between nodes (coarse samples) and the nodes across and down, and the phase at each.
+pub type NodePhase = ((usize, [usize; 2]), Vec<Option<i32>>);
 
 /// Which implementation runs per frame.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -275,6 +280,8 @@ pub struct Analyzer {
     /// The shape templates of the same kernel.
     shapes: Shapes,
     calib: Calibration,
+    /// The colour's phase fields relative to the reference, if the calibration has them.
+    colour_phase: Option<Candidates>,
     size: (u32, u32),
     mm_per_px: f32,
     period_px: f32,
@@ -343,12 +350,36 @@ impl Analyzer {
             mm_per_px,
             period_px: c.period_px(),
             calib,
+            colour_phase: None,
             size: reference.dimensions(),
             ref_saturation: image_ops::saturated_fraction(reference),
         };
         let (_, sums) = an.colour_sums(reference)?;
         an.thermo.learn_reference(&sums);
+        // The fields are taken against the reference's own temperature, as it reads.
+        let reference_c = (an.thermo.measure(&sums, Default::default(), None))
+            .map(|t| f64::from(t.mean_c))
+            .filter(|t| t.is_finite());
+        an.colour_phase = (an.calib.colour_phase.as_ref())
+            .map(|c| c.relative_to(reference_c))
+            .filter(|c| !c.is_empty());
         Ok(an)
+    }
+
+    /// The frame's phase at the colour's nodes, smoothed over a period and less its
+    /// registration ([`colour_phase::at_nodes`]), with the step and the nodes across and
+    /// down: what the calibration records of a uniform kit frame
+    /// ([`ColourPhase::from_frames`](colour_phase::ColourPhase::from_frames)).
+    pub fn colour_phase_nodes<'i>(
+        &self,
+        frame: impl Into<Pixels<'i>>,
+    ) -> Result<NodePhase, PipelineError> {
+        let (w, h, _) = self.path.geometry();
+        let coarse = (w.div_ceil(GRID), h.div_ceil(GRID));
+        let period_px = self.path.carrier().period_px();
+        self.run(frame.into(), &mut Scratch::default(), |_, wrapped| {
+            colour_phase::at_nodes(&wrapped.coarse, wrapped.offset, coarse, period_px)
+        })
     }
 
     /// Input scale, mm per pixel (from the measured carrier period).
@@ -445,9 +476,30 @@ impl Analyzer {
         scratch: &mut Scratch,
         then: impl FnOnce(Measurement, &WrappedPhase) -> R,
     ) -> Result<R, PipelineError> {
+        self.run_in(frame, scratch, &self.context(), then)
+    }
+
+    /// [`Analyzer::run`] in the context `ctx`.
+    fn run_in<R>(
+        &self,
+        frame: Pixels<'_>,
+        scratch: &mut Scratch,
+        ctx: &Context<'_>,
+        then: impl FnOnce(Measurement, &WrappedPhase) -> R,
+    ) -> Result<R, PipelineError> {
         self.check_size(frame)?;
-        let (d, wrapped) = self.path.measure(frame, &self.context(), scratch);
+        let (d, wrapped) = self.path.measure(frame, ctx, scratch);
         Ok(then(d, &wrapped))
+    }
+
+    /// Whether the skin's temperature that `d` reads leaves a field of the colour's phase
+    /// to take out: one that reaches the frame's contact `threshold` (units) somewhere.
+    /// Without a temperature the phase's own choice stands.
+    fn colour_expected(&self, d: &Measurement, threshold: i32) -> bool {
+        match (&self.colour_phase, &d.temperature) {
+            (Some(c), Some(t)) => c.reaches_at(f64::from(t.mean_c), threshold),
+            _ => true,
+        }
     }
 
     /// The temperature side's prepared state.
@@ -475,6 +527,7 @@ impl Analyzer {
             mm_per_px: self.mm_per_px,
             ref_saturated_fraction: self.ref_saturation,
             unwrap: self.unwrap,
+            colour_phase: self.colour_phase.as_ref(),
         }
     }
 
@@ -491,11 +544,23 @@ impl Analyzer {
         scratch: &mut Scratch,
     ) -> Result<Measurement, PipelineError> {
         let frame = frame.into();
-        self.run(frame, scratch, |d, wrapped| {
-            with_temperature(d, frame, &self.thermo, |y, r, row| {
-                wrapped.frame_row(y, r, row)
-            })
-        })
+        let read = |d, wrapped: &WrappedPhase| {
+            let field = (wrapped.colour_field, wrapped.threshold);
+            let phase = |y: usize, r: &[u16], row: &mut [u16]| wrapped.frame_row(y, r, row);
+            (with_temperature(d, frame, &self.thermo, phase), field)
+        };
+        let (d, (field, threshold)) = self.run(frame, scratch, read)?;
+        if !field || self.colour_expected(&d, threshold) {
+            return Ok(d);
+        }
+        // The phase chose a field of the colour where the skin's temperature leaves none
+        // (a large press at the reference's temperature can pass for one): read again
+        // without it.
+        let ctx = Context {
+            colour_phase: None,
+            ..self.context()
+        };
+        Ok(self.run_in(frame, scratch, &ctx, read)?.0)
     }
 }
 

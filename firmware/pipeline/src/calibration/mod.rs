@@ -441,6 +441,10 @@ pub struct Calibration {
     /// Colour → temperature, if the kit had no-contact frames labelled with temperatures.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub temperature: Option<crate::thermal::model::TemperatureModel>,
+    /// The grating phase the pigment's colour moves at each of the temperature kit's
+    /// setpoints ([`crate::measure::colour_phase`]), if the kit had uniform frames.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub colour_phase: Option<crate::measure::colour_phase::ColourPhase>,
     /// Frame sets the fit used.
     pub sets: Vec<SetRecord>,
 }
@@ -743,7 +747,8 @@ mod tests {
                 .to_string()
         };
         type Edit<'a> = &'a dyn Fn(&mut serde_json::Value);
-        let cases: [(&str, Edit<'_>); 18] = [
+        let colour = |setpoints: serde_json::Value| serde_json::json!({"step": 2, "nodes": [4, 3], "setpoints": setpoints});
+        let cases: [(&str, Edit<'_>); 21] = [
             ("`shape`", &|v| {
                 v["shape"]["area_mm2"] = serde_json::json!([1.0])
             }),
@@ -836,6 +841,18 @@ mod tests {
             }),
             ("`temperature.contact_chroma_spread`", &|v| {
                 v["temperature"]["contact_chroma_spread"] = serde_json::json!([0.01, 3.0])
+            }),
+            // A spot beyond the 12 nodes.
+            ("`colour_phase`", &|v| {
+                v["colour_phase"] = colour(serde_json::json!([{"t_c": 30.0, "spots": "12:50"}]))
+            }),
+            ("`colour_phase`", &|v| {
+                v["colour_phase"] = colour(serde_json::json!([
+                    {"t_c": 30.0, "spots": ""}, {"t_c": 25.0, "spots": ""}
+                ]))
+            }),
+            ("spot \"3:x\"", &|v| {
+                v["colour_phase"] = colour(serde_json::json!([{"t_c": 30.0, "spots": "3:x"}]))
             }),
         ];
         for (key, edit) in cases {

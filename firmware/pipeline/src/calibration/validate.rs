@@ -76,6 +76,9 @@ pub fn check(c: &Calibration) -> Check {
     if let Some(s) = &c.shape {
         check_shape(s)?;
     }
+    if let Some(why) = c.colour_phase.as_ref().and_then(|p| p.invalid()) {
+        return Err(bad("colour_phase", why));
+    }
     if let Some(t) = &c.temperature {
         let r = t.range_c;
         if !mean_read_rises(&t.mean_read) {

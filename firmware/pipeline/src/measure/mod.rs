@@ -14,6 +14,7 @@ use vistaf_protocol::{Flag, QualityFlags};
 
 pub mod apex;
 mod coarse;
+pub mod colour_phase;
 mod contact;
 mod features;
 pub mod load;
@@ -183,6 +184,9 @@ pub struct Context<'a> {
     pub ref_saturated_fraction: f32,
     /// When to unwrap the contact region's phase.
     pub unwrap: Unwrap,
+    /// The phase the pigment's colour moves, relative to the reference
+    /// ([`colour_phase`]): taken out before registration where a field explains the frame.
+    pub colour_phase: Option<&'a colour_phase::Candidates>,
 }
 
 impl Context<'_> {
@@ -251,7 +255,17 @@ pub fn measure<M: PhaseMap>(
     let margin_px = |periods: f32| (periods * carrier.period_px()).ceil() as usize;
     let margin = Margin::new(margin_px(BACKGROUND_MARGIN_PERIODS), grid.w, grid.h);
     let contact_margin = Margin::new(margin_px(CONTACT_MARGIN_PERIODS), grid.w, grid.h);
-    let coarse = read_coarse(map, reliable_amp, &margin, &contact_margin);
+    let mut coarse = read_coarse(map, reliable_amp, &margin, &contact_margin);
+    let colour = ctx
+        .colour_phase
+        .and_then(|c| c.choose(&coarse.phase, &coarse.rel_contact, grid.coarse));
+    // The phase as read, before the colour's field is taken out: the stripes lie there.
+    let read_units: Vec<i32> = coarse.phase.iter().map(|p| p.units()).collect();
+    if let Some(field) = &colour {
+        for (p, &u) in coarse.phase.iter_mut().zip(field) {
+            *p = p.minus(M::P::from_units(u));
+        }
+    }
     // The frame's median fringe amplitude, over every fourth coarse sample (as many as the
     // noise floor's).
     let amp_frame_median = median(
@@ -274,10 +288,11 @@ pub fn measure<M: PhaseMap>(
     flags.insert_all(background_flags(&bg));
     let mut wrapped = WrappedPhase {
         cw: grid.coarse.0,
-        coarse: coarse.phase.iter().map(|p| p.units()).collect(),
+        coarse: read_units,
         local: None,
         offset: bg.offset.units(),
         threshold: bg.threshold,
+        colour_field: colour.is_some(),
     };
     let frame = FrameResult {
         grid,
@@ -303,13 +318,40 @@ pub fn measure<M: PhaseMap>(
         amp_medians,
     };
     let contact_reliable = reliable_pixels(&coarse.rel_contact, &grid, &contact_margin);
-    let c = found.measure(carrier, ctx, &contact_reliable, &mut wrapped);
+    let mut c = found.measure(carrier, ctx, &contact_reliable, &mut wrapped);
+    if let Some(field) = &colour {
+        wrapped.restore_local(field);
+        // Taking the colour's field out may explain a spot away, never make one.
+        let sign = ctx.indentation_sign();
+        c = c.filter(|c| !made_by_field(c, field, wrapped.cw, (map, sign)));
+    }
     // What the temperature reads: the same map within the background's margin.
     let reliable = within(contact_reliable, grid.w, &margin);
     match c {
         Some(c) => (frame.with_contact(c, *tiles, reliable), wrapped),
         None => (frame.without_contact(reliable), wrapped),
     }
+}
+
+/// Whether contact `c`, read once the colour's `field` (units per coarse sample, `cw`
+/// across) was taken out, is the field's own: at its deepest pixel the field raised the
+/// indentation (`sign`: its sign) by more than the contact stands above its threshold,
+/// both read as depth through `map`. A deep press stands far above any field; a spot the
+/// field over-corrected stands just above the threshold.
+fn made_by_field<M: PhaseMap>(
+    c: &ContactResult,
+    field: &[i32],
+    cw: usize,
+    (map, sign): (&M, i32),
+) -> bool {
+    let (w, _) = c.size;
+    let deepest = c.depth_um.iter().enumerate().max_by_key(|&(_, &d)| d);
+    let Some((at, &peak_um)) = deepest else {
+        return false;
+    };
+    let (x, y) = (c.origin.0 + at % w.max(1), c.origin.1 + at / w.max(1));
+    let raised = -sign * field.get((y / GRID) * cw + x / GRID).copied().unwrap_or(0);
+    raised > 0 && peak_um - c.threshold_um < map.depth_um(M::P::from_units(raised))
 }
 
 /// A reliability map (`w` pixels across) built on a narrower margin, cut to `margin`: what
