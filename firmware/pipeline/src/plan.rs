@@ -5,10 +5,12 @@
 //! ```text
 //!  reference ─▶ carrier (once) ─▶ reference analytic signal (once)
 //!  frame ─▶ luminance, area-downsampled ─▶ analytic signal ─▶ Δφ = arg(z · conj z_ref)
+//!        ─▶ the colour's field out, if the frame shows one (calibration)
 //!        ─▶ registration offset, noise floor ─▶ no contact? leave early
 //!        ─▶ contact tiles ─▶ unwrap (only if it can have wrapped) ─▶ depth (calibration)
 //!        ─▶ peak, area, volume, centre, force ─▶ flags
 //!        ─▶ temperatures (stripe colours placed by the frame's grating phase)
+//!        ─▶ a field the skin's temperature leaves none of? read again without it
 //! ```
 //!
 //! Two paths share this contract behind [`FtpPath`]: [`FloatFtp`] (rustfft, the oracle) and

@@ -1,5 +1,6 @@
-//! From a wrapped phase-difference map to a [`Measurement`]: registration, noise floor,
-//! early exit, contact tiles, unwrapping where needed, depth, features and quality flags.
+//! From a wrapped phase-difference map to a [`Measurement`]: the colour's field taken out
+//! where the frame shows one ([`colour_phase`]), registration, noise floor, early exit,
+//! contact tiles, unwrapping where needed, depth, features and quality flags.
 //!
 //! Work follows the scene: the background is read on a coarse grid (every [`GRID`]-th
 //! working pixel each way), and only the contact region's window at every pixel, from the
