@@ -363,7 +363,7 @@ impl Analyzer {
             .map(|t| f64::from(t.mean_c))
             .filter(|t| t.is_finite());
         an.colour_phase = (an.calib.colour_phase.as_ref())
-            .map(|c| c.relative_to(reference_c))
+            .map(|c| Candidates::relative_to(c, reference_c))
             .filter(|c| !c.is_empty());
         Ok(an)
     }

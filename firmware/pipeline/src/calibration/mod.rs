@@ -10,6 +10,8 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+pub mod colour_phase;
+
 pub use crate::evidence::{CandidateScore, FitRange, Fitted};
 
 mod validate;
@@ -442,9 +444,9 @@ pub struct Calibration {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub temperature: Option<crate::thermal::model::TemperatureModel>,
     /// The grating phase the pigment's colour moves at each of the temperature kit's
-    /// setpoints ([`crate::measure::colour_phase`]), if the kit had uniform frames.
+    /// setpoints ([`colour_phase`]), if the kit had uniform frames.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub colour_phase: Option<crate::measure::colour_phase::ColourPhase>,
+    pub colour_phase: Option<colour_phase::ColourPhase>,
     /// Frame sets the fit used.
     pub sets: Vec<SetRecord>,
 }

@@ -1,7 +1,7 @@
 //! Choosing the field a frame shows and spreading it over the coarse grid: what the
 //! measurement takes out of a frame's phase.
 
-use super::{median, nodes_of, wrapped};
+use crate::calibration::colour_phase::{at, median, nodes_of, wrapped, ColourPhase};
 use crate::phase::PhaseNum;
 
 /// A field is chosen only where it lowers the frame's mismatch ([`Candidates::choose`]) by
@@ -152,6 +152,23 @@ pub struct Candidates {
 }
 
 impl Candidates {
+    /// The fields of `record` relative to a reference taken at `reference_c` (°C; the kit's own
+    /// reference temperature where the reference's is unknown): each setpoint's less the
+    /// field at the reference's temperature, those that move nothing dropped. Empty where
+    /// the record names nodes it does not have.
+    pub fn relative_to(record: &ColourPhase, reference_c: Option<f64>) -> Candidates {
+        let dense = record.dense().unwrap_or_default();
+        let temps: Vec<f64> = record.setpoints.iter().map(|f| f.t_c).collect();
+        let base = reference_c.map(|t| at(&temps, &dense, t));
+        let fields = dense
+            .into_iter()
+            .map(|f| match &base {
+                Some(b) => f.iter().zip(b).map(|(&u, &b)| wrapped(u, b)).collect(),
+                None => f,
+            })
+            .collect();
+        Candidates::new(record.step.max(1), record.nodes, (temps, fields))
+    }
     /// The candidates `fields` (units per node) on `nodes` nodes `step` coarse samples
     /// apart.
     pub(super) fn new(
@@ -191,9 +208,7 @@ impl Candidates {
     /// between theirs) reaches `threshold` (units) at some node.
     pub fn reaches_at(&self, t_c: f64, threshold: i32) -> bool {
         let (temps, all) = &self.by_temperature;
-        super::record::at(temps, all, t_c)
-            .iter()
-            .any(|u| u.abs() >= threshold)
+        at(temps, all, t_c).iter().any(|u| u.abs() >= threshold)
     }
 
     /// Whether there is any field to take out.

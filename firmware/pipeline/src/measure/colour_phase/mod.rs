@@ -18,57 +18,17 @@
 //! which of them is chosen does not matter.
 
 mod choice;
-mod record;
 
-pub use choice::{Candidates, BETWEEN, REACH_SIGMAS, SCALES, SHOWN_SHARE};
-pub use record::{
-    at_nodes, ColourPhase, SetpointField, MAX_NODES, MIN_NOISE_PAIRS, REDUNDANT_MISS_SHARE,
-    SIGNIFICANT_SIGMAS,
+pub use crate::calibration::colour_phase::{
+    at_nodes, node_step, nodes_of, ColourPhase, SetpointField, MAX_NODES, MAX_NODES_READ,
+    MIN_NOISE_PAIRS, NODES_PER_PERIOD, REDUNDANT_MISS_SHARE, SIGNIFICANT_SIGMAS,
 };
-
-use crate::phase::GRID;
-
-/// Nodes per carrier period, each way: the field is smooth over a period (the
-/// demodulator's kernel), and a lamp's reflection a period or two across is followed.
-pub const NODES_PER_PERIOD: f32 = 2.0;
-
-/// Most nodes a frame's phase is compared at: the choice reads every candidate at each
-/// (`Candidates::choose`), and a frame's time is the device's budget.
-pub const MAX_NODES_READ: usize = 1200;
-
-/// Coarse samples between nodes for a carrier period of `period_px` working pixels on a
-/// coarse grid of `cw × ch` samples: [`NODES_PER_PERIOD`], fewer where the grid would hold
-/// more than [`MAX_NODES_READ`], at least one.
-pub fn node_step(period_px: f32, (cw, ch): (usize, usize)) -> usize {
-    let per_period = (period_px / (NODES_PER_PERIOD * GRID as f32)).round() as usize;
-    let cap = ((cw * ch) as f64 / MAX_NODES_READ as f64).sqrt().ceil() as usize;
-    per_period.max(cap).max(1)
-}
-
-/// The nodes (across, down) of a coarse grid `cw × ch` samples, `step` apart.
-pub fn nodes_of((cw, ch): (usize, usize), step: usize) -> [usize; 2] {
-    let step = step.max(1);
-    [cw.div_ceil(step), ch.div_ceil(step)]
-}
-
-/// `a − b`, wrapped to the half turn, units.
-fn wrapped(a: i32, b: i32) -> i32 {
-    i32::from(a.wrapping_sub(b) as i16)
-}
-
-/// Median of `v` (0 when empty), reordering it.
-fn median(v: &mut [i32]) -> i32 {
-    if v.is_empty() {
-        return 0;
-    }
-    let k = v.len() / 2;
-    *v.select_nth_unstable(k).1
-}
+pub use choice::{Candidates, BETWEEN, REACH_SIGMAS, SCALES, SHOWN_SHARE};
 
 #[cfg(test)]
 mod tests {
-    use super::record::at;
     use super::*;
+    use crate::calibration::colour_phase::at;
 
     /// A 12 × 8 coarse grid's nodes (3 × 2) with a raised spot at node 1 and a sunk one at
     /// node 4, both `a` units.
@@ -107,7 +67,7 @@ mod tests {
         let cal = kit(&[(25.0, vec![10, -20, 15, -5, 20, -10]), (32.0, warm)]);
         assert_eq!(cal.setpoints[1].spots, vec![[1, 4000], [4, -4000]]);
         assert!(cal.setpoints[0].spots.is_empty());
-        let candidates = cal.relative_to(Some(25.0));
+        let candidates = Candidates::relative_to(&cal, Some(25.0));
         let rel = vec![true; cw * ch];
         let frame = grid_of(&spots(4000), 700, (cw, ch));
         let chosen = candidates.choose(&frame, &rel, (cw, ch)).unwrap();
@@ -124,7 +84,7 @@ mod tests {
     fn a_press_does_not_move_the_choice() {
         let (cw, ch) = (12, 8);
         let cal = kit(&[(25.0, vec![0; 6]), (32.0, spots(4000))]);
-        let candidates = cal.relative_to(Some(25.0));
+        let candidates = Candidates::relative_to(&cal, Some(25.0));
         let rel = vec![true; cw * ch];
         let press = |mut phase: Vec<i32>| {
             for y in 4..8 {
@@ -219,8 +179,8 @@ mod tests {
         assert_eq!(at(&temps, &dense, 32.5), spots(6000));
         assert_eq!(at(&temps, &dense, 40.0), spots(8000));
         assert_eq!(at(&temps, &dense, 20.0), vec![0; 6]);
-        let at_30 = cal.relative_to(Some(30.0));
+        let at_30 = Candidates::relative_to(&cal, Some(30.0));
         assert_eq!(at_30.fields, vec![spots(-4000), spots(4000)]);
-        assert_eq!(cal.relative_to(None).fields.len(), 2);
+        assert_eq!(Candidates::relative_to(&cal, None).fields.len(), 2);
     }
 }

@@ -1,9 +1,47 @@
 //! The record of the colour's phase the calibration writes: each setpoint's field on a
-//! grid of nodes, kept where it stands out of the kit frames' noise.
+//! grid of nodes, kept where it stands out of the kit frames' noise. What a frame does
+//! with it is [`crate::measure::colour_phase`]'s.
 
 use serde::{Deserialize, Serialize};
 
-use super::{median, node_step, nodes_of, wrapped, Candidates, GRID};
+use crate::phase::GRID;
+
+/// Nodes per carrier period, each way: the field is smooth over a period (the
+/// demodulator's kernel), and a lamp's reflection a period or two across is followed.
+pub const NODES_PER_PERIOD: f32 = 2.0;
+
+/// Most nodes a frame's phase is compared at: the choice reads every candidate at each
+/// (`Candidates::choose`), and a frame's time is the device's budget.
+pub const MAX_NODES_READ: usize = 1200;
+
+/// Coarse samples between nodes for a carrier period of `period_px` working pixels on a
+/// coarse grid of `cw × ch` samples: [`NODES_PER_PERIOD`], fewer where the grid would hold
+/// more than [`MAX_NODES_READ`], at least one.
+pub fn node_step(period_px: f32, (cw, ch): (usize, usize)) -> usize {
+    let per_period = (period_px / (NODES_PER_PERIOD * GRID as f32)).round() as usize;
+    let cap = ((cw * ch) as f64 / MAX_NODES_READ as f64).sqrt().ceil() as usize;
+    per_period.max(cap).max(1)
+}
+
+/// The nodes (across, down) of a coarse grid `cw × ch` samples, `step` apart.
+pub fn nodes_of((cw, ch): (usize, usize), step: usize) -> [usize; 2] {
+    let step = step.max(1);
+    [cw.div_ceil(step), ch.div_ceil(step)]
+}
+
+/// `a − b`, wrapped to the half turn, units.
+pub(crate) fn wrapped(a: i32, b: i32) -> i32 {
+    i32::from(a.wrapping_sub(b) as i16)
+}
+
+/// Median of `v` (0 when empty), reordering it.
+pub(crate) fn median(v: &mut [i32]) -> i32 {
+    if v.is_empty() {
+        return 0;
+    }
+    let k = v.len() / 2;
+    *v.select_nth_unstable(k).1
+}
 
 /// A setpoint's field counts at a node only beyond this many of its noise there (what the
 /// kit's frames at one setpoint leave unexplained): elsewhere it is zero,
@@ -198,33 +236,15 @@ impl ColourPhase {
     }
 
     /// Every setpoint's field at every node, units; `None` where a spot names no node.
-    pub(super) fn dense(&self) -> Option<Vec<Vec<i32>>> {
+    pub(crate) fn dense(&self) -> Option<Vec<Vec<i32>>> {
         let n = self.nodes[0] * self.nodes[1];
         self.setpoints.iter().map(|f| f.dense(n)).collect()
-    }
-
-    /// The fields relative to a reference taken at `reference_c` (°C; the kit's own
-    /// reference temperature where the reference's is unknown): each setpoint's less the
-    /// field at the reference's temperature, those that move nothing dropped. Empty where
-    /// the record names nodes it does not have.
-    pub fn relative_to(&self, reference_c: Option<f64>) -> Candidates {
-        let dense = self.dense().unwrap_or_default();
-        let temps: Vec<f64> = self.setpoints.iter().map(|f| f.t_c).collect();
-        let base = reference_c.map(|t| at(&temps, &dense, t));
-        let fields = dense
-            .into_iter()
-            .map(|f| match &base {
-                Some(b) => f.iter().zip(b).map(|(&u, &b)| wrapped(u, b)).collect(),
-                None => f,
-            })
-            .collect();
-        Candidates::new(self.step.max(1), self.nodes, (temps, fields))
     }
 }
 
 /// The field at `t_c` of the fields `dense` at temperatures `temps` (rising), units per
 /// node: linear between the setpoints around it, the nearest one's beyond them.
-pub(super) fn at(temps: &[f64], dense: &[Vec<i32>], t_c: f64) -> Vec<i32> {
+pub(crate) fn at(temps: &[f64], dense: &[Vec<i32>], t_c: f64) -> Vec<i32> {
     let above = temps.partition_point(|&t| t < t_c).min(dense.len());
     match (above.checked_sub(1), dense.get(above)) {
         (Some(lo), Some(hi)) if temps[above] > temps[lo] => {
