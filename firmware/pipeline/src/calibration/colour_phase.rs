@@ -5,6 +5,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::phase::GRID;
+use crate::unwrap::Phase;
 
 /// Nodes per carrier period, each way: the field is smooth over a period (the
 /// demodulator's kernel), and a lamp's reflection a period or two across is followed.
@@ -27,11 +28,6 @@ pub fn node_step(period_px: f32, (cw, ch): (usize, usize)) -> usize {
 pub fn nodes_of((cw, ch): (usize, usize), step: usize) -> [usize; 2] {
     let step = step.max(1);
     [cw.div_ceil(step), ch.div_ceil(step)]
-}
-
-/// `a − b`, wrapped to the half turn, units.
-pub(crate) fn wrapped(a: i32, b: i32) -> i32 {
-    i32::from(a.wrapping_sub(b) as i16)
 }
 
 /// Median of `v` (0 when empty), reordering it.
@@ -176,7 +172,7 @@ pub fn at_nodes(
         let (mut sum, mut n) = (0i64, 0i64);
         for y in ys {
             for &u in coarse.get(y * cw + xs.start..y * cw + xs.end)? {
-                sum += i64::from(wrapped(u, offset));
+                sum += i64::from(i32::wrapped_diff(u, offset));
                 n += 1;
             }
         }
@@ -296,7 +292,7 @@ fn needed(temps: &[f64], means: &[Vec<Option<i32>>], sigma: &[f64]) -> Vec<bool>
             .zip(sigma))
         .filter(|(((v, a), b), s)| match (v, a, b) {
             (Some(v), Some(a), Some(b)) => {
-                let line = f64::from(*a) + w * f64::from(wrapped(*b, *a));
+                let line = f64::from(*a) + w * f64::from(i32::wrapped_diff(*b, *a));
                 (f64::from(*v) - line).abs() > SIGNIFICANT_SIGMAS * **s
             }
             _ => false,
@@ -332,7 +328,7 @@ fn node_noise(pairs: &[FramePair<'_>], n: usize) -> Option<Vec<f64>> {
             half.clear();
             half.extend(pairs.iter().filter_map(|(a, b)| {
                 let (a, b) = (a.get(k).copied().flatten()?, b.get(k).copied().flatten()?);
-                Some(wrapped(a, b).abs() / 2)
+                Some(i32::wrapped_diff(a, b).abs() / 2)
             }));
             1.4826 * f64::from(median(&mut half))
         })

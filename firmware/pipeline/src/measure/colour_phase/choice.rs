@@ -1,8 +1,9 @@
 //! Choosing the field a frame shows and spreading it over the coarse grid: what the
 //! measurement takes out of a frame's phase.
 
-use crate::calibration::colour_phase::{at, median, nodes_of, wrapped, ColourPhase};
+use crate::calibration::colour_phase::{at, median, nodes_of, ColourPhase};
 use crate::phase::PhaseNum;
+use crate::unwrap::Phase;
 
 /// A field is chosen only where it lowers the frame's mismatch ([`Candidates::choose`]) by
 /// more than this share of what it would lower it by were the frame to show it whole
@@ -20,8 +21,8 @@ pub const BETWEEN: [f64; 3] = [0.25, 0.5, 0.75];
 
 /// The scales the chosen field is also tried at. The pull of the fixed term on the
 /// fringe's phase grows as the fringe's amplitude falls against it, and the camera's
-/// exposure and white balance move from frame to frame (a frame at 20.6 °C can show twice
-/// the field its unit's kit showed at 20 and 22 °C).
+/// exposure and white balance move from frame to frame; `docs/pipeline.md` gives a frame that showed twice
+/// what its kit did.
 pub const SCALES: [f64; 5] = [0.5, 0.75, 1.25, 1.5, 2.0];
 
 /// A node's phase is the colour's only within the most any field reaches there (at the
@@ -30,7 +31,7 @@ pub const REACH_SIGMAS: f64 = 4.0;
 
 /// `a` moved a share `w` of the way to `b`, node by node.
 fn mixed(a: &[i32], b: &[i32], w: f64) -> Vec<i32> {
-    let mix = |(&a, &b): (&i32, &i32)| a + (w * f64::from(wrapped(b, a))).round() as i32;
+    let mix = |(&a, &b): (&i32, &i32)| a + (w * f64::from(i32::wrapped_diff(b, a))).round() as i32;
     a.iter().zip(b).map(mix).collect()
 }
 
@@ -51,24 +52,13 @@ impl Mismatch {
         Mismatch { at, offset, order }
     }
 
-    /// The summed absolute departure of the phase less `field` (units per node; `None`: no
-    /// field) from the registration. The registration is the phase's own: a field is zero
-    /// at most nodes and does not move it.
-    fn of(&self, field: Option<&[i32]>) -> i64 {
-        let left = |&(node, p): &(usize, i32)| {
-            let g = field.and_then(|f| f.get(node).copied()).unwrap_or(0);
-            i64::from(wrapped(wrapped(p, self.offset), g).abs())
-        };
-        self.at.iter().map(left).sum()
-    }
-
     /// What the phase departs from the registration by at each of `n` nodes (units), and
     /// whether the node is read: what [`Mismatch::change`] reads.
     fn left(&self, n: usize) -> (Vec<i32>, Vec<bool>) {
         let (mut left, mut read) = (vec![0; n], vec![false; n]);
         for &(node, p) in &self.at {
             if let (Some(l), Some(r)) = (left.get_mut(node), read.get_mut(node)) {
-                (*l, *r) = (wrapped(p, self.offset), true);
+                (*l, *r) = (i32::wrapped_diff(p, self.offset), true);
             }
         }
         (left, read)
@@ -81,7 +71,7 @@ impl Mismatch {
         let offset = self.offset;
         self.at.retain(|&(node, p)| {
             let r = reach.get(node).map_or(0.0, |&r| f64::from(r));
-            f64::from(wrapped(p, offset).abs()) <= r + slack
+            f64::from(i32::wrapped_diff(p, offset).abs()) <= r + slack
         });
     }
 
@@ -94,10 +84,11 @@ impl Mismatch {
             .at
             .windows(2)
             .filter(|p| p[1].0 == p[0].0 + 1 && p[1].0 % nw != 0);
-        self.order.extend(pairs.map(|p| wrapped(p[1].1, p[0].1)));
+        self.order
+            .extend(pairs.map(|p| i32::wrapped_diff(p[1].1, p[0].1)));
         let m = median(&mut self.order);
         for v in &mut self.order {
-            *v = wrapped(*v, m).abs();
+            *v = i32::wrapped_diff(*v, m).abs();
         }
         1.4826 * f64::from(median(&mut self.order)) / std::f64::consts::SQRT_2
     }
@@ -163,7 +154,11 @@ impl Candidates {
         let fields = dense
             .into_iter()
             .map(|f| match &base {
-                Some(b) => f.iter().zip(b).map(|(&u, &b)| wrapped(u, b)).collect(),
+                Some(b) => f
+                    .iter()
+                    .zip(b)
+                    .map(|(&u, &b)| i32::wrapped_diff(u, b))
+                    .collect(),
                 None => f,
             })
             .collect();
@@ -243,10 +238,9 @@ impl Candidates {
         // size there.
         let noise = m.noise(nw);
         m.retain_within(&self.reach, noise);
-        let none = m.of(None);
         let noise = m.noise(nw);
-        let (best, cost) = self.best_fit(&m);
-        let shown = (none - cost) as f64 > SHOWN_SHARE * m.gain(&best, noise);
+        let (best, change) = self.best_fit(&m);
+        let shown = -change as f64 > SHOWN_SHARE * m.gain(&best, noise);
         shown.then(|| self.spread(&best, (cw, ch)))
     }
 
@@ -263,7 +257,8 @@ impl Candidates {
             .collect()
     }
 
-    /// The field that leaves the least mismatch `m`, and that mismatch: the best setpoint's,
+    /// The field that leaves the least mismatch `m`, and what taking it out changes the
+    /// mismatch by (units; negative where it lowers it): the best setpoint's,
     /// then mixed with a neighbour's ([`BETWEEN`]), then scaled ([`SCALES`]).
     fn best_fit(&self, m: &Mismatch) -> (Vec<i32>, i64) {
         // A field changes the mismatch only where it is not zero: each costs what taking
@@ -274,7 +269,7 @@ impl Candidates {
                 .filter(|&(node, _)| read[node])
                 .map(|(node, g)| {
                     let l = left[node];
-                    i64::from(wrapped(l, g).abs()) - i64::from(l.abs())
+                    i64::from(i32::wrapped_diff(l, g).abs()) - i64::from(l.abs())
                 })
                 .sum()
         };
@@ -308,7 +303,7 @@ impl Candidates {
             let scaled = found.iter().map(|&u| (k * f64::from(u)).round() as i32);
             try_field(scaled.collect(), &mut best);
         }
-        (best.0, m.of(None) + best.1)
+        best
     }
 
     /// A node field spread bilinearly over the coarse grid (`cw × ch`); beyond the last
