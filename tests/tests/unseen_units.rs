@@ -317,3 +317,43 @@ fn unit_71_s_warm_uniform_skins_are_no_contact() {
         "no spot read as a contact without the record"
     );
 }
+
+/// A thick skin: drawn as a half-space, its surface sinks as `1/r` around a press over the
+/// whole view, and no background is at rest to register on. Registered on the background's
+/// mean, the view's far side stood raised above it, the press read as a thermal dipole and
+/// was dropped: presses of 0.5–1.75 mm came back as no contact, unflagged. Registered on
+/// the level beyond the press's far field, every press is reported at its place, its
+/// depth within tolerance or flagged.
+#[test]
+fn a_half_space_s_presses_are_reported_at_their_place() {
+    let unit = SensorUnit {
+        layer_decay_mm: f32::INFINITY,
+        ..SensorUnit::from_seed(8)
+    };
+    let (calib, _) = calibrate_kit(&unit, 8, "half-space");
+    let r = Renderer::new(unit.clone());
+    let a = analyzer(&r, calib);
+    let c = center_mm(&unit);
+    let fov = unit.height_px as f32 * unit.mm_per_px();
+    let at = (c.0 - 0.1 * fov, c.1 + 0.1 * fov); // not a kit position
+    for (k, depth) in [0.3f32, 0.6, 1.0, 1.5, 2.0, 2.5].into_iter().enumerate() {
+        let mut s = SkinState::idle(ROOM_C);
+        s.contacts.push(Contact {
+            indenter: Indenter::Sphere { r_mm: SPHERE_R_MM },
+            center_mm: at,
+            depth_mm: depth,
+        });
+        let (img, truth) = r.render(&s, 5000 + k as u64);
+        let d = a.analyze(&img).unwrap();
+        assert!(d.contact, "{depth} mm: no contact, flags {:?}", d.flags);
+        let (tx, ty) = truth.contact_px.unwrap();
+        let (cx, cy) = d.centroid_px.unwrap();
+        let err_mm = (cx - tx).hypot(cy - ty) * unit.mm_per_px();
+        assert!(err_mm <= 1.5, "{depth} mm: read {err_mm} mm from its place");
+        assert!(
+            (d.peak_depth_mm - depth).abs() <= 0.03 * depth + 0.02 || !d.flags.is_empty(),
+            "{depth} mm: read {} mm, unflagged",
+            d.peak_depth_mm
+        );
+    }
+}

@@ -17,6 +17,7 @@ pub mod apex;
 mod coarse;
 pub mod colour_phase;
 mod contact;
+mod far_field;
 mod features;
 pub mod load;
 pub mod profile;

@@ -5,8 +5,11 @@
 //! over everything, then without outliers, then outside the contact region once it is
 //! known. Each later set is the reliable samples less some; its resultant is the whole's
 //! less that of the samples it drops, or, when it keeps fewer than it drops, its own.
+//! Where the whole background is the contact's far field (a thick skin's), registration
+//! is on its level beyond the field ([`far_field`]).
 
 use super::coarse::{contact_tiles, local_noise_units, samples_in, Coarse};
+use super::far_field;
 use super::{Grid, CONTACT_SIGMAS, MIN_CONTACT_RAD, TILE_MIN_SAMPLES, TILE_PX};
 use crate::ftp::carrier::Carrier;
 use crate::mask::dilate;
@@ -14,6 +17,10 @@ use crate::phase::{PhaseNum, Resultant, GRID};
 
 /// A first offset's neighbourhood: samples this close to it (rad) make the second estimate.
 const NEAR_FIRST_RAD: f32 = 0.5;
+/// A press's far field is looked for where at least one reliable sample in this many
+/// stands raised above the registration by more than the contact threshold (a glare
+/// spot's lobe or a warm spot's raises fewer).
+const FAR_FIELD_RAISED_SHARE: usize = 50;
 /// Samples a background must keep to register on: four tiles' worth (a mean direction
 /// from 64 samples is a σ/8 estimate).
 const MIN_BACKGROUND_TILES: usize = 4;
@@ -46,6 +53,9 @@ pub(super) enum RegisteredOn {
     /// The background beside the contact region, where the skirt lies below the contact
     /// threshold.
     BesideContact,
+    /// The background's level beyond the contact's far field ([`far_field`]): the skin
+    /// sinks over the whole view, and that level is the frame's shift.
+    BeyondFarField,
     /// Nothing: no background big enough (a contact filling the view) or no contact; the
     /// frame was taken as unshifted.
     Nothing,
@@ -59,7 +69,7 @@ impl<P> Background<P> {
     /// within the tolerance bounds what it took.
     pub(super) fn skirt_free(&self, threshold_um: i32, depth_um: f32) -> bool {
         match self.registered_on {
-            RegisteredOn::ClearOfSkirt => true,
+            RegisteredOn::ClearOfSkirt | RegisteredOn::BeyondFarField => true,
             RegisteredOn::BesideContact => {
                 threshold_um as f32 <= super::depth_tolerance_um(depth_um)
             }
@@ -188,13 +198,27 @@ pub(super) fn background<P: PhaseNum>(
     let mut phi = dirs.relative(offset);
     // Registered on a contact that fills the middle of the view, the view's rim stands
     // raised above it: the rim was the background.
-    let rim = raised_rim(&phi, &coarse.rel, grid.coarse, sign, threshold);
+    let mut counts = raised_and_sunk(&phi, &coarse.rel, sign, threshold);
+    let rim = raised_rim(&phi, &coarse.rel, grid.coarse, (sign, threshold), counts);
     if let Some(rim) = rim.and_then(|r| dirs.of_background(&r)) {
-        if let Some((region, _)) = tiles_above(&dirs.relative(rim), threshold) {
-            (registered, background, outside_n) = outside_contact(&dirs, &region, grid);
+        if let Some((rim_region, _)) = tiles_above(&dirs.relative(rim), threshold) {
+            (registered, background, outside_n) = outside_contact(&dirs, &rim_region, grid);
             offset = registered.offset;
             phi = dirs.relative(offset);
+            counts = raised_and_sunk(&phi, &coarse.rel, sign, threshold);
         }
+    }
+    // Much of the view raised above the registration beside a press: the background may
+    // be the contact's far field ([`far_field`]), and its level beyond the field the shift.
+    let raised_widely = counts.0 as usize * FAR_FIELD_RAISED_SHARE >= coarse.reliable_n;
+    let period_tiles = f64::from(carrier.period_px()) / TILE_PX as f64;
+    let field = raised_widely
+        .then(|| far_field::far_field(&phi, &coarse.rel, grid, sign, period_tiles))
+        .flatten();
+    if let Some(f) = &field {
+        offset = offset.minus(P::from_units(-f.level));
+        phi = dirs.relative(offset);
+        registered.on = RegisteredOn::BeyondFarField;
     }
     // The background must be big enough to measure; otherwise keep the first estimate.
     let (noise, noise_clean) = if outside_n * 4 > phi.len() {
@@ -212,7 +236,12 @@ pub(super) fn background<P: PhaseNum>(
         noise,
         noise_clean,
         threshold,
-        contact: tiles_above(&phi, threshold),
+        // Beyond a far field, the contact is what stands out of it: the field itself is
+        // read as is, with the contact's window as seeds for its unwrapping.
+        contact: match &field {
+            Some(f) => tiles_above(&f.residual(&phi, grid), threshold),
+            None => tiles_above(&phi, threshold),
+        },
         registered_on: registered.on,
     }
 }
@@ -230,25 +259,17 @@ fn raised_rim(
     phi: &[i32],
     rel: &[bool],
     (cw, ch): (usize, usize),
-    sign: i32,
-    thr: i32,
+    (sign, thr): (i32, i32),
+    (n_raised, sunk): (u32, u32),
 ) -> Option<Vec<bool>> {
-    let is_raised = |p: i32, r: bool| r & (sign * p < -thr);
-    let is_sunk = |p: i32, r: bool| r & (sign * p > thr);
-    // One branch-free count first: a press sinks samples and raises next to none, so
-    // nearly every frame leaves here.
-    let (mut n_raised, mut sunk) = (0u32, 0u32);
-    for (&p, &r) in phi.iter().zip(rel) {
-        n_raised += u32::from(is_raised(p, r));
-        sunk += u32::from(is_sunk(p, r));
-    }
+    // A press sinks samples and raises next to none, so nearly every frame leaves here.
     if n_raised <= 4 * sunk {
         return None;
     }
     let raised: Vec<bool> = phi
         .iter()
         .zip(rel)
-        .map(|(&p, &r)| is_raised(p, r))
+        .map(|(&p, &r)| r & (sign * p < -thr))
         .collect();
     // The reliable area's box, in samples.
     let rows = || rel.chunks_exact(cw).take(ch).enumerate();
@@ -270,6 +291,18 @@ fn raised_rim(
         }
     }
     (rim > 0 && 4 * rim_raised >= rim).then_some(raised)
+}
+
+/// How many reliable samples of `phi` stand raised above the registration by more than
+/// `thr` (against the indentation's `sign`), and how many sunk below it: one branch-free
+/// count.
+fn raised_and_sunk(phi: &[i32], rel: &[bool], sign: i32, thr: i32) -> (u32, u32) {
+    let (mut raised, mut sunk) = (0u32, 0u32);
+    for (&p, &r) in phi.iter().zip(rel) {
+        raised += u32::from(r & (sign * p < -thr));
+        sunk += u32::from(r & (sign * p > thr));
+    }
+    (raised, sunk)
 }
 
 /// An offset registered outside a contact, and where.
