@@ -198,6 +198,12 @@ pub struct Refused {
     pub why: String,
 }
 
+/// The effect [`without`] reads as the layer's decay set to `decay_mm` (mm; infinite: a
+/// half-space), for units whose surface returns to rest more slowly than drawn.
+pub fn layer_decay(decay_mm: f32) -> String {
+    format!("layer={decay_mm}")
+}
+
 /// Effects [`without`] can switch off, to find which one a failure needs.
 pub const EFFECTS: [&str; 13] = [
     "oblique",
@@ -216,10 +222,15 @@ pub const EFFECTS: [&str; 13] = [
 ];
 
 /// `unit` with the named effects switched off (names from [`EFFECTS`]; `drift` is the
-/// per-frame exposure and white balance, applied in the scenes).
+/// per-frame exposure and white balance, applied in the scenes). `layer=D` sets the
+/// layer's decay to `D` mm instead ([`layer_decay`]).
 pub fn without(mut unit: SensorUnit, effects: &[String]) -> SensorUnit {
     let i = &mut unit.imperfections;
     for e in effects {
+        if let Some(decay_mm) = e.strip_prefix("layer=").and_then(|d| d.parse().ok()) {
+            unit.layer_decay_mm = decay_mm;
+            continue;
+        }
         match e.as_str() {
             "oblique" => i.oblique_gain = 0.0,
             "glare" => i.glare.clear(),
@@ -974,6 +985,15 @@ mod tests {
             assert_ne!(off, unit, "{e} changed nothing");
             assert_eq!(without(off.clone(), &[e.to_string()]), off, "{e} twice");
         }
+        let thick = without(unit.clone(), &[layer_decay(15.0)]);
+        assert_eq!(thick.layer_decay_mm, 15.0);
+        assert_eq!(
+            SensorUnit {
+                layer_decay_mm: unit.layer_decay_mm,
+                ..thick
+            },
+            unit
+        );
     }
 
     /// A flat cylinder's frame whose depth failed, unflagged.
