@@ -109,8 +109,9 @@ struct Tiles {
     th: usize,
     /// Mean signed phase, units (0 where not read).
     sunk: Vec<f64>,
-    /// Reliable samples, and whether that is at least half the tile's.
+    /// Reliable samples per tile.
     n: Vec<f64>,
+    /// Whether at least half a tile's samples are reliable.
     read: Vec<bool>,
 }
 
@@ -128,9 +129,12 @@ impl Tiles {
         let half = (per * per / 2) as u32;
         let read: Vec<bool> = n.iter().map(|&n| n >= half).collect();
         let sunk = (0..tw * th)
-            .map(|t| match read[t] {
-                true => f64::from(sign) * sum[t] as f64 / f64::from(n[t]),
-                false => 0.0,
+            .map(|t| {
+                if read[t] {
+                    f64::from(sign) * sum[t] as f64 / f64::from(n[t])
+                } else {
+                    0.0
+                }
             })
             .collect();
         Tiles {
