@@ -281,11 +281,10 @@ fn units_from_the_environment_meet_the_targets() {
 }
 
 /// Unit 71 of the accuracy battery: its lamp reflections pull the fringe's phase as the
-/// pigment changes colour, and two of its uniform skins far from the reference's
-/// temperature showed raised and sunk spots that read as a contact. Its calibration
-/// records the colour's field at each setpoint, and the device path takes it out: the
-/// battery's uniform skins of that unit read no contact, where the same frames read with
-/// the record dropped from the calibration show one.
+/// pigment changes colour, so its uniform skins far from the reference's temperature show
+/// raised and sunk spots. Its calibration records the colour's field at each setpoint and
+/// the device path takes it out: the battery's uniform skins of that unit read no contact,
+/// where the same frames read with the record dropped from the calibration show one.
 #[test]
 fn unit_71_s_warm_uniform_skins_are_no_contact() {
     let seed = 71;
@@ -320,10 +319,9 @@ fn unit_71_s_warm_uniform_skins_are_no_contact() {
 
 /// A thick skin: drawn as a half-space, its surface sinks as `1/r` around a press over the
 /// whole view, and no background is at rest to register on. Registered on the background's
-/// mean, the view's far side stood raised above it, the press read as a thermal dipole and
-/// was dropped: presses of 0.5–1.75 mm came back as no contact, unflagged. Registered on
-/// the level beyond the press's far field, every press is reported at its place, its
-/// depth within tolerance or flagged.
+/// mean, the view's far side would stand raised above it and the press read as a thermal
+/// dipole, dropped without a flag. Registered on the level beyond the press's far field,
+/// every press is reported at its place, its depth within tolerance or flagged.
 #[test]
 fn a_half_space_s_presses_are_reported_at_their_place() {
     let unit = SensorUnit {

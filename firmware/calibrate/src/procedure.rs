@@ -26,6 +26,7 @@
 use sha2::{Digest, Sha256};
 use vistaf_hardware::decode::Decoded;
 use vistaf_hardware::frameset::FrameSet;
+use vistaf_pipeline::calibration::colour_phase::ColourPhase;
 use vistaf_pipeline::calibration::{
     Calibration, DepthModel, FitRange, Fitted, ForceFeature, ForceModel, LoadSignature, SetRecord,
     ShapeSignature, UnitGeometry, FORMAT,
@@ -33,7 +34,6 @@ use vistaf_pipeline::calibration::{
 use vistaf_pipeline::ftp::carrier;
 use vistaf_pipeline::image_ops::gray_down_f32;
 use vistaf_pipeline::input::decode_scale;
-use vistaf_pipeline::measure::colour_phase::ColourPhase;
 use vistaf_pipeline::measure::profile::Shape;
 use vistaf_pipeline::thermal::extremes::{departures_sigmas, STAND_OUT_SIGMAS};
 use vistaf_pipeline::thermal::model::{

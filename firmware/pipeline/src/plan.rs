@@ -21,6 +21,7 @@ use vistaf_protocol::{Flag, QualityFlags, Reading};
 
 use crate::input::Pixels;
 
+use crate::calibration::colour_phase;
 use crate::calibration::{Calibration, CalibrationError};
 use crate::ftp::band::BandWindow;
 use crate::ftp::carrier::{self, Carrier};
@@ -28,7 +29,7 @@ use crate::ftp::fixed::FixedFtp;
 use crate::ftp::float::FloatFtp;
 use crate::image_ops;
 use crate::measure::apex::BlurLoss;
-use crate::measure::colour_phase::{self, Candidates};
+use crate::measure::colour_phase::Candidates;
 use crate::measure::profile::Shapes;
 use crate::measure::{self, Context, Unwrap};
 use crate::phase::{WrappedPhase, GRID};

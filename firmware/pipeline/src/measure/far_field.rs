@@ -5,8 +5,8 @@
 //! half-space, its surface sinks as `1/r` around the contact (Boussinesq), over the whole
 //! view. The mean of that background is then part of the press; registered on it, the
 //! press reads shallow by it, and the view's far side, less sunk than the mean, stands
-//! raised above the registration over a large area. Such a frame looks like a thermal
-//! dipole, and the press was lost.
+//! raised above the registration over a large area: the frame looks like a thermal
+//! dipole, and the press would be dropped as one.
 //!
 //! The background's tiles are fitted with `o + b·f`, `f` the contact's field at a tile,
 //! `e^(−r/λ)/r` at `r` tiles from the contact's centre, by least squares weighted by each

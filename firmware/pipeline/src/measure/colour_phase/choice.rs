@@ -21,8 +21,8 @@ pub const BETWEEN: [f64; 3] = [0.25, 0.5, 0.75];
 
 /// The scales the chosen field is also tried at. The pull of the fixed term on the
 /// fringe's phase grows as the fringe's amplitude falls against it, and the camera's
-/// exposure and white balance move from frame to frame; `docs/pipeline.md` gives a frame that showed twice
-/// what its kit did.
+/// exposure and white balance move from frame to frame (`docs/pipeline.md` gives a frame
+/// that showed twice what its kit did).
 pub const SCALES: [f64; 5] = [0.5, 0.75, 1.25, 1.5, 2.0];
 
 /// A node's phase is the colour's only within the most any field reaches there (at the
@@ -143,8 +143,8 @@ pub struct Candidates {
 }
 
 impl Candidates {
-    /// The fields of `record` relative to a reference taken at `reference_c` (°C; the kit's own
-    /// reference temperature where the reference's is unknown): each setpoint's less the
+    /// The fields of `record` relative to a reference taken at `reference_c` (°C; the
+    /// kit's own reference temperature where the reference's is unknown): each setpoint's less the
     /// field at the reference's temperature, those that move nothing dropped. Empty where
     /// the record names nodes it does not have.
     pub fn relative_to(record: &ColourPhase, reference_c: Option<f64>) -> Candidates {
@@ -216,9 +216,9 @@ impl Candidates {
     /// frame does not show the best field, or where the grid is not the calibration's.
     ///
     /// The mismatch is the summed absolute departure of the phase less the field from the
-    /// phase's registration (its median), over the reliable nodes: a press adds the same to every candidate except
-    /// where it overlaps a field's spots, while a field's spots add theirs wherever the
-    /// frame does not show them ([`SHOWN_SHARE`]).
+    /// phase's registration (its median), over the reliable nodes: a press adds the same to
+    /// every candidate except where it overlaps a field's spots, while a field's spots add
+    /// theirs wherever the frame does not show them ([`SHOWN_SHARE`]).
     pub fn choose<P: PhaseNum>(
         &self,
         phase: &[P],

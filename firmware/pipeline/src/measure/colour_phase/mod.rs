@@ -7,7 +7,8 @@
 //! raised and sunk spots against the reference. The contact test takes such a spot for a
 //! press, and a real press beside a spot of the other sign can be dropped as a dipole.
 //!
-//! The calibration's temperature kit shows that field at every setpoint ([`ColourPhase`],
+//! The calibration's temperature kit shows that field at every setpoint
+//! ([`ColourPhase`](crate::calibration::colour_phase::ColourPhase),
 //! on a sparse grid of nodes, kept only where it stands out of the kit frames' noise). A
 //! frame's phase is compared with each setpoint's field, taken relative to the
 //! reference's temperature ([`Candidates`]), and the field that explains it best, if any
@@ -19,16 +20,12 @@
 
 mod choice;
 
-pub use crate::calibration::colour_phase::{
-    at_nodes, node_step, nodes_of, ColourPhase, SetpointField, MAX_NODES, MAX_NODES_READ,
-    MIN_NOISE_PAIRS, NODES_PER_PERIOD, REDUNDANT_MISS_SHARE, SIGNIFICANT_SIGMAS,
-};
 pub use choice::{Candidates, BETWEEN, REACH_SIGMAS, SCALES, SHOWN_SHARE};
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calibration::colour_phase::at;
+    use crate::calibration::colour_phase::{at, at_nodes, nodes_of, ColourPhase};
 
     /// A 12 × 8 coarse grid's nodes (3 × 2) with a raised spot at node 1 and a sunk one at
     /// node 4, both `a` units.
