@@ -19,12 +19,13 @@ use std::path::Path;
 use vistaf_calibrate::{calibrate, Quiet};
 use vistaf_hardware::decode::Decoded;
 use vistaf_hardware::encode::Encoding;
+use vistaf_hardware::frameset::{FrameSet, FrameSetError};
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement};
 use vistaf_protocol::{Flag, QualityFlags, Reading};
 use vistaf_sim::contact::{Contact, Footprint, Indenter};
 use vistaf_sim::rng::Rng;
 use vistaf_sim::scene::{ROOM_C, SPHERE_R_MM};
-use vistaf_sim::sets::{write_calibration_kit, SetOptions};
+use vistaf_sim::sets::{write_calibration_kit, write_renders, Render, SetOptions};
 use vistaf_sim::thermal::HeatSource;
 use vistaf_sim::{Renderer, SensorUnit, SkinState, Truth};
 
@@ -317,12 +318,7 @@ pub fn run_unit(
     let unit = camera.unit(without(SensorUnit::wide(seed), off));
     let refused = |why: String| Refused { unit: seed, why };
     let dir = work.join(format!("unit-{seed}"));
-    let opts = SetOptions {
-        truth_maps: false,
-        seed: seed.wrapping_mul(7),
-        unit_seed: seed,
-        encoding: camera.encoding,
-    };
+    let opts = kit_options(seed, camera, false);
     let sets = write_calibration_kit(&dir, &unit, &opts, |_, _, _| {})
         .map_err(|e| refused(format!("kit: {e}")))?;
     let calib = calibrate(&sets, Implementation::Fixed, &mut Quiet);
@@ -336,7 +332,7 @@ pub fn run_unit(
             .frame(img)
             .and_then(|f| f.decode_into(scale, out).map_err(|e| e.to_string()))
     };
-    let (reference, _) = r.render(&SkinState::idle(ROOM_C), seed ^ 0x5eed);
+    let (reference, _) = r.render(&SkinState::idle(ROOM_C), reference_noise_seed(seed));
     let mut frame = Decoded::default();
     decode(&reference, &mut frame).map_err(|e| refused(format!("reference: {e}")))?;
     let a = Analyzer::new(
@@ -348,7 +344,7 @@ pub fn run_unit(
     .map_err(|e| refused(format!("reference: {e}")))?;
     let mut out = Vec::new();
     for (k, (kind, state)) in unit_scenes(seed, &unit, off).into_iter().enumerate() {
-        let (img, truth) = r.render(&state, seed.wrapping_mul(1000) + k as u64);
+        let (img, truth) = r.render(&state, scene_noise_seed(seed, k));
         decode(&img, &mut frame).map_err(|e| refused(format!("frame {k}: {e}")))?;
         match a.analyze(&frame) {
             Ok(mut m) => {
@@ -362,6 +358,63 @@ pub fn run_unit(
         }
     }
     Ok(out)
+}
+
+/// The options unit `seed`'s kit is written with (its noise seeds and the camera's
+/// encoding), with truth maps beside the frames or without.
+pub fn kit_options(seed: u64, camera: Camera, truth_maps: bool) -> SetOptions {
+    SetOptions {
+        truth_maps,
+        seed: seed.wrapping_mul(7),
+        unit_seed: seed,
+        encoding: camera.encoding,
+    }
+}
+
+/// The noise seed of unit `seed`'s reference (idle at [`ROOM_C`]).
+fn reference_noise_seed(seed: u64) -> u64 {
+    seed ^ 0x5eed
+}
+
+/// The noise seed of unit `seed`'s scene `k`.
+fn scene_noise_seed(seed: u64, k: usize) -> u64 {
+    seed.wrapping_mul(1000).wrapping_add(k as u64)
+}
+
+/// Writes unit `seed`'s scenes (drawn as `unit`, with the named effects switched off) into
+/// `dir` as a frame set, reference and noise as [`run_unit`] renders them: analysed with
+/// the calibration of the kit [`kit_options`] writes, each frame reads as the battery
+/// scored it.
+pub fn write_scenes(
+    dir: &Path,
+    seed: u64,
+    unit: &SensorUnit,
+    off: &[String],
+    opts: &SetOptions,
+) -> Result<FrameSet, FrameSetError> {
+    let scenes = unit_scenes(seed, unit, off);
+    let frames: Vec<Render<'_>> = scenes
+        .iter()
+        .enumerate()
+        .map(|(k, (_, state))| Render {
+            state,
+            noise_seed: scene_noise_seed(seed, k),
+        })
+        .collect();
+    let idle = SkinState::idle(ROOM_C);
+    let reference = Render {
+        state: &idle,
+        noise_seed: reference_noise_seed(seed),
+    };
+    write_renders(
+        dir,
+        "accuracy scenes",
+        unit,
+        reference,
+        &frames,
+        opts,
+        |_, _| {},
+    )
 }
 
 /// The scenes unit `seed` (drawn as `unit`) is scored on, with the named effects switched

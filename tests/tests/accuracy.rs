@@ -7,7 +7,13 @@
 //! them.)
 #![allow(clippy::unwrap_used)] // tests unwrap: a failure is the test failing
 
-use vistaf_tests::accuracy::{failure, run_units, Kind, Scored};
+use vistaf_calibrate::{calibrate, Quiet};
+use vistaf_hardware::decode::Decoded;
+use vistaf_hardware::frameset::FrameSet;
+use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation};
+use vistaf_sim::sets::write_calibration_kit;
+use vistaf_sim::SensorUnit;
+use vistaf_tests::accuracy::{failure, kit_options, run_units, write_scenes, Camera, Kind, Scored};
 
 #[test]
 fn wide_units_calibrate_and_report_every_press_where_it_is() {
@@ -180,6 +186,49 @@ fn letters_read_their_force_over_their_own_footprint() {
             f.unit
         );
     }
+}
+
+/// A unit's kit and scenes as `vistaf-accuracy --write-kit DIR --write-scenes` writes them,
+/// calibrated and analysed from the files as `vistaf-skin calibrate` and `analyze` read
+/// them, give the battery's readings frame by frame: a failure the battery lists can be
+/// looked at closer with the shipped tools, on the very frame that failed.
+#[test]
+fn the_written_kit_and_scenes_read_as_the_battery_scored_them() {
+    let seed = 3;
+    let scored = unit_frames(seed, "written-scenes");
+    let dir = std::env::temp_dir().join(format!("vistaf-written-scenes-{}", std::process::id()));
+    let unit = Camera::default().unit(SensorUnit::wide(seed));
+    let opts = kit_options(seed, Camera::default(), false);
+    write_calibration_kit(&dir, &unit, &opts, |_, _, _| {}).unwrap();
+    write_scenes(&dir.join("scenes"), seed, &unit, &[], &opts).unwrap();
+    let kit: Vec<FrameSet> = ["depth", "force", "temperature"]
+        .iter()
+        .map(|s| FrameSet::open(&dir.join(s)).unwrap())
+        .collect();
+    let calib = calibrate(&kit, Implementation::Fixed, &mut Quiet).unwrap();
+    let scenes = FrameSet::open(&dir.join("scenes")).unwrap();
+    let reference = scenes.reference_frame().unwrap();
+    let scale = calib.unit.scale_for(reference.width, reference.height);
+    let reference = reference.into_decoded(scale, Decoded::default()).unwrap();
+    let opts = AnalyzerOptions::default();
+    let a = Analyzer::new(&reference, calib, Implementation::Fixed, opts).unwrap();
+    assert_eq!(scenes.manifest.frames.len(), scored.len());
+    for (i, f) in scored.iter().enumerate() {
+        let frame = scenes.frame(i).unwrap();
+        let m = a
+            .analyze(&frame.into_decoded(scale, Decoded::default()).unwrap())
+            .unwrap();
+        let flags: Vec<&str> = m.flags.iter().map(|f| f.name()).collect();
+        assert_eq!(flags, f.flags, "frame {i}: {f:?}");
+        if let Some(err) = f.depth_err_mm {
+            let read = f.depth_mm + err;
+            assert!(
+                (m.peak_depth_mm - read).abs() < 1e-5,
+                "frame {i}: {m:?}, {f:?}"
+            );
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// The battery's frames of unit `seed`, calibrated on its own kit.

@@ -27,7 +27,7 @@ pub const TRUTH_TEMP_OFFSET_C: f32 = 50.0;
 pub struct SetOptions {
     /// Write 16-bit truth maps beside each frame.
     pub truth_maps: bool,
-    /// Base noise seed (frame i uses seed + i).
+    /// Base noise seed (frame i uses seed + i in [`write_states`]), recorded in the manifest.
     pub seed: u64,
     /// Unit seed, recorded in the manifest.
     pub unit_seed: u64,
@@ -79,20 +79,59 @@ fn labels(state: &SkinState, truth: &Truth) -> FrameEntry {
     }
 }
 
-/// Renders `states` with `unit` into a new set in `dir`.
+/// Renders `states` with `unit` into a new set in `dir`: the reference idle at the first
+/// state's temperature, with noise seed `opts.seed ^ 0xfeed`, and frame `i` with noise seed
+/// `opts.seed + i`.
 pub fn write_states(
     dir: &Path,
     name: &str,
     unit: &SensorUnit,
     states: &[SkinState],
     opts: &SetOptions,
-    mut progress: impl FnMut(usize, usize),
+    progress: impl FnMut(usize, usize),
 ) -> Result<FrameSet, FrameSetError> {
-    let r = Renderer::new(unit.clone());
     let base = states
         .first()
         .map_or(scene::ROOM_C, |s| s.temperature.base_c);
-    let (reference, _) = r.render(&SkinState::idle(base), opts.seed ^ 0xfeed);
+    let frames: Vec<Render<'_>> = (0u64..)
+        .zip(states)
+        .map(|(i, state)| Render {
+            state,
+            noise_seed: opts.seed.wrapping_add(i),
+        })
+        .collect();
+    let idle = SkinState::idle(base);
+    let reference = Render {
+        state: &idle,
+        noise_seed: opts.seed ^ 0xfeed,
+    };
+    write_renders(dir, name, unit, reference, &frames, opts, progress)
+}
+
+/// A frame to render: the skin's state and the sensor noise's seed.
+#[derive(Debug, Clone, Copy)]
+pub struct Render<'s> {
+    /// The skin's state.
+    pub state: &'s SkinState,
+    /// The sensor noise's seed ([`Renderer::render`]).
+    pub noise_seed: u64,
+}
+
+/// Renders `reference` and `frames` with `unit` into a new set in `dir`, each with its own
+/// noise seed: the frames another tool rendered in memory, written as it rendered them.
+/// `opts.seed` is only recorded.
+pub fn write_renders(
+    dir: &Path,
+    name: &str,
+    unit: &SensorUnit,
+    reference: Render<'_>,
+    frames: &[Render<'_>],
+    opts: &SetOptions,
+    mut progress: impl FnMut(usize, usize),
+) -> Result<FrameSet, FrameSetError> {
+    let r = Renderer::new(unit.clone());
+    let base = reference.state.temperature.base_c;
+    let (reference, _) = r.render(reference.state, reference.noise_seed);
     let mut w =
         FrameSetWriter::encoded(dir, f64::from(GRATING_PERIOD_MM), &reference, opts.encoding)?;
     w.extra_mut().insert(
@@ -112,8 +151,9 @@ pub fn write_states(
             cause,
         })?;
     }
-    for (i, state) in states.iter().enumerate() {
-        let (img, truth) = r.render(state, opts.seed.wrapping_add(i as u64));
+    for (i, frame) in frames.iter().enumerate() {
+        let state = frame.state;
+        let (img, truth) = r.render(state, frame.noise_seed);
         let mut entry = labels(state, &truth);
         entry.t_ms = Some(i as f64 * 1000.0 / 30.0);
         entry.extra.insert(
@@ -154,7 +194,7 @@ pub fn write_states(
                 .insert("truth_temperature_png".into(), tn.into());
         }
         w.add(&img, entry)?;
-        progress(i + 1, states.len());
+        progress(i + 1, frames.len());
     }
     w.finish()
 }

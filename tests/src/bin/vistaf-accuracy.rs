@@ -12,10 +12,10 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use clap::Parser;
-use vistaf_sim::sets::{write_calibration_kit, write_states, SetOptions};
-use vistaf_sim::{SensorUnit, SkinState};
+use vistaf_sim::sets::write_calibration_kit;
+use vistaf_sim::SensorUnit;
 use vistaf_tests::accuracy::{
-    frames_csv, layer_decay, report, run_units, unit_scenes, without, Camera, EFFECTS,
+    frames_csv, kit_options, layer_decay, report, run_units, without, write_scenes, Camera, EFFECTS,
 };
 
 /// First held-out unit seed.
@@ -48,7 +48,8 @@ struct Args {
     #[arg(long)]
     write_kit: Option<PathBuf>,
     /// With `--write-kit`: also write the first unit's scored scenes there, as the frame set
-    /// `scenes` (in the battery's order; its own noise draws), for `vistaf-skin analyze`.
+    /// `scenes`: the battery's frames, reference and noise as it renders them, in its order.
+    /// `vistaf-skin analyze` with the kit's calibration reads each as the battery scored it.
     #[arg(long, requires = "write_kit")]
     write_scenes: bool,
     /// Also write every scored frame here as CSV (indenter, truth, errors, flags).
@@ -82,21 +83,12 @@ fn main() -> Result<()> {
         let unit = args
             .camera
             .unit(without(SensorUnit::wide(args.first), &args.without));
-        let opts = SetOptions {
-            truth_maps: true,
-            seed: args.first.wrapping_mul(7),
-            unit_seed: args.first,
-            encoding: args.camera.encoding,
-        };
+        let opts = kit_options(args.first, args.camera, true);
         write_calibration_kit(dir, &unit, &opts, |_, _, _| {})
             .with_context(|| format!("writing the kit into {}", dir.display()))?;
         if args.write_scenes {
-            let states: Vec<SkinState> = unit_scenes(args.first, &unit, &args.without)
-                .into_iter()
-                .map(|(_, state)| state)
-                .collect();
             let scenes = dir.join("scenes");
-            write_states(&scenes, "accuracy scenes", &unit, &states, &opts, |_, _| {})
+            write_scenes(&scenes, args.first, &unit, &args.without, &opts)
                 .with_context(|| format!("writing the scenes into {}", scenes.display()))?;
         }
         println!("{unit:#?}");
