@@ -231,6 +231,21 @@ fn the_written_kit_and_scenes_read_as_the_battery_scored_them() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// Unit 43: glare spots and dim corners raise tile groups of both signs across the view,
+/// and weighed whole their opposite-signed phase outweighs a 0.17 mm press of the 5 mm
+/// sphere standing clear of them, as if the press were a thermal dipole. With the phase of
+/// faint fringes set aside where the press's phase stands out, every press of the unit is
+/// reported, and none away from its place.
+#[test]
+fn a_press_beside_faint_fringes_noise_is_reported_at_its_place() {
+    for f in unit_frames(43, "faint-noise") {
+        assert!(!f.phantom && !f.missed, "{f:?}");
+        if f.depth_mm > 0.0 {
+            assert!(f.centre_err_mm.is_some(), "no contact: {f:?}");
+        }
+    }
+}
+
 /// The battery's frames of unit `seed`, calibrated on its own kit.
 fn unit_frames(seed: u64, name: &str) -> Vec<Scored> {
     units_frames(&[seed], name)

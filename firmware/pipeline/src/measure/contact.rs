@@ -195,6 +195,39 @@ pub(super) struct DepthPass {
     negative: i64,
 }
 
+/// The fringe amplitudes on the coarse grid (`cw` samples across, [`GRID`] working pixels
+/// apart), the frame's and the reference's, with their medians over the view: where
+/// either's fringes are fainter (a glare spot, a dim corner), the phase's noise grows as
+/// the amplitude falls, and a sample stands out only where its phase would still pass the
+/// threshold raised as much (`|v| · min(a/median, 1) > threshold` for the fainter of the
+/// two), as a contact must to be found ([`super::coarse::contact_tiles`]).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Faint<'a> {
+    /// The frame's amplitude per coarse sample.
+    pub(super) amp: &'a [u32],
+    /// The reference's.
+    pub(super) amp_r: &'a [u32],
+    /// Their medians over the view (frame, reference).
+    pub(super) medians: (u32, u32),
+    /// Coarse samples across.
+    pub(super) cw: usize,
+}
+
+impl Faint<'_> {
+    /// Whether phase `v` (units) at working pixel `(x, y)` stands beyond `threshold` with
+    /// the threshold raised as the fringes there are fainter than their median.
+    fn stands(&self, v: i32, (x, y): (usize, usize), threshold: i32) -> bool {
+        let i = (y / GRID) * self.cw + (x / GRID).min(self.cw.saturating_sub(1));
+        let (mf, mr) = (u128::from(self.medians.0), u128::from(self.medians.1));
+        let a = |amp: &[u32], median: u128| amp.get(i).map_or(median, |&a| u128::from(a));
+        // min(a_f/m_f, a_r/m_r, 1), over the common denominator m_f·m_r.
+        let share = (a(self.amp, mf) * mr)
+            .min(a(self.amp_r, mr) * mf)
+            .min(mf * mr);
+        u128::from(v.unsigned_abs()) * share > u128::from(threshold.unsigned_abs()) * mf * mr
+    }
+}
+
 impl DepthPass {
     /// Depth is reported (and counted in the volume) only above the depth of the contact
     /// threshold (`threshold`, units; `threshold_um`): the map carries deformation, not
@@ -251,8 +284,48 @@ impl DepthPass {
     /// moves it both ways around the spot (a dipole): when the opposite-signed phase
     /// carries a comparable share, there is no contact to report.
     pub(super) fn is_dipole(&self) -> bool {
-        (self.negative as f32) > DIPOLE_RATIO * self.positive as f32
+        dipole(self.positive, self.negative)
     }
+
+    /// Whether a region [`DepthPass::is_dipole`] calls a dipole is still one with the
+    /// phase of faint fringes set aside ([`Faint`]; `up`, `region`, `reliable` and the
+    /// window as [`DepthPass::run`] read them). Where fringes are faint (glare spots, dim
+    /// corners) their phase's noise reaches past the threshold in both signs, and over a
+    /// region spanning the view it can outweigh a press standing clear of it. So where
+    /// most of the indentation-signed phase stands out against its own fringes' noise,
+    /// only what stands is weighed on either side; where most of it does not, the region's
+    /// indentation is itself mostly such noise, and the whole region's verdict holds. Read
+    /// only for a region the whole-region test rejects: one it accepts stays accepted.
+    pub(super) fn dipole_where_it_stands(
+        &self,
+        (up, region, reliable): (&[i32], &[bool], &[bool]),
+        faint: Faint<'_>,
+        (w, x0, y0, bw): (usize, usize, usize, usize),
+        threshold: i32,
+    ) -> bool {
+        let (mut pos, mut neg) = (0i64, 0i64);
+        let rows = up.chunks_exact(bw).zip(region.chunks_exact(bw));
+        for (ly, (urow, orow)) in rows.enumerate() {
+            let rrow = &reliable[(y0 + ly) * w + x0..(y0 + ly) * w + x0 + bw];
+            for (lx, ((&v, &on), &ok)) in urow.iter().zip(orow).zip(rrow).enumerate() {
+                if on && ok && v.abs() > threshold && faint.stands(v, (x0 + lx, y0 + ly), threshold)
+                {
+                    if v > 0 {
+                        pos += i64::from(v);
+                    } else {
+                        neg -= i64::from(v);
+                    }
+                }
+            }
+        }
+        2 * pos < self.positive || dipole(pos, neg)
+    }
+}
+
+/// Whether the opposite-signed phase `neg` carries more than [`DIPOLE_RATIO`] of the
+/// indentation-signed `pos` (units).
+fn dipole(pos: i64, neg: i64) -> bool {
+    (neg as f32) > DIPOLE_RATIO * pos as f32
 }
 
 /// What the region's samples say about the limits of the measurement: the phase slope
@@ -455,6 +528,74 @@ pub(super) fn upsampled(signed: &[i32], win: &Window) -> Vec<i32> {
 mod tests {
     use super::*;
     use crate::unwrap::{unwrap_window, Phase};
+
+    /// A phase beyond the threshold stands where both fringes are at their medians or
+    /// brighter; twice the threshold does not where either is under half its median (the
+    /// frame's dim corner, the reference's glare spot).
+    #[test]
+    fn phase_stands_against_the_fainter_of_the_two_fringes() {
+        let cw = 2;
+        let amp = [100, 100, 30, 400];
+        let amp_r = [1000, 300, 1000, 4000];
+        let faint = Faint {
+            amp: &amp,
+            amp_r: &amp_r,
+            medians: (100, 1000),
+            cw,
+        };
+        let at = |i: usize| ((i % cw) * GRID, (i / cw) * GRID);
+        let thr = 50;
+        assert!(faint.stands(101, at(0), thr));
+        assert!(faint.stands(-101, at(0), thr));
+        assert!(!faint.stands(49, at(0), thr));
+        assert!(!faint.stands(101, at(1), thr), "the reference's glare");
+        assert!(!faint.stands(101, at(2), thr), "the frame's dim corner");
+        assert!(
+            faint.stands(101, at(3), thr),
+            "brighter than the median counts as it"
+        );
+        assert!(
+            faint.stands(101, (0, 9 * GRID), thr),
+            "below the grid: the medians"
+        );
+    }
+
+    /// A region whose opposite-signed phase lies where fringes are faint is no dipole when
+    /// most of its indentation stands; when most of its indentation is faint itself, the
+    /// whole region's verdict holds.
+    #[test]
+    fn faint_fringes_phase_does_not_make_a_press_a_dipole() {
+        // One row of four pixels over two coarse samples: bright fringes, then a spot
+        // where the frame's fringes are a fifth of their median.
+        let (amp, amp_r) = ([100, 20], [100, 100]);
+        let faint = Faint {
+            amp: &amp,
+            amp_r: &amp_r,
+            medians: (100, 100),
+            cw: 2,
+        };
+        let thr = 10;
+        let verdicts = |up: [i32; 4]| {
+            let side =
+                |f: fn(&i32) -> bool| up.iter().filter(|v| f(v)).map(|v| v.abs()).sum::<i32>();
+            let pass = DepthPass {
+                depth_um: Vec::new(),
+                deformed: Vec::new(),
+                integrated_units: 0,
+                positive: i64::from(side(|v| *v > 10)),
+                negative: i64::from(side(|v| *v < -10)),
+            };
+            let window = (&up[..], &[true; 4][..], &[true; 4][..]);
+            let where_it_stands = pass.dipole_where_it_stands(window, faint, (4, 0, 0, 4), thr);
+            (pass.is_dipole(), where_it_stands)
+        };
+        // A press in the bright fringes, noise of the other sign in the faint spot.
+        assert_eq!(verdicts([40, 40, -30, -30]), (true, false));
+        // Indentation only in the faint spot, the other sign in the bright fringes.
+        assert_eq!(verdicts([-40, -40, 30, 30]), (true, true));
+        // Both signs in the bright fringes.
+        assert_eq!(verdicts([40, -30, 0, 0]), (true, true));
+    }
 
     /// A dome of 5 rad over a whole window, wrapped, with no sample outside the region:
     /// unseeded, the unwrapping reaches nothing and the core stays of the other sign; seeded

@@ -30,7 +30,7 @@ pub use window::upsample2;
 
 use coarse::{median, read_coarse, Coarse, Margin, NOISE_STEP};
 use contact::{
-    indentation_phase, region_pixels, region_samples, upsampled, DepthPass, Limits, Window,
+    indentation_phase, region_pixels, region_samples, upsampled, DepthPass, Faint, Limits, Window,
 };
 use profile::Shape;
 use register::Background;
@@ -612,7 +612,17 @@ impl<M: PhaseMap> Found<'_, M> {
         // The sign of the phase is trusted only where the unwrapping reached: a wrapped
         // core left over reads as the other sign, and a press is never dropped for it (it
         // is measured, and flagged as an unwrapping failure).
-        if unreached == 0 && pass.is_dipole() {
+        let faint = Faint {
+            amp: &self.coarse.amp,
+            amp_r: &self.coarse.amp_r,
+            medians: self.amp_medians,
+            cw: grid.coarse.0,
+        };
+        let window = (grid.w, x0, y0, bw);
+        if unreached == 0
+            && pass.is_dipole()
+            && pass.dipole_where_it_stands((&up, &on, reliable), faint, window, self.bg.threshold)
+        {
             return None;
         }
         // The contact: the region holding the most indentation, its apex (the blurred map's
