@@ -231,9 +231,9 @@ fn the_written_kit_and_scenes_read_as_the_battery_scored_them() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// Unit 43: glare spots and dim corners raise tile groups of both signs across the view,
-/// and weighed whole their opposite-signed phase outweighs a 0.17 mm press of the 5 mm
-/// sphere standing clear of them, as if the press were a thermal dipole. With the phase of
+/// On this unit glare spots and dim corners raise tile groups of both signs across the
+/// view, and weighed whole their opposite-signed phase outweighs a 0.17 mm press of the
+/// 5 mm sphere standing clear of them, as if the press were a thermal dipole. With the phase of
 /// faint fringes set aside where the press's phase stands out, every press of the unit is
 /// reported, and none away from its place.
 #[test]

@@ -280,7 +280,7 @@ fn units_from_the_environment_meet_the_targets() {
     }
 }
 
-/// Unit 71 of the accuracy battery: its lamp reflections pull the fringe's phase as the
+/// A unit of the accuracy battery whose lamp reflections pull the fringe's phase as the
 /// pigment changes colour, so its uniform skins far from the reference's temperature show
 /// raised and sunk spots. Its calibration records the colour's field at each setpoint and
 /// the device path takes it out: the battery's uniform skins of that unit read no contact,

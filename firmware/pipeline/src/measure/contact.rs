@@ -200,7 +200,8 @@ pub(super) struct DepthPass {
 /// either's fringes are fainter (a glare spot, a dim corner), the phase's noise grows as
 /// the amplitude falls, and a sample stands out only where its phase would still pass the
 /// threshold raised as much (`|v| · min(a/median, 1) > threshold` for the fainter of the
-/// two), as a contact must to be found ([`super::coarse::contact_tiles`]).
+/// two): the rule a contact must meet to be found ([`super::coarse::contact_tiles`]), which
+/// reads the reference's fringes alone, with the frame's read too.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Faint<'a> {
     /// The frame's amplitude per coarse sample.

@@ -48,11 +48,9 @@ impl FarField {
     /// `phi`, registered on the level, less the field at each sample's tile: what stands
     /// out of the far field (the contact itself).
     pub(super) fn residual(&self, phi: &[i32], grid: &Grid) -> Vec<i32> {
-        let (cw, tw) = (grid.coarse.0, grid.tiles.0);
-        let per = TILE_PX / GRID;
         phi.iter()
             .enumerate()
-            .map(|(k, p)| p - self.per_tile[((k / cw) / per) * tw + (k % cw) / per])
+            .map(|(k, p)| p - self.per_tile[grid.tile_of(k)])
             .collect()
     }
 }
@@ -122,7 +120,7 @@ impl Tiles {
         let per = TILE_PX / GRID;
         let (mut sum, mut n) = (vec![0i64; tw * th], vec![0u32; tw * th]);
         for k in (0..cw * ch).filter(|&k| rel[k]) {
-            let t = ((k / cw) / per) * tw + (k % cw) / per;
+            let t = grid.tile_of(k);
             sum[t] += i64::from(phi[k]);
             n[t] += 1;
         }
@@ -228,15 +226,6 @@ fn weighted_line(points: &[(f64, f64, f64)]) -> Option<Line> {
 mod tests {
     use super::*;
 
-    fn grid(w: usize, h: usize) -> Grid {
-        Grid {
-            w,
-            h,
-            coarse: (w.div_ceil(GRID), h.div_ceil(GRID)),
-            tiles: (w.div_ceil(TILE_PX), h.div_ceil(TILE_PX)),
-        }
-    }
-
     /// A coarse phase map: `shift` everywhere, a little noise, and a press of `peak` units
     /// at `centre` (coarse samples) whose surround sinks as `far·peak·a/r` beyond its
     /// radius `a`.
@@ -259,11 +248,9 @@ mod tests {
 
     /// Tiles holding a sample that stands out of `phi` by more than `thr`.
     fn tiles_above(phi: &[i32], g: &Grid, thr: i32) -> Vec<usize> {
-        let (cw, tw) = (g.coarse.0, g.tiles.0);
-        let per = TILE_PX / GRID;
         let mut on: Vec<usize> = (0..phi.len())
             .filter(|&k| phi[k].abs() > thr)
-            .map(|k| ((k / cw) / per) * tw + (k % cw) / per)
+            .map(|k| g.tile_of(k))
             .collect();
         on.sort_unstable();
         on.dedup();
@@ -275,7 +262,7 @@ mod tests {
     /// is the contact and its nearest tiles, not the whole view.
     #[test]
     fn a_half_space_far_field_is_told_from_the_frames_shift() {
-        let g = grid(320, 240);
+        let g = Grid::of((320, 240));
         let shift = -700;
         let phi = press(&g, (50.0, 40.0), 20_000.0, 0.5, shift);
         let rel = vec![true; phi.len()];
@@ -300,7 +287,7 @@ mod tests {
     /// sign give none.
     #[test]
     fn without_a_far_field_of_the_indentations_sign_there_is_none() {
-        let g = grid(320, 240);
+        let g = Grid::of((320, 240));
         let phi = press(&g, (50.0, 40.0), 20_000.0, 0.0, 300);
         let rel = vec![true; phi.len()];
         assert!(far_field(&phi, &rel, &g, 1, 2.0).is_none());

@@ -236,6 +236,13 @@ impl Grid {
             tiles: (w.div_ceil(TILE_PX), h.div_ceil(TILE_PX)),
         }
     }
+
+    /// The tile holding coarse sample `k` (row-major, both).
+    fn tile_of(&self, k: usize) -> usize {
+        const PER: usize = TILE_PX / GRID;
+        let (cw, tw) = (self.coarse.0, self.tiles.0);
+        (k / cw / PER) * tw + (k % cw) / PER
+    }
 }
 
 /// The measurement, shared by both paths: registration, noise floor, early exit, contact
@@ -557,6 +564,17 @@ impl<M: PhaseMap> Found<'_, M> {
 
     /// What the force model reads of a contact: its features, the phase integrated over
     /// its deformed pixels and its reciprocal load `load_mm2`, working pixels `px_mm` wide.
+    /// The coarse grid's fringe amplitudes (`cw` samples across) the dipole test reads
+    /// faint fringes by.
+    fn faint(&self, cw: usize) -> Faint<'_> {
+        Faint {
+            amp: &self.coarse.amp,
+            amp_r: &self.coarse.amp_r,
+            medians: self.amp_medians,
+            cw,
+        }
+    }
+
     fn force_inputs(feats: &Features, pass: &DepthPass, load_mm2: f32, px_mm: f32) -> ForceInputs {
         ForceInputs {
             area_mm2: feats.area_mm2,
@@ -612,16 +630,14 @@ impl<M: PhaseMap> Found<'_, M> {
         // The sign of the phase is trusted only where the unwrapping reached: a wrapped
         // core left over reads as the other sign, and a press is never dropped for it (it
         // is measured, and flagged as an unwrapping failure).
-        let faint = Faint {
-            amp: &self.coarse.amp,
-            amp_r: &self.coarse.amp_r,
-            medians: self.amp_medians,
-            cw: grid.coarse.0,
-        };
-        let window = (grid.w, x0, y0, bw);
         if unreached == 0
             && pass.is_dipole()
-            && pass.dipole_where_it_stands((&up, &on, reliable), faint, window, self.bg.threshold)
+            && pass.dipole_where_it_stands(
+                (&up, &on, reliable),
+                self.faint(grid.coarse.0),
+                (grid.w, x0, y0, bw),
+                self.bg.threshold,
+            )
         {
             return None;
         }
