@@ -206,7 +206,7 @@ pub fn layer_decay(decay_mm: f32) -> String {
 }
 
 /// Effects [`without`] can switch off, to find which one a failure needs.
-pub const EFFECTS: [&str; 13] = [
+pub const EFFECTS: [&str; 14] = [
     "oblique",
     "glare",
     "vignetting",
@@ -216,6 +216,7 @@ pub const EFFECTS: [&str; 13] = [
     "distortion",
     "phase-shape",
     "jpeg",
+    "chromatic",
     "drift",
     "shading",
     "stripe-edges",
@@ -242,6 +243,7 @@ pub fn without(mut unit: SensorUnit, effects: &[String]) -> SensorUnit {
             "distortion" => i.distortion = 0.0,
             "phase-shape" => i.phase_shape = 0.0,
             "jpeg" => i.jpeg_quality = None,
+            "chromatic" => i.chromatic = [0.0; 2],
             "shading" => unit.shading_gain = 0.0,
             "stripe-edges" => unit.edge_sharpness = unit.edge_sharpness.min(0.8),
             "layer" => unit.layer_decay_mm = f32::INFINITY,

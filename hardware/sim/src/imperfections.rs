@@ -1,6 +1,6 @@
 //! What a built skin shows beyond the ideal model: oblique light, glare, white balance,
-//! pigment mottle, a wobbling and distorted grating, a differently shaped phase response and
-//! a compressing camera.
+//! pigment mottle, a wobbling and distorted grating, a differently shaped phase response, a
+//! lens's lateral chromatic aberration and a compressing camera.
 //!
 //! Each effect has a strength per unit; [`Imperfections::none`] switches all of them off (the
 //! reference build and the units of [`crate::SensorUnit::from_seed`], whose fixtures are
@@ -26,6 +26,10 @@
 //!   at rest, saturating sooner as β grows.
 //! * **JPEG**: the frame goes through a JPEG encoder at quality `q` and back, as a UVC camera
 //!   sends it above its raw sizes.
+//! * **Lateral chromatic aberration**: the lens images red and blue at another scale than
+//!   green, so the red plane is the scene's at `c + (p − c)/(1 + χ_R)` and the blue at
+//!   `c + (p − c)/(1 + χ_B)`: each colour's stripes lie `χ·|p − c|` pixels out (or in) from
+//!   green's, most at the corners (`c` the image centre).
 
 use crate::rng::Rng;
 
@@ -67,7 +71,15 @@ pub struct Imperfections {
     pub phase_shape: f32,
     /// JPEG quality, or `None` for a raw camera.
     pub jpeg_quality: Option<u8>,
+    /// Lateral chromatic aberration: the red and the blue image's scale against the green's,
+    /// minus one (χ_R, χ_B).
+    pub chromatic: [f32; 2],
 }
+
+/// Largest lateral chromatic aberration drawn, |χ|: three quarters of a pixel at the corner
+/// of an 800 × 600 image. A camera module's lens shows a pixel or two at the sensor's full
+/// resolution, and the camera's scaling down to these sizes shrinks it by as much.
+pub const CHROMATIC_MAX: f64 = 0.0015;
 
 impl Imperfections {
     /// An ideal build: none of the above.
@@ -85,6 +97,7 @@ impl Imperfections {
             distortion: 0.0,
             phase_shape: 0.0,
             jpeg_quality: None,
+            chromatic: [0.0; 2],
         }
     }
 
@@ -114,6 +127,10 @@ impl Imperfections {
             distortion: r.range(-0.03, 0.03) as f32,
             phase_shape: r.range(0.0, 1.0) as f32,
             jpeg_quality: (r.unit() < 0.5).then(|| r.range(75.0, 95.0) as u8),
+            chromatic: [
+                r.range(-CHROMATIC_MAX, CHROMATIC_MAX) as f32,
+                r.range(-CHROMATIC_MAX, CHROMATIC_MAX) as f32,
+            ],
         }
     }
 
@@ -219,6 +236,10 @@ mod tests {
             if let Some(q) = i.jpeg_quality {
                 assert!((75..=95).contains(&q));
             }
+            assert!(i
+                .chromatic
+                .iter()
+                .all(|c| f64::from(c.abs()) <= CHROMATIC_MAX));
         }
     }
 
@@ -252,5 +273,49 @@ mod tests {
         // The wall at −x rises towards +x: it faces the light.
         assert!(wall(&oblique, -3.0) > 1.05 * wall(&plain, -3.0));
         assert!(wall(&oblique, 3.0) < 0.95 * wall(&plain, 3.0));
+    }
+
+    /// Lateral chromatic aberration moves the red stripes outward from the centre by χ of
+    /// their distance, and leaves green where it was.
+    #[test]
+    fn chromatic_aberration_moves_red_stripes_out_in_proportion_to_the_distance() {
+        use crate::{Renderer, SensorUnit, SkinState};
+        let mut unit = SensorUnit::reference();
+        unit.noise_dn = 0.0;
+        let mut lens = unit.clone();
+        let chi = 0.004;
+        lens.imperfections.chromatic = [chi, 0.0];
+        let s = SkinState::idle(25.0);
+        let (plain, _) = Renderer::new(unit.clone()).render(&s, 1);
+        let (aberrated, _) = Renderer::new(lens).render(&s, 1);
+        let (w, h) = (unit.width_px, unit.height_px);
+        let y = h / 2;
+        // The shift (pixels, to a twentieth) that best lays channel `k` of `plain` onto
+        // `aberrated` along row `y`, columns `x0..x0 + 60`.
+        let shift = |k: usize, x0: u32| -> f32 {
+            let at = |img: &image::RgbImage, x: f32| {
+                let (i, f) = (x.floor() as u32, x - x.floor());
+                let v = |i: u32| f32::from(img.get_pixel(i.min(w - 1), y).0[k]);
+                v(i) * (1.0 - f) + v(i + 1) * f
+            };
+            let misfit = |s: f32| -> f32 {
+                (x0..x0 + 60)
+                    .map(|x| (at(&plain, x as f32 - s) - at(&aberrated, x as f32)).powi(2))
+                    .sum()
+            };
+            (-40..=40)
+                .map(|k| k as f32 / 20.0)
+                .min_by(|a, b| misfit(*a).total_cmp(&misfit(*b)))
+                .unwrap_or(f32::NAN)
+        };
+        let x0 = w - 80;
+        let expected = chi * ((x0 + 30) as f32 + 0.5 - w as f32 / 2.0);
+        assert!(
+            (shift(0, x0) - expected).abs() < 0.1,
+            "{} px, {expected} expected",
+            shift(0, x0)
+        );
+        assert_eq!(shift(1, x0), 0.0);
+        assert!(shift(0, w / 2 - 30).abs() < 0.1);
     }
 }

@@ -9,7 +9,8 @@
 //! * [`unit`](mod@unit): what differs between manufactured units (period in pixels, tilt,
 //!   phase response, stiffness, optics, noise, pigment batch).
 //! * [`imperfections`]: what a built skin shows beyond the ideal model (oblique light,
-//!   glare, white balance, mottle, grating wobble and distortion, JPEG).
+//!   glare, white balance, mottle, grating wobble and distortion, lateral chromatic
+//!   aberration, JPEG).
 //! * [`footprint`]: flat shapes on the skin (discs, letters, a hex nut).
 //! * [`contact`]: indenters and the elastic half-space model (Hertz for spheres,
 //!   Boussinesq for cylinders, [`elastic`]: any flat footprint solved numerically).

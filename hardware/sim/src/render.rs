@@ -7,14 +7,14 @@
 //! camera-fixed illumination (vignetting, LED-ring reflections) and exposure scale it. The
 //! image is then blurred (optics), encoded to sRGB, and sensor noise is added in digital
 //! numbers before rounding. A unit's [`crate::imperfections::Imperfections`] add oblique
-//! light, glare, white balance, mottle, a wobbling and distorted grating and JPEG
-//! compression, each as its module documents. Everything is deterministic for a given noise
-//! seed.
+//! light, glare, white balance, mottle, a wobbling and distorted grating, a lens's lateral
+//! chromatic aberration and JPEG compression, each as its module documents. Everything is
+//! deterministic for a given noise seed.
 
 use image::RgbImage;
 
 use crate::contact::{depth_field, Indenter};
-use crate::plane::blur;
+use crate::plane::{blur, magnify};
 use crate::rng::Rng;
 use crate::state::SkinState;
 use crate::unit::SensorUnit;
@@ -247,6 +247,10 @@ impl Renderer {
                     };
                 }
             }
+        }
+        // The lens images red and blue at their own scales (lateral chromatic aberration).
+        for (p, chi) in [0, 2].into_iter().zip(imp.chromatic) {
+            magnify(&mut planes[p], w, h, chi);
         }
         for p in &mut planes {
             blur(p, w, h, unit.blur_px);

@@ -34,9 +34,10 @@ struct Args {
     #[arg(long, default_value = "docs/accuracy.md")]
     out: PathBuf,
     /// Effects to switch off, comma-separated (to find which one a failure needs): oblique,
-    /// glare, vignetting, white-balance, mottle, wobble, distortion, phase-shape, jpeg, drift,
-    /// shading, stripe-edges (the stripes made nearly sinusoidal), layer (the skin a
-    /// half-space: its surface does not return to rest faster than `1/r` around a contact).
+    /// glare, vignetting, white-balance, mottle, wobble, distortion, phase-shape, jpeg,
+    /// chromatic (the lens's lateral chromatic aberration), drift, shading, stripe-edges
+    /// (the stripes made nearly sinusoidal), layer (the skin a half-space: its surface does
+    /// not return to rest faster than `1/r` around a contact).
     #[arg(long, value_delimiter = ',')]
     without: Vec<String>,
     /// Every unit's layer drawn with this decay instead, mm (`inf`: a half-space, as
