@@ -194,7 +194,7 @@ pub trait Temperatures: std::fmt::Debug + Send + Sync {
     /// A contact region's reading from its own sums, its variance widened by what the
     /// calibration's flat frames cannot show: the scatter of a contact's black/coloured
     /// ratio ([`CONTACT_RATIO_SPREAD`]) and of its chromaticity (the kit's presses',
-    /// [`chroma_variance`]), each carried through the blend as the reading moves with it.
+    /// `chroma_variance`), each carried through the blend as the reading moves with it.
     /// Whether it is trusted is decided on the calibrated variance alone, as for any block.
     fn read_contact(&self, s: &Sums) -> Option<Reading>;
     /// Every block of a `bw × bh` frame (see the module doc).

@@ -411,7 +411,7 @@ fn misses_near(model: &TemperatureModel, readings: &[f32]) -> bool {
 }
 
 /// The sums a contact's temperature is read from, of the contact region's and its core's
-/// (as [`Thermometer::sums`] gives them): the core's where it holds [`CORE_SAMPLES`] of
+/// (as [`Thermometer::sums`] gives them): the core's where it holds `CORE_SAMPLES` of
 /// each population (the region's edge is where heat spreads into the cooler skin around).
 pub fn reading_region([inside, core]: [Sums; 2]) -> Sums {
     if core.n[0] >= CORE_SAMPLES && core.n[1] >= CORE_SAMPLES {
