@@ -304,7 +304,7 @@ mod tests {
                     .sum()
             };
             (-40..=40)
-                .map(|k| k as f32 / 20.0)
+                .map(|step| step as f32 / 20.0)
                 .min_by(|a, b| misfit(*a).total_cmp(&misfit(*b)))
                 .unwrap_or(f32::NAN)
         };

@@ -562,8 +562,6 @@ impl<M: PhaseMap> Found<'_, M> {
         })
     }
 
-    /// What the force model reads of a contact: its features, the phase integrated over
-    /// its deformed pixels and its reciprocal load `load_mm2`, working pixels `px_mm` wide.
     /// The coarse grid's fringe amplitudes (`cw` samples across) the dipole test reads
     /// faint fringes by.
     fn faint(&self, cw: usize) -> Faint<'_> {
@@ -575,6 +573,8 @@ impl<M: PhaseMap> Found<'_, M> {
         }
     }
 
+    /// What the force model reads of a contact: its features, the phase integrated over
+    /// its deformed pixels and its reciprocal load `load_mm2`, working pixels `px_mm` wide.
     fn force_inputs(feats: &Features, pass: &DepthPass, load_mm2: f32, px_mm: f32) -> ForceInputs {
         ForceInputs {
             area_mm2: feats.area_mm2,
