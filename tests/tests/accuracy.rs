@@ -83,15 +83,12 @@ fn a_phantom_whose_window_spans_the_view_keeps_its_frame_in_the_fit() {
 /// readings there, each within its variance, read a uniform skin off by more than the
 /// bound below with no flag (`docs/temperature.md`, *The skin's mean*). The skin's mean is
 /// turned back through what the kit's own uniform frames read
-/// (`TemperatureModel::mean_read`), and every uniform skin reads within 0.4 °C.
-///
-/// The units are drawn without the lens's lateral chromatic aberration: it moves the
-/// colours a block reads by a mechanism of its own (the stripes are placed by the
-/// luminance's phase, not each colour's), which the battery counts
-/// (`docs/temperature.md`, *Lateral chromatic aberration*).
+/// (`TemperatureModel::mean_read`), and every uniform skin reads within 0.4 °C. The units'
+/// lenses put their colours apart: each colour is turned onto one grating and placed by
+/// its own stripes (`docs/temperature.md`, *Lateral chromatic aberration*).
 #[test]
 fn a_warm_skin_reads_its_mean_where_the_colours_hardly_move() {
-    let frames = units_frames_without(&[44, 53], "warm-mean", &["chromatic"]);
+    let frames = units_frames(&[44, 53], "warm-mean");
     for f in uniform_skins(&frames) {
         let e = f.mean_temp_err_c.unwrap();
         assert!(
@@ -107,10 +104,10 @@ fn a_warm_skin_reads_its_mean_where_the_colours_hardly_move() {
 /// from the skin by more than independent noise allows for. A place stands out only when
 /// it departs further than the kit's own uniform frames showed places departing
 /// (`TemperatureModel::stand_out`), so every uniform skin's coldest and hottest places
-/// read within 1 °C of it. Drawn without lateral chromatic aberration, as the test above.
+/// read within 1 °C of it, their lenses' aberration drawn as in the test above.
 #[test]
 fn a_uniform_skin_shows_no_place_its_kit_did_not() {
-    let frames = units_frames_without(&[52, 74], "uniform-places", &["chromatic"]);
+    let frames = units_frames(&[52, 74], "uniform-places");
     for f in uniform_skins(&frames) {
         let (cold, hot) = (f.min_temp_deficit_c.unwrap(), f.max_temp_excess_c.unwrap());
         assert!(
@@ -259,14 +256,8 @@ fn unit_frames(seed: u64, name: &str) -> Vec<Scored> {
 /// The battery's frames of the units `seeds` (two at a time), each calibrated on its own
 /// kit; a unit that refuses calibration fails the test.
 fn units_frames(seeds: &[u64], name: &str) -> Vec<Scored> {
-    units_frames_without(seeds, name, &[])
-}
-
-/// [`units_frames`] with the named effects switched off ([`vistaf_tests::accuracy::EFFECTS`]).
-fn units_frames_without(seeds: &[u64], name: &str, off: &[&str]) -> Vec<Scored> {
     let work = std::env::temp_dir().join(format!("vistaf-{name}-{}", std::process::id()));
-    let off: Vec<String> = off.iter().map(|e| e.to_string()).collect();
-    let results = run_units(seeds, &work, 2, &off, Default::default(), |_| {});
+    let results = run_units(seeds, &work, 2, &[], Default::default(), |_| {});
     let _ = std::fs::remove_dir_all(&work);
     results
         .into_iter()

@@ -165,6 +165,111 @@ fn gray_down_pixels_first<const F: usize>(img: &Pixels<'_>, out: &mut Vec<u16>) 
     }
 }
 
+/// [`gray_down_q8_into`] of an RGB image, with the lateral correction's quadrature term
+/// beside the luminance ([`crate::ftp::lateral`]): per output pixel
+/// `q = Σₖ kₖ·(colour k's block mean)`, 8.8 fixed point, `kₖ` Q15 per output pixel (each
+/// colour's weight times its offset, |Σₖ kₖ| under 0.5). Rows first on every core: the
+/// block's colour sums are what both need.
+pub fn gray_lateral_down_q8_into<'a>(
+    img: impl Into<Pixels<'a>>,
+    f: usize,
+    k: &[Vec<i16>; 3],
+    gray: &mut Vec<u16>,
+    q: &mut Vec<i16>,
+) -> (usize, usize, f32) {
+    let img = img.into();
+    gray.clear();
+    q.clear();
+    let out = (gray, q);
+    match f {
+        0 | 1 => gray_lateral_with::<1>(&img, k, out),
+        2 => gray_lateral_with::<2>(&img, k, out),
+        3 => gray_lateral_with::<3>(&img, k, out),
+        4 => gray_lateral_with::<4>(&img, k, out),
+        5 => gray_lateral_with::<5>(&img, k, out),
+        6 => gray_lateral_with::<6>(&img, k, out),
+        7 => gray_lateral_with::<7>(&img, k, out),
+        _ => gray_lateral_with::<8>(&img, k, out),
+    };
+    let f = f.clamp(1, 8);
+    let (ow, oh) = (img.width() as usize / f, img.height() as usize / f);
+    (ow, oh, saturated_fraction(img))
+}
+
+/// [`gray_down_rows_first`] with the quadrature term of each block from the same colour
+/// sums. The products stay within `i32`: a colour's sum over 64 pixels is at most 16 320,
+/// and each `|kₖ|` under 16 384.
+fn gray_lateral_with<const F: usize>(
+    img: &Pixels<'_>,
+    k: &[Vec<i16>; 3],
+    (gray, q): (&mut Vec<u16>, &mut Vec<i16>),
+) {
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    let (ow, oh) = (w / F, h / F);
+    let raw: &[u8] = img.raw();
+    let luma = luma(img.colour());
+    let lw = luma.weights;
+    gray.resize(ow * oh, 0);
+    q.resize(ow * oh, 0);
+    let span = ow * F * 3;
+    let mut sum = vec![0u16; span];
+    let n = (F * F) as u32;
+    let narrow = luma.fits_32_bits(n);
+    for oy in 0..oh {
+        let first = oy * F * w * 3;
+        for (s, v) in sum.iter_mut().zip(&raw[first..first + span]) {
+            *s = u16::from(*v);
+        }
+        for y in oy * F + 1..(oy + 1) * F {
+            let line = &raw[y * w * 3..y * w * 3 + span];
+            for (s, v) in sum.iter_mut().zip(line) {
+                *s += u16::from(*v);
+            }
+        }
+        let row = oy * ow..(oy + 1) * ow;
+        let factors = k[0][row.clone()]
+            .iter()
+            .zip(&k[1][row.clone()])
+            .zip(&k[2][row.clone()]);
+        let outs = gray[row.clone()].iter_mut().zip(&mut q[row]);
+        for ((block, ((&k0, &k1), &k2)), (g_out, q_out)) in
+            sum.chunks_exact(3 * F).zip(factors).zip(outs)
+        {
+            let (mut r, mut g, mut b) = (0u32, 0u32, 0u32);
+            for px in block.chunks_exact(3) {
+                r += u32::from(px[0]);
+                g += u32::from(px[1]);
+                b += u32::from(px[2]);
+            }
+            *g_out = block_mean(lw[0] * r + lw[1] * g + lw[2] * b, n, &luma, narrow);
+            // Q15 factors times colour sums of n pixels: over n for the means, then Q15 → Q8.
+            let acc =
+                i32::from(k0) * r as i32 + i32::from(k1) * g as i32 + i32::from(k2) * b as i32;
+            *q_out = ((acc / n as i32) >> 7) as i16;
+        }
+    }
+}
+
+/// Each colour's mean (0…255) over `f × f` blocks, as floats: the reference path's twin of
+/// the colour sums [`gray_lateral_down_q8_into`] reads. RGB images only (the caller's
+/// check).
+pub fn colours_down_f32<'a>(img: impl Into<Pixels<'a>>, f: usize) -> [Vec<f32>; 3] {
+    let img = img.into();
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    let (ow, oh) = (w / f, h / f);
+    let mut out: [Vec<f32>; 3] = std::array::from_fn(|_| vec![0.0f32; ow * oh]);
+    let inv = 1.0 / (f * f) as f32;
+    for (i, p) in img.raw().chunks_exact(3).enumerate() {
+        let (ox, oy) = ((i % w) / f, (i / w) / f);
+        if ox < ow && oy < oh {
+            for (plane, &v) in out.iter_mut().zip(p) {
+                plane[oy * ow + ox] += f32::from(v) * inv;
+            }
+        }
+    }
+    out
+}
+
 /// Float luminance (0…255), area-downsampled by `f`: the reference path's twin of
 /// [`gray_down_q8`], with the same weights so both paths see the same image.
 pub fn gray_down_f32<'a>(img: impl Into<Pixels<'a>>, f: usize) -> (Vec<f32>, usize, usize) {
@@ -218,6 +323,42 @@ mod tests {
         }
         assert_eq!(downsample_factor(16.0), 2);
         assert_eq!(downsample_factor(30.0), 5);
+    }
+
+    /// The luminance beside the quadrature term is the luminance alone's, and the term is
+    /// each block's colour means weighted by the factors, for every factor and with a
+    /// partial block at the edges.
+    #[test]
+    fn the_quadrature_term_weighs_each_block_s_colour_means() {
+        let mut rng = crate::test_rng::XorShift(0x2545_f491_4f6c_dd1d);
+        let (w, h) = (37usize, 29usize);
+        let img = RgbImage::from_fn(w as u32, h as u32, |_, _| {
+            let b = rng.next().to_le_bytes();
+            image::Rgb([b[0], b[1], b[2]])
+        });
+        for f in 1..=8 {
+            let (ow, oh) = (w / f, h / f);
+            let k: [Vec<i16>; 3] = std::array::from_fn(|c| {
+                (0..ow * oh)
+                    .map(|i| ((i * 811 + c * 4099) % 9_600) as i16 - 4_800)
+                    .collect()
+            });
+            let (mut gray, mut q) = (Vec::new(), Vec::new());
+            let got = gray_lateral_down_q8_into(&img, f, &k, &mut gray, &mut q);
+            let (want, _, _, sat) = gray_down_q8(&img, f);
+            assert_eq!(got, (ow, oh, sat), "f {f}");
+            assert_eq!(gray, want, "f {f}");
+            let means = Pixels::from(&img).box_means_q8(f, ow, oh);
+            for (i, &qi) in q.iter().enumerate() {
+                let plain: f64 = (0..3)
+                    .map(|c| f64::from(k[c][i]) / 32_768.0 * f64::from(means[3 * i + c]))
+                    .sum();
+                assert!(
+                    (f64::from(qi) - plain).abs() <= 1.5,
+                    "f {f} at {i}: {qi} vs {plain}"
+                );
+            }
+        }
     }
 
     /// The row test only skips rows with nothing to count: the fraction is the plain

@@ -27,6 +27,7 @@ use crate::ftp::band::BandWindow;
 use crate::ftp::carrier::{self, Carrier};
 use crate::ftp::fixed::FixedFtp;
 use crate::ftp::float::FloatFtp;
+use crate::ftp::lateral::Offsets;
 use crate::image_ops;
 use crate::measure::apex::BlurLoss;
 use crate::measure::colour_phase::Candidates;
@@ -213,6 +214,9 @@ pub trait FtpPath: std::fmt::Debug + Send + Sync {
     fn carrier(&self) -> Carrier;
     /// The blur of the phase map as two-box lengths, working pixels.
     fn blur_box_lengths(&self) -> (usize, usize);
+    /// Each colour's grating against the luminance's, where the path turns the colours
+    /// onto one grating ([`crate::ftp::lateral`]).
+    fn colour_offsets(&self) -> Option<&Offsets>;
     /// The frame's force-side measurement (no temperatures yet) and the wrapped phase
     /// difference as the measurement read it, working in `scratch`.
     fn measure(
@@ -242,6 +246,9 @@ impl FtpPath for FloatFtp {
     fn blur_box_lengths(&self) -> (usize, usize) {
         FloatFtp::blur_box_lengths(self)
     }
+    fn colour_offsets(&self) -> Option<&Offsets> {
+        FloatFtp::colour_offsets(self)
+    }
     fn measure(
         &self,
         frame: Pixels<'_>,
@@ -262,6 +269,9 @@ impl FtpPath for FixedFtp {
     }
     fn blur_box_lengths(&self) -> (usize, usize) {
         FixedFtp::blur_box_lengths(self)
+    }
+    fn colour_offsets(&self) -> Option<&Offsets> {
+        FixedFtp::colour_offsets(self)
     }
     fn measure(
         &self,
@@ -335,8 +345,12 @@ impl Analyzer {
         let mm_per_px = calib.unit.grating_period_mm as f32 / c.period_px();
         let (w, h, factor) = path.geometry();
         let wc = working.carrier;
+        let mut geometry = Geometry::new(w, h, factor, wc.fx, wc.fy);
+        if let Some(offsets) = path.colour_offsets() {
+            geometry = geometry.with_colour_offsets(|k, x, y| offsets.rad(k, x, y));
+        }
         let thermo = Thermometer::new(
-            Geometry::new(w, h, factor, wc.fx, wc.fy),
+            geometry,
             theta,
             calib.temperature.clone(),
             integer,

@@ -11,8 +11,10 @@
 //! to analyse no-contact frames, optionally `no-temperature` to leave the calibration's
 //! temperature model out (the difference is what temperature costs; `with-temperature`
 //! keeps it), then the downsampling factor (`auto` or a number), the float path's band
-//! window (`matched` or `hann`), when to unwrap (`when-needed`, `always`, `never`) and the
-//! device path's filter (`2d` or `rows`).
+//! window (`matched` or `hann`), when to unwrap (`when-needed`, `always`, `never`), the
+//! device path's filter (`2d` or `rows`) and the lens (`chromatic`: the unit's red and
+//! blue images at the simulator's largest lateral chromatic aberration, which the pipeline
+//! turns out per colour, `vistaf_pipeline::ftp::lateral`; anything else: none).
 
 use vistaf_pipeline::calibration::Calibration;
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation};
@@ -35,7 +37,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     } else {
         vistaf_pipeline::ftp::band::BandWindow::Matched
     };
-    let unit = SensorUnit::reference_sized(w, h);
+    let mut unit = SensorUnit::reference_sized(w, h);
+    if args.get(11).is_some_and(|s| s == "chromatic") {
+        let chi = vistaf_sim::imperfections::CHROMATIC_MAX as f32;
+        unit.imperfections.chromatic = [chi, -chi];
+    }
     let r = Renderer::new(unit.clone());
     let (reference, _) = r.render(&SkinState::idle(scene::ROOM_C), 1);
     let state = if idle {

@@ -24,17 +24,24 @@
 //! measurement reads them: on the coarse grid, whose contact window `measure` unwraps and
 //! upsamples.
 //!
-//! Reference-side work (carrier, mixing table, reference analytic signal, depth table) is
-//! done once in [`FixedFtp::new`]; the carrier itself is estimated in floating point there,
+//! **Colours.** Where the lens puts the colours' gratings apart, each colour's fringe is
+//! turned onto the luminance's before the low-pass ([`super::lateral`]): the downsampling
+//! gives a quadrature term `q` beside the luminance, and the mixing takes two products per
+//! plane instead of one. A unit whose colours agree pays nothing.
+//!
+//! Reference-side work (carrier, mixing table, the colours' offsets, reference analytic
+//! signal, depth table) is done once in [`FixedFtp::new`]; the carrier itself is estimated in floating point there,
 //! once per reference.
 
 use crate::input::Pixels;
 
 use super::band::box_lengths;
 use super::carrier::{self, Carrier};
+use super::lateral::{self, Offsets, Sample};
 use crate::calibration::Calibration;
 use crate::fixed_point::{atan2_units, atan_table, UNITS_PER_RAD};
-use crate::image_ops::{gray_down_q8, gray_down_q8_into};
+use crate::image_ops::{gray_down_q8, gray_down_q8_into, gray_lateral_down_q8_into};
+use crate::input::{luma, Colour};
 use crate::phase::{PhaseMap, GRID};
 
 /// `arg(z · conj z_ref)` in phase units, `z` and `z_ref` as (re, im): the product in 64
@@ -54,7 +61,8 @@ struct Sampled {
 }
 
 /// Mixes a `w × h` Q8 luminance image down by the carrier (`mix`: Q15 cos, sin per pixel,
-/// shifted down by `sh` bits after the product) and low-passes it with the centred triangle
+/// shifted down by `sh` bits after the product), with the lateral correction's quadrature
+/// term `q` where given (`(g − i·q)·e^{−iθ}`, [`super::lateral`]), and low-passes it with the centred triangle
 /// of length `2·l − 1` each way (`lx` along rows, `ly` along columns; a length of 1 is the
 /// identity), writing every `step`-th sample each way into `out` (row-major,
 /// `w.div_ceil(step)` across) and working in `buf`.
@@ -71,7 +79,7 @@ struct Sampled {
 /// long as it fits in an `i32` ([`headroom_shift`] makes the mixed samples small enough).
 /// The column pass runs first because its integrators vectorise across the row.
 fn demodulate(
-    gray: &[u16],
+    (gray, quadrature): (&[u16], Option<&[i16]>),
     (w, h): (usize, usize),
     (mix, sh): (&Mix, u32),
     (lx, ly): (usize, usize),
@@ -104,7 +112,16 @@ fn demodulate(
         for p in 0..2 {
             let (a, b) = (&mut i1[p], &mut i2[p]);
             let dst = &mut ring[p][slot..slot + w];
-            if k < h {
+            if let (true, Some(quadrature)) = (k < h, quadrature) {
+                let row = k * w..(k + 1) * w;
+                let rows = (&gray[row.clone()], &quadrature[row.clone()]);
+                let mix = (&mix.planes[0][row.clone()], &mix.planes[1][row]);
+                if p == 0 {
+                    integrate_quadrature::<0>(rows, mix, sh, (a, b), dst);
+                } else {
+                    integrate_quadrature::<1>(rows, mix, sh, (a, b), dst);
+                }
+            } else if k < h {
                 // re = g·cos ≫ sh, im = −(g·sin ≫ sh): the product with e^{−iθ}.
                 let (g, m) = (
                     &gray[k * w..(k + 1) * w],
@@ -167,6 +184,32 @@ fn demodulate(
     }
 }
 
+/// One input row of plane `P` (0: re, 1: im) mixed with the quadrature term, into the
+/// columns' integrators `a` (I₁) and `b` (I₂) and the ring's row `dst`:
+/// `(g − i·q)·e^{−iθ}`, so re = g·cos − q·sin and im = −(g·sin + q·cos), each product
+/// shifted down by `sh`. The plane is a constant, so the loop has no branch; out of line,
+/// so that the luminance-only loop beside it compiles as it would alone.
+#[inline(never)]
+fn integrate_quadrature<const P: usize>(
+    (g, q): (&[u16], &[i16]),
+    (cos, sin): (&[i16], &[i16]),
+    sh: u32,
+    (a, b): (&mut [i32], &mut [i32]),
+    dst: &mut [i32],
+) {
+    let terms = g.iter().zip(q).zip(cos.iter().zip(sin));
+    for (((a, b), d), ((&g, &q), (&c, &s))) in a.iter_mut().zip(b.iter_mut()).zip(dst).zip(terms) {
+        let (g, q, c, s) = (i32::from(g), i32::from(q), i32::from(c), i32::from(s));
+        *a = if P == 0 {
+            a.wrapping_add(((g * c) >> sh) - ((q * s) >> sh))
+        } else {
+            a.wrapping_sub(((g * s) >> sh) + ((q * c) >> sh))
+        };
+        *b = b.wrapping_add(*a);
+        *d = *b;
+    }
+}
+
 /// The demodulator's working buffers, kept from frame to frame in a [`Scratch`].
 #[derive(Debug, Clone, Default)]
 struct Demod {
@@ -212,6 +255,8 @@ impl Demod {
 #[derive(Debug, Clone, Default)]
 pub struct Scratch {
     gray: Vec<u16>,
+    /// The frame's quadrature term, where the reference needs one ([`Quadrature`]).
+    quadrature: Vec<i16>,
     demod: Demod,
     frame: Sampled,
 }
@@ -273,10 +318,54 @@ struct Mix {
     planes: [Vec<i16>; 2],
 }
 
+/// The quadrature term of the lateral correction ([`super::lateral`]) on this path: per
+/// colour and working pixel `weightₖ/256 · εₖ`, Q15, and the largest |q| a frame can
+/// give, Q8.
+#[derive(Debug, Clone)]
+struct Quadrature {
+    k: [Vec<i16>; 3],
+    top: u32,
+    offsets: Offsets,
+}
+
+impl Quadrature {
+    /// Each colour's offset fitted on the reference's coarse samples (every colour
+    /// demodulated as the luminance is); `None` unless RGB or where the colours need none.
+    fn of(f: &FixedFtp, reference: Pixels<'_>) -> Option<Quadrature> {
+        if reference.colour() != Colour::Rgb {
+            return None;
+        }
+        let (w, h) = (f.w, f.h);
+        let means = reference.box_means_q8(f.factor, w, h);
+        let colours: [Sampled; 3] = std::array::from_fn(|k| {
+            let plane: Vec<u16> = means.iter().skip(k).step_by(3).copied().collect();
+            f.analytic(&plane, None, GRID)
+        });
+        let cw = w.div_ceil(GRID);
+        let pair = |s: &Sampled, i: usize| (f64::from(s.re[i]), f64::from(s.im[i]));
+        let samples: Vec<Sample> = (0..f.reference.re.len())
+            .map(|i| ((i % cw) * GRID, (i / cw) * GRID, i))
+            .filter(|&(x, y, _)| lateral::clear_of_padding((x, y), (w, h), (f.lx, f.ly)))
+            .map(|(x, y, i)| Sample {
+                at: (x as f64, y as f64),
+                colours: std::array::from_fn(|k| pair(&colours[k], i)),
+                luma: pair(&f.reference, i),
+            })
+            .collect();
+        let offsets = Offsets::fit(&samples, (w, h))?;
+        let weights = luma(Colour::Rgb).weights;
+        Some(Quadrature {
+            k: offsets.weighted(weights, |v| (v * 32_767.0).round() as i16),
+            top: (offsets.largest_rad() * 65_280.0).ceil() as u32 + 1,
+            offsets,
+        })
+    }
+}
+
 /// Right shift of the mixed samples that keeps the triangle filters' results within an
 /// `i32`: their gain is `lx²·ly²` on samples of at most 65 280.
-fn headroom_shift(lx: usize, ly: usize) -> u32 {
-    let gain = (lx * lx * ly * ly) as u64 * 65_280;
+fn headroom_shift(lx: usize, ly: usize, top: u32) -> u32 {
+    let gain = (lx * lx * ly * ly) as u64 * u64::from(top);
     let mut shift = 0;
     while (gain >> shift) > i32::MAX as u64 {
         shift += 1;
@@ -339,6 +428,8 @@ pub struct FixedFtp {
     factor: usize,
     carrier: Carrier,
     mix: Mix,
+    /// The lateral correction's quadrature term, where the colours' gratings need one.
+    quadrature: Option<Quadrature>,
     lx: usize,
     ly: usize,
     shift: u32,
@@ -376,6 +467,7 @@ impl FixedFtp {
         rows_only: bool,
     ) -> FixedFtp {
         let (factor, carrier) = (working.factor, working.carrier);
+        let reference = reference.into();
         let (gray, w, h, _) = gray_down_q8(reference, factor);
         let q15 = |f: fn(f64) -> f64| -> Vec<i16> {
             (0..w * h)
@@ -392,13 +484,14 @@ impl FixedFtp {
         };
         let (lx, ly) = box_lengths(&carrier);
         let ly = if rows_only { 1 } else { ly };
-        let shift = headroom_shift(lx, ly);
+        let shift = headroom_shift(lx, ly, 65_280);
         let mut f = FixedFtp {
             w,
             h,
             factor,
             carrier,
             mix,
+            quadrature: None,
             lx,
             ly,
             shift,
@@ -408,7 +501,14 @@ impl FixedFtp {
             atan: atan_table(),
             lut: DepthLut::new(calib),
         };
-        f.reference = f.analytic(&gray, GRID);
+        f.reference = f.analytic(&gray, None, GRID);
+        if let Some(quad) = Quadrature::of(&f, reference) {
+            f.shift = headroom_shift(lx, ly, 65_280 + quad.top);
+            let mut q = Vec::new();
+            gray_lateral_down_q8_into(reference, factor, &quad.k, &mut Vec::new(), &mut q);
+            f.quadrature = Some(quad);
+            f.reference = f.analytic(&gray, Some(&q), GRID);
+        }
         f.amp_ref = f
             .reference
             .re
@@ -432,6 +532,12 @@ impl FixedFtp {
         self.carrier
     }
 
+    /// Each colour's grating against the luminance's, where this reference's colours need
+    /// turning onto one grating ([`super::lateral`]).
+    pub fn colour_offsets(&self) -> Option<&Offsets> {
+        self.quadrature.as_ref().map(|q| &q.offsets)
+    }
+
     /// The blur the phase map carries, as the lengths `(lx, ly)` of the two-box triangle
     /// it equals (the demodulator's two box passes): the peak depth takes it back out
     /// ([`crate::measure::apex`]).
@@ -441,14 +547,20 @@ impl FixedFtp {
 
     /// The analytic signal of a Q8 luminance image every `step` working pixels each way, in
     /// luminance Q8 units times the filters' gain over `2^shift`.
-    fn analytic(&self, gray: &[u16], step: usize) -> Sampled {
+    fn analytic(&self, gray: &[u16], quadrature: Option<&[i16]>, step: usize) -> Sampled {
         let mut out = Sampled::default();
-        self.analytic_into(gray, step, &mut Demod::default(), &mut out);
+        self.analytic_into((gray, quadrature), step, &mut Demod::default(), &mut out);
         out
     }
 
     /// [`FixedFtp::analytic`] into `out`, with the demodulator's buffers in `buf`.
-    fn analytic_into(&self, gray: &[u16], step: usize, buf: &mut Demod, out: &mut Sampled) {
+    fn analytic_into(
+        &self,
+        gray: (&[u16], Option<&[i16]>),
+        step: usize,
+        buf: &mut Demod,
+        out: &mut Sampled,
+    ) {
         demodulate(
             gray,
             (self.w, self.h),
@@ -471,18 +583,24 @@ impl FixedFtp {
         frame: impl Into<Pixels<'i>>,
         scratch: &'a mut Scratch,
     ) -> FixedField<'a> {
+        let frame = frame.into();
         let Scratch {
             gray,
+            quadrature,
             demod,
             frame: sampled,
         } = scratch;
-        let (w, h, saturated) = gray_down_q8_into(frame, self.factor, gray);
+        let (w, h, saturated) = match &self.quadrature {
+            Some(quad) => gray_lateral_down_q8_into(frame, self.factor, &quad.k, gray, quadrature),
+            None => gray_down_q8_into(frame, self.factor, gray),
+        };
         assert_eq!(
             (w, h),
             (self.w, self.h),
             "frame size differs from the reference"
         );
-        self.analytic_into(gray, GRID, demod, sampled);
+        let q = self.quadrature.as_ref().map(|_| quadrature.as_slice());
+        self.analytic_into((gray, q), GRID, demod, sampled);
         FixedField {
             ftp: self,
             frame: sampled,
@@ -494,8 +612,15 @@ impl FixedFtp {
     /// phase plus the demodulated signal's argument. Once per reference: the analytic
     /// signal of `reference` at every working pixel.
     pub fn grating_phase<'i>(&self, reference: impl Into<Pixels<'i>>) -> Vec<u16> {
-        let (gray, _, _, _) = gray_down_q8(reference, self.factor);
-        let z = self.analytic(&gray, 1);
+        let reference = reference.into();
+        let (mut gray, mut q) = (Vec::new(), Vec::new());
+        match &self.quadrature {
+            Some(quad) => {
+                gray_lateral_down_q8_into(reference, self.factor, &quad.k, &mut gray, &mut q)
+            }
+            None => gray_down_q8_into(reference, self.factor, &mut gray),
+        };
+        let z = self.analytic(&gray, self.quadrature.as_ref().map(|_| q.as_slice()), 1);
         let (fx, fy) = (f64::from(self.carrier.fx), f64::from(self.carrier.fy));
         z.re.iter()
             .zip(&z.im)
@@ -694,15 +819,20 @@ mod tests {
         };
         // One set of buffers for every configuration, dirtied in between: each call must
         // leave nothing of the last in its result.
+        let quadrature: Vec<i16> = (0..w * h)
+            .map(|i| ((i * 2_749) % 30_001) as i16 - 15_000)
+            .collect();
         let (mut buf, mut got) = (Demod::default(), Sampled::default());
-        for (lx, ly, step) in [(5, 4, 1), (5, 4, 2), (7, 1, 2), (3, 6, 3), (5, 4, 1)] {
-            let sh = 15 + headroom_shift(lx, ly);
+        let configurations = [(5, 4, 1), (5, 4, 2), (7, 1, 2), (3, 6, 3), (5, 4, 1)];
+        for ((lx, ly, step), q) in configurations.into_iter().zip([false, true].iter().cycle()) {
+            let q = q.then_some(quadrature.as_slice());
+            let sh = 15 + headroom_shift(lx, ly, 65_280 + 15_000);
             for v in buf.i1.iter_mut().chain(&mut buf.i2).chain(&mut buf.ring) {
                 v.fill(0x5a5a_5a5a);
             }
             buf.work.fill([-7; 4]);
             demodulate(
-                &gray,
+                (&gray, q),
                 (w, h),
                 (&mix, sh),
                 (lx, ly),
@@ -713,11 +843,18 @@ mod tests {
             let (ow, oh) = (w.div_ceil(step), h.div_ceil(step));
             assert_eq!((got.re.len(), got.im.len()), (ow * oh, ow * oh));
             let got = got.clone();
-            for (plane, sign, c) in [(&got.re, 1, 0), (&got.im, -1, 1)] {
-                let mixed: Vec<i64> = gray
-                    .iter()
-                    .zip(&mix.planes[c])
-                    .map(|(g, m)| sign * ((i64::from(*g) * i64::from(*m)) >> sh))
+            for (plane, p) in [(&got.re, 0), (&got.im, 1)] {
+                // re = g·cos − q·sin, im = −(g·sin + q·cos), each product shifted.
+                let mixed: Vec<i64> = (0..w * h)
+                    .map(|i| {
+                        let [c, s] = [0, 1].map(|k| i64::from(mix.planes[k][i]));
+                        let (g, qi) = (i64::from(gray[i]), q.map_or(0, |q| i64::from(q[i])));
+                        if p == 0 {
+                            ((g * c) >> sh) - ((qi * s) >> sh)
+                        } else {
+                            -(((g * s) >> sh) + ((qi * c) >> sh))
+                        }
+                    })
                     .collect();
                 // Columns, then rows, directly.
                 let cols: Vec<i64> = (0..w * h)
@@ -754,7 +891,7 @@ mod tests {
         let demod = |g: &[u16]| {
             let mut z = Sampled::default();
             demodulate(
-                g,
+                (g, None),
                 (w, h),
                 (&one, 15),
                 (l, 1),
@@ -778,7 +915,7 @@ mod tests {
         for x in l..w - l {
             assert!((z.re[w + x] - 30_000 * gain).abs() <= 2 * gain, "x={x}");
         }
-        let s = headroom_shift(64, 64);
+        let s = headroom_shift(64, 64, 65_280);
         let worst = (65_280u64 >> s) * 64u64.pow(4);
         assert!(worst <= i32::MAX as u64);
     }

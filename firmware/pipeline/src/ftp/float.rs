@@ -27,8 +27,10 @@ use super::band::{
     BAND_HALF_WIDTH,
 };
 use super::carrier::{self, Carrier};
+use super::lateral::{self, Offsets, Sample};
 use crate::calibration::DepthModel;
-use crate::image_ops::{gray_down_f32, saturated_fraction};
+use crate::image_ops::{colours_down_f32, gray_down_f32, saturated_fraction};
+use crate::input::{luma, Colour};
 use crate::phase::{PhaseMap, GRID};
 
 /// The wrapped phase difference of a frame against the reference.
@@ -56,6 +58,10 @@ pub struct FloatFtp {
     /// The band-pass's blur as two-box lengths (x, y) ([`FloatFtp::blur_box_lengths`]).
     blur: (usize, usize),
     z_ref: Vec<Complex32>,
+    /// The lateral correction ([`super::lateral`]): per colour and working pixel
+    /// `weightₖ/256 · εₖ`, where the colours' gratings need one.
+    quadrature: Option<[Vec<f32>; 3]>,
+    offsets: Option<Offsets>,
     ref_median: u32,
     fwd: carrier::Plan2,
     inv: carrier::Plan2,
@@ -80,6 +86,7 @@ impl FloatFtp {
         band: BandWindow,
     ) -> FloatFtp {
         let (factor, carrier) = (working.factor, working.carrier);
+        let reference = reference.into();
         let (gray, w, h) = gray_down_f32(reference, factor);
         let mut planner = FftPlanner::new();
         let fwd = carrier::plan2(&mut planner, w, h, false);
@@ -128,11 +135,16 @@ impl FloatFtp {
             window,
             blur,
             z_ref: Vec::new(),
+            quadrature: None,
+            offsets: None,
             ref_median: 0,
             fwd,
             inv,
         };
-        ftp.z_ref = ftp.analytic(&gray);
+        ftp.offsets = ftp.offsets_of(reference, &gray);
+        let weights = luma(Colour::Rgb).weights;
+        ftp.quadrature = (ftp.offsets.as_ref()).map(|o| o.weighted(weights, |v| v as f32));
+        ftp.z_ref = ftp.analytic_with_quadrature(reference, &gray);
         let mut a: Vec<u32> = ftp
             .z_ref
             .iter()
@@ -176,6 +188,54 @@ impl FloatFtp {
         z
     }
 
+    /// Each colour's offset ([`super::lateral`]) fitted on the reference's coarse samples,
+    /// every colour's analytic signal taken as the luminance's is; `None` unless RGB or
+    /// where the colours need none.
+    fn offsets_of(&self, reference: Pixels<'_>, gray: &[f32]) -> Option<Offsets> {
+        if reference.colour() != Colour::Rgb {
+            return None;
+        }
+        let (w, h) = (self.w, self.h);
+        let z_luma = self.analytic(gray);
+        let z: [Vec<Complex32>; 3] =
+            colours_down_f32(reference, self.factor).map(|plane| self.analytic(&plane));
+        let pair = |c: Complex32| (f64::from(c.re), f64::from(c.im));
+        let samples: Vec<Sample> = (0..h)
+            .step_by(GRID)
+            .flat_map(|y| (0..w).step_by(GRID).map(move |x| (x, y)))
+            .filter(|&(x, y)| lateral::clear_of_padding((x, y), (w, h), self.blur))
+            .map(|(x, y)| Sample {
+                at: (x as f64, y as f64),
+                colours: std::array::from_fn(|k| pair(z[k][y * w + x])),
+                luma: pair(z_luma[y * w + x]),
+            })
+            .collect();
+        Offsets::fit(&samples, (w, h))
+    }
+
+    /// Each colour's grating against the luminance's, where this reference's colours need
+    /// turning onto one grating ([`super::lateral`]).
+    pub fn colour_offsets(&self) -> Option<&Offsets> {
+        self.offsets.as_ref()
+    }
+
+    /// The analytic signal of a frame whose luminance is `gray`, each colour's fringe
+    /// turned onto the luminance's grating first where the reference needs it
+    /// ([`super::lateral`]): `analytic(L) − i·analytic(Q)`.
+    fn analytic_with_quadrature(&self, frame: Pixels<'_>, gray: &[f32]) -> Vec<Complex32> {
+        let mut z = self.analytic(gray);
+        if let Some(k) = &self.quadrature {
+            let colours = colours_down_f32(frame, self.factor);
+            let q: Vec<f32> = (0..gray.len())
+                .map(|i| (0..3).map(|c| k[c][i] * colours[c][i]).sum())
+                .collect();
+            for (z, zq) in z.iter_mut().zip(self.analytic(&q)) {
+                *z -= Complex32::i() * zq;
+            }
+        }
+        z
+    }
+
     /// The wrapped phase difference of `frame` against the reference.
     ///
     /// # Panics
@@ -188,7 +248,7 @@ impl FloatFtp {
             (self.w, self.h),
             "frame size differs from the reference"
         );
-        let z = self.analytic(&gray);
+        let z = self.analytic_with_quadrature(frame, &gray);
         let wrapped = z
             .iter()
             .zip(&self.z_ref)

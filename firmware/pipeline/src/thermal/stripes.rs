@@ -238,6 +238,10 @@ pub struct Geometry {
     /// The reference carrier's phase advance per working pixel across and down, units: the
     /// contact region reads its local grating against it (`gradient`, `keep_units`).
     pub carrier_units: [i32; 2],
+    /// Each colour's grating phase against the one the stripes are placed by, per working
+    /// pixel, units, where the lens puts the colours apart ([`crate::ftp::lateral`]): each
+    /// colour's samples are then placed by their own stripes.
+    pub colour_units: Option<[Vec<i16>; 3]>,
 }
 
 impl Geometry {
@@ -264,7 +268,21 @@ impl Geometry {
             offsets,
             row_step: (block_px / 3).max(1),
             carrier_units: [units(f64::from(fx)), units(f64::from(fy))],
+            colour_units: None,
         }
+    }
+
+    /// The same geometry with each colour placed by its own stripes, `offsets_rad(k, x, y)`
+    /// being colour `k`'s grating phase at working pixel (x, y) against the placing one.
+    pub fn with_colour_offsets(mut self, offsets_rad: impl Fn(usize, f64, f64) -> f64) -> Geometry {
+        let units = |v: f64| (v / std::f64::consts::TAU * 65_536.0).round() as i16;
+        let (w, h) = (self.w, self.h);
+        self.colour_units = Some(std::array::from_fn(|k| {
+            (0..w * h)
+                .map(|i| units(offsets_rad(k, (i % w) as f64, (i / w) as f64)))
+                .collect()
+        }));
+        self
     }
 
     /// Centre of block `b` in input pixels.
@@ -329,15 +347,18 @@ fn run<const F: usize>(
     // of at most eight input pixels each, 640 samples of ≤ 2¹⁶), and is added to the
     // blocks' sums when the next begins.
     let mut blocks: Vec<Sums> = Vec::with_capacity(g.bw * g.bh);
-    let mut parts = vec![Part::default(); g.bw];
-    let flush = |parts: &mut [Part], blocks: &mut Vec<Sums>| {
+    // One row of parts, of the kind the geometry asks for: colours placed together, or apart.
+    let apart = g.colour_units.is_some();
+    let mut parts = vec![Part::default(); if apart { 0 } else { g.bw }];
+    let mut apart_parts = vec![Part::<Apart>::default(); if apart { g.bw } else { 0 }];
+    fn flush<C: Counts>(parts: &mut [Part<C>], blocks: &mut Vec<Sums>) {
         blocks.extend(parts.iter_mut().map(|p| {
             let mut s = Sums::default();
             p.add_to(&mut s);
             *p = Part::default();
             s
         }));
-    };
+    }
     let mut contact = Contact::default();
     let class = &class_table();
     // Each input pixel's phase offset from its working pixel's, padded to the largest factor
@@ -348,9 +369,14 @@ fn run<const F: usize>(
     }
     // Where the frame is not RGB, the rows read are converted into these first.
     let (mut line_buf, mut contact_buf) = (Vec::new(), Vec::new());
+    let row_of = |y: usize| y * g.w..(y + 1) * g.w;
     for yw in 0..g.h {
         if yw > 0 && yw % g.block_px == 0 {
-            flush(&mut parts, &mut blocks);
+            if apart {
+                flush(&mut apart_parts, &mut blocks);
+            } else {
+                flush(&mut parts, &mut blocks);
+            }
         }
         let on_grid = yw % g.row_step == 0;
         let row = yw * g.w..(yw + 1) * g.w;
@@ -382,7 +408,11 @@ fn run<const F: usize>(
             };
             // Most rows hold no saturated byte, which their maximum (a loop the compiler
             // vectorises) tells; their samples then skip the test.
-            if line.as_flattened().iter().fold(0u8, |m, &b| m.max(b)) == 255 {
+            let saturates = line.as_flattened().iter().fold(0u8, |m, &b| m.max(b)) == 255;
+            if let Some(c) = &g.colour_units {
+                let colours = [&c[0][row_of(yw)], &c[1][row_of(yw)], &c[2][row_of(yw)]];
+                row.add_per_colour::<F>(&mut apart_parts, class, lin, colours);
+            } else if saturates {
                 row.add_to::<F, true>(&mut parts, class, lin);
             } else {
                 row.add_to::<F, false>(&mut parts, class, lin);
@@ -403,12 +433,17 @@ fn run<const F: usize>(
                 span: (rx0, rx1),
                 carrier: g.carrier_units,
                 y_px: yw * f,
+                colours: g
+                    .colour_units
+                    .as_ref()
+                    .map(|c| [&c[0][row_of(yw)], &c[1][row_of(yw)], &c[2][row_of(yw)]]),
             };
             row.add_to::<F>(f, lin, &mut contact);
         }
     }
     if g.h > 0 {
         flush(&mut parts, &mut blocks);
+        flush(&mut apart_parts, &mut blocks);
     }
     (blocks, contact)
 }
@@ -482,6 +517,9 @@ struct ContactRow<'a> {
     carrier: [i32; 2],
     /// The input row of the working row's first row.
     y_px: usize,
+    /// Each colour's offset along the row, units, where colours are placed apart
+    /// ([`Geometry::colour_units`]).
+    colours: Option<[&'a [i16]; 3]>,
 }
 
 impl ContactRow<'_> {
@@ -492,10 +530,46 @@ impl ContactRow<'_> {
     /// place in the trends ([`Trend`]). `f` input pixels per working pixel each way (`F`
     /// when not 0).
     fn add_to<const F: usize>(&self, f: usize, lin: &[u32; 256], contact: &mut Contact) {
+        if let Some(colours) = self.colours {
+            return self.add_apart::<F>(f, lin, colours, contact);
+        }
+        self.add_with::<F, ()>(f, contact, |part, t, _, keep, p| {
+            let pop = kept(t, keep)?;
+            Some((pop, part.add::<true>(pop, lin, p)?))
+        });
+    }
+
+    /// [`ContactRow::add_to`] with each colour placed by its own stripes (`colours`: each
+    /// colour's offset along the row, units). Out of line: the frames of a unit whose
+    /// colours agree never run it.
+    #[inline(never)]
+    fn add_apart<const F: usize>(
+        &self,
+        f: usize,
+        lin: &[u32; 256],
+        colours: [&[i16]; 3],
+        contact: &mut Contact,
+    ) {
+        self.add_with::<F, Apart>(f, contact, |part, t, xw, keep, p| {
+            let pops = colours.map(|c| kept(t.wrapping_add(c[xw] as u16), keep));
+            part.add_per_colour(pops, lin, p)
+        });
+    }
+
+    /// [`ContactRow::add_to`] with each input pixel `p` at phase `t` of working pixel `xw`
+    /// and band `keep` added by `sample`, which returns its population and lightness for the
+    /// trends when the pixel was added whole.
+    #[inline(always)]
+    fn add_with<const F: usize, C: Counts>(
+        &self,
+        f: usize,
+        contact: &mut Contact,
+        sample: impl Fn(&mut Part<C>, u16, usize, i32, &[u8; 3]) -> Option<(usize, u32)>,
+    ) {
         let f = if F == 0 { f } else { F };
         let w = self.theta.len();
         let (x0, x1) = self.span;
-        let mut parts = RowParts::default();
+        let mut parts = RowParts::<C>::default();
         let mut row_trends = [Trend::default(); 2];
         for xw in (x0..x1.min(w)).filter(|&x| self.reliable[x]) {
             let reg = self
@@ -516,10 +590,7 @@ impl ContactRow<'_> {
             local_phases(self.theta[xw], gx, gy, f, |ky, ts| {
                 let px = self.pixels.run(ky, xw * f, f);
                 for (kx, (p, &t)) in px.iter().zip(ts).enumerate() {
-                    let Some(pop) = kept(t, keep) else {
-                        continue;
-                    };
-                    if let Some(l) = part.add::<true>(pop, lin, p) {
+                    if let Some((pop, l)) = sample(part, t, xw, keep, p) {
                         trend.add(pop, (xw * f + kx, self.y_px + ky), l);
                     }
                 }
@@ -535,21 +606,21 @@ impl ContactRow<'_> {
 
 /// A row's contact samples in 32 bits: the region outside its core, and the core.
 #[derive(Default)]
-struct RowParts {
-    ring: Part,
-    core: Part,
+struct RowParts<C: Counts = ()> {
+    ring: Part<C>,
+    core: Part<C>,
     /// Samples that may have been added since the last flush.
     held: usize,
 }
 
-impl RowParts {
+impl<C: Counts> RowParts<C> {
     /// Most samples held before a flush: each adds at most 2¹⁶ to a 32-bit sum.
     const MAX_HELD: usize = 65_535;
 
     /// The part the next `n` samples of a working pixel go to (the core's when `core`),
     /// after adding what is held to `contact` (the region's sums and its core's) if they
     /// could overflow it.
-    fn part(&mut self, core: bool, n: usize, contact: &mut [Sums; 2]) -> &mut Part {
+    fn part(&mut self, core: bool, n: usize, contact: &mut [Sums; 2]) -> &mut Part<C> {
         if self.held + n > Self::MAX_HELD {
             self.flush(contact);
         }
@@ -657,12 +728,89 @@ impl BlockRow<'_> {
     }
 }
 
-/// A few samples' sums in 32 bits (linear R, G, B, the count and the saturated samples
-/// left out, per population), added to a [`Sums`] at the end.
-#[derive(Default, Clone, Copy)]
-struct Part([[u32; 5]; 2]);
+impl BlockRow<'_> {
+    /// [`BlockRow::add_to`] with each colour placed by its own stripes: colour `k` of a
+    /// working pixel's inputs at their phases plus `colours[k]` there (units). Kept out of
+    /// line: the frames of a unit whose colours agree never run it.
+    #[inline(never)]
+    fn add_per_colour<const F: usize>(
+        &self,
+        blocks: &mut [Part<Apart>],
+        class: &[u8; 1024],
+        lin: &[u32; 256],
+        colours: [&[i16]; 3],
+    ) {
+        let f = if F == 0 { self.factor.max(1) } else { F };
+        let offsets = &self.offsets[..f.min(8)];
+        let n = self.block_px.max(1);
+        for (b, part) in blocks.iter_mut().enumerate() {
+            let xs = b * n..((b + 1) * n).min(self.theta.len());
+            for x in xs.filter(|&x| self.reliable[x]) {
+                let Some(pk) = self.line.get(x * f..(x + 1) * f) else {
+                    continue;
+                };
+                let shift = colours.map(|c| c[x] as u16);
+                for (p, &o) in pk.iter().zip(offsets) {
+                    let t = self.theta[x].wrapping_add(o);
+                    let pops = shift.map(|e| match class[usize::from(t.wrapping_add(e) >> 6)] {
+                        c @ 0..=1 => Some(usize::from(c)),
+                        _ => None,
+                    });
+                    part.add_per_colour(pops, lin, p);
+                }
+            }
+        }
+    }
+}
 
-impl Part {
+/// A few samples' sums in 32 bits (linear R, G, B, the count and the saturated samples
+/// left out, per population), added to a [`Sums`] at the end, and what the placement keeps
+/// besides ([`Counts`]: nothing, or each colour's count where colours are placed apart).
+#[derive(Default, Clone, Copy)]
+struct Part<C: Counts = ()>([[u32; 5]; 2], C);
+
+/// What a [`Part`] keeps besides its sums, and how they are added to a [`Sums`].
+trait Counts: Default + Copy {
+    /// Adds `part`'s sums to `acc`.
+    fn add_to(part: &Part<Self>, acc: &mut Sums);
+}
+
+/// Colours placed together: the count of each population is every colour's.
+impl Counts for () {
+    fn add_to(part: &Part<Self>, acc: &mut Sums) {
+        for p in 0..2 {
+            for k in 0..3 {
+                acc.sum[p][k] += u64::from(part.0[p][k]);
+            }
+            acc.n[p] += part.0[p][3];
+            acc.clipped[p] += part.0[p][4];
+        }
+    }
+}
+
+/// Colours placed apart: each colour's own count per population. The sums are brought to
+/// one count when added: each colour's sum scaled to the largest colour count of its
+/// population (a population a colour missed is left out whole).
+type Apart = [[u32; 3]; 2];
+
+impl Counts for Apart {
+    fn add_to(part: &Part<Self>, acc: &mut Sums) {
+        for p in 0..2 {
+            let per_colour = part.1[p];
+            let n = per_colour.iter().copied().max().unwrap_or(0);
+            if per_colour.iter().all(|&c| c > 0) {
+                let sums = acc.sum[p].iter_mut().zip(&part.0[p]).zip(&per_colour);
+                for ((acc, &sum), &count) in sums {
+                    *acc += u64::from(sum) * u64::from(n) / u64::from(count);
+                }
+                acc.n[p] += n;
+            }
+            acc.clipped[p] += part.0[p][4];
+        }
+    }
+}
+
+impl<C: Counts> Part<C> {
     /// One input pixel `p` (sRGB bytes) at grating phase `t` (units): skipped at a stripe
     /// edge (before any colour is read: half the pixels) or with a saturated channel
     /// ([`SATURATED`] in its linear value; `CHECK` false: the caller knows none is).
@@ -701,13 +849,40 @@ impl Part {
         Some(r + g + b)
     }
 
+    /// Adds these sums to `acc` ([`Counts::add_to`]).
     fn add_to(&self, acc: &mut Sums) {
-        for p in 0..2 {
-            for k in 0..3 {
-                acc.sum[p][k] += u64::from(self.0[p][k]);
+        C::add_to(self, acc);
+    }
+}
+
+impl Part<Apart> {
+    /// One input pixel `p` whose colours lie in populations `pops` (each colour placed by
+    /// its own stripes; `None`: near an edge), unless a channel is saturated (counted
+    /// against green's population). Returns the population and the pixel's lightness when
+    /// all three colours fell in the same one (the trends' samples).
+    #[inline(always)]
+    fn add_per_colour(
+        &mut self,
+        pops: [Option<usize>; 3],
+        lin: &[u32; 256],
+        p: &[u8; 3],
+    ) -> Option<(usize, u32)> {
+        let v = p.map(|c| lin[usize::from(c)]);
+        if (v[0] | v[1] | v[2]) & SATURATED != 0 {
+            if let Some(pop) = pops[1] {
+                self.0[pop][4] += 1;
             }
-            acc.n[p] += self.0[p][3];
-            acc.clipped[p] += self.0[p][4];
+            return None;
+        }
+        for ((pop, v), k) in pops.iter().zip(v).zip(0..3) {
+            if let Some(pop) = *pop {
+                self.0[pop][k] += v;
+                self.1[pop][k] += 1;
+            }
+        }
+        match pops {
+            [Some(a), Some(b), Some(c)] if a == b && b == c => Some((a, v[0] + v[1] + v[2])),
+            _ => None,
         }
     }
 }
@@ -1052,8 +1227,8 @@ mod tests {
     fn a_long_contact_row_does_not_overflow_its_sums() {
         let lin = [1u32 << 16; 256];
         let mut contact = [Sums::default(); 2];
-        let mut parts = RowParts::default();
-        let n = 8 * RowParts::MAX_HELD;
+        let mut parts = RowParts::<()>::default();
+        let n = 8 * RowParts::<()>::MAX_HELD;
         for k in 0..n {
             let core = k % 3 == 0;
             parts
@@ -1129,5 +1304,106 @@ mod tests {
             assert!((c[0] - super::super::lab::srgb_to_linear(200.0 / 255.0)).abs() < 1e-3);
             assert!((k[0] - super::super::lab::srgb_to_linear(20.0 / 255.0)).abs() < 1e-3);
         }
+    }
+
+    /// A lens that puts the colours' stripes apart (red ahead of the placing phase on the
+    /// right and behind it on the left, blue the other way, up to 0.6 rad): placed by the
+    /// placing phase alone, the coloured stripes' red and blue read lower where their
+    /// stripes lie off it; each
+    /// colour placed by its own stripes reads the same colour over the whole view, in the
+    /// blocks and in a contact region alike.
+    #[test]
+    fn colours_placed_by_their_own_stripes_read_alike_over_the_view() {
+        let (f, w, h) = (2usize, 96usize, 32usize);
+        let offset = |k: usize, x: f64| [0.6, 0.0, -0.6][k] * (2.0 * x / w as f64 - 1.0);
+        let (coloured, black) = ([200.0, 140.0, 90.0], [30.0, 30.0, 30.0]);
+        let img = RgbImage::from_fn((w * f) as u32, (h * f) as u32, |x, _| {
+            image::Rgb(std::array::from_fn(|k| {
+                let t = f64::from(x) * std::f64::consts::TAU / 16.0
+                    + offset(k, f64::from(x) / f as f64);
+                let s = 0.5 + 0.5 * (2.0 * t.cos()).tanh();
+                (black[k] + (coloured[k] - black[k]) * s).round() as u8
+            }))
+        });
+        let lin = linear_q16();
+        let plain = Geometry::new(w, h, f, 1.0 / 8.0, 0.0);
+        let apart = plain.clone().with_colour_offsets(|k, x, _| offset(k, x));
+        let theta = |_: usize, row: &mut [u16]| {
+            for (x, t) in row.iter_mut().enumerate() {
+                *t = ((x as f64 * f as f64 + 0.5) / 16.0 * 65_536.0).round() as i64 as u16;
+            }
+        };
+        let rel = vec![true; w * h];
+        // The contact region: the first and the last twelve columns.
+        let codes: Vec<u8> = (0..w * h)
+            .map(|i| {
+                if i % w < 12 || i % w >= w - 12 {
+                    region::CONTACT
+                } else {
+                    region::NONE
+                }
+            })
+            .collect();
+        // The coloured stripes' linear colour in the leftmost block against the middle one's
+        // (where the colours lie on the placing phase): how far apart they read.
+        let spread = |g: &Geometry| {
+            let (blocks, _) = accumulate((&img).into(), g, theta, &rel, None, &lin);
+            let m = |b: usize| blocks[b].means().0;
+            let (edge, middle) = (m(0), m(g.bw / 2));
+            (0..3)
+                .map(|k| (edge[k] - middle[k]).abs() / middle[k])
+                .fold(0.0, f64::max)
+        };
+        let (placed_plain, placed_apart) = (spread(&plain), spread(&apart));
+        assert!(
+            placed_plain > 0.03,
+            "the lens moves the plain reading ({placed_plain})"
+        );
+        // What is left is the grating's sampling: each colour's kept pixels sit at other
+        // places on its stripes.
+        assert!(placed_apart < 0.01, "{placed_apart} apart per colour");
+        // The contact region's two halves read as its blocks do.
+        let regions = Some(Regions::new(&codes, 0, 0, w));
+        let (blocks, contact) = accumulate((&img).into(), &apart, theta, &rel, regions, &lin);
+        let (c, k) = contact.sums[0].means();
+        let (bc, bk) = blocks[0].means();
+        for ch in 0..3 {
+            assert!(
+                (c[ch] - bc[ch]).abs() < 0.01 * bc[ch],
+                "coloured {ch}: {c:?} vs {bc:?}"
+            );
+            assert!(
+                (k[ch] - bk[ch]).abs() < 0.05 * bk[ch],
+                "black {ch}: {k:?} vs {bk:?}"
+            );
+        }
+    }
+
+    /// Colours placed apart are brought to one count: each colour's mean is kept, the count
+    /// is the largest colour's; a population one colour missed is left out; a saturated
+    /// pixel counts as clipped in green's population and adds nothing.
+    #[test]
+    fn colours_placed_apart_keep_their_means_at_one_count() {
+        let lin = linear_q16();
+        let mut part = Part::<Apart>::default();
+        let (a, b) = ([10u8, 20, 30], [50u8, 60, 70]);
+        // Coloured: red twice, green and blue once each; black: red only.
+        part.add_per_colour([Some(0), Some(0), Some(0)], &lin, &a);
+        part.add_per_colour([Some(0), None, Some(1)], &lin, &b);
+        part.add_per_colour([Some(1), Some(1), None], &lin, &[0, 255, 0]);
+        let mut sums = Sums::default();
+        part.add_to(&mut sums);
+        assert_eq!(sums.n, [2, 0]);
+        let (coloured, _) = sums.means();
+        let l = |c: u8| f64::from(lin[usize::from(c)]) / 65_536.0;
+        let want = [(l(10) + l(50)) / 2.0, l(20), l(30)];
+        for k in 0..3 {
+            assert!(
+                (coloured[k] - want[k]).abs() < 1e-4,
+                "{coloured:?} vs {want:?}"
+            );
+        }
+        assert_eq!(sums.sum[1], [0; 3]);
+        assert_eq!(sums.clipped, [0, 1]);
     }
 }
