@@ -29,9 +29,9 @@
 //! gives a quadrature term `q` beside the luminance, and the mixing takes two products per
 //! plane instead of one. A unit whose colours agree pays nothing.
 //!
-//! Reference-side work (carrier, mixing table, the colours' offsets, reference analytic
-//! signal, depth table) is done once in [`FixedFtp::new`]; the carrier itself is estimated in floating point there,
-//! once per reference.
+//! Reference-side work (carrier, mixing table, the colours' offsets, reference analytic signal,
+//! depth table) is done once in [`FixedFtp::new`]; the carrier itself is estimated in floating
+//! point there, once per reference.
 
 use crate::input::Pixels;
 
@@ -60,12 +60,12 @@ struct Sampled {
     im: Vec<i32>,
 }
 
-/// Mixes a `w × h` Q8 luminance image down by the carrier (`mix`: Q15 cos, sin per pixel,
-/// shifted down by `sh` bits after the product), with the lateral correction's quadrature
-/// term `q` where given (`(g − i·q)·e^{−iθ}`, [`super::lateral`]), and low-passes it with the centred triangle
-/// of length `2·l − 1` each way (`lx` along rows, `ly` along columns; a length of 1 is the
-/// identity), writing every `step`-th sample each way into `out` (row-major,
-/// `w.div_ceil(step)` across) and working in `buf`.
+/// Mixes a `w × h` Q8 luminance image down by the carrier (`mix`: Q15 cos, sin per pixel, shifted
+/// down by `sh` bits after the product), with the lateral correction's quadrature term `q` where
+/// given (`(g − i·q)·e^{−iθ}`, [`super::lateral`]), and low-passes it with the centred triangle of
+/// length `2·l − 1` each way (`lx` along rows, `ly` along columns; a length of 1 is the identity),
+/// writing every `step`-th sample each way into `out` (row-major, `w.div_ceil(step)` across) and
+/// working in `buf`.
 ///
 /// The triangles are cascaded-integrator-comb filters, streamed one input row at a time:
 /// per column two running integrators, `I₂` of the last `2·ly + 1` rows kept in a ring, and
@@ -590,15 +590,18 @@ impl FixedFtp {
             demod,
             frame: sampled,
         } = scratch;
-        let (w, h, saturated) = match &self.quadrature {
-            Some(quad) => gray_lateral_down_q8_into(frame, self.factor, &quad.k, gray, quadrature),
-            None => gray_down_q8_into(frame, self.factor, gray),
-        };
+        // Before the downsampling: the quadrature term's factors are the reference's size.
+        let f = self.factor.clamp(1, 8);
+        let (w, h) = (frame.width() as usize / f, frame.height() as usize / f);
         assert_eq!(
             (w, h),
             (self.w, self.h),
             "frame size differs from the reference"
         );
+        let (_, _, saturated) = match &self.quadrature {
+            Some(quad) => gray_lateral_down_q8_into(frame, self.factor, &quad.k, gray, quadrature),
+            None => gray_down_q8_into(frame, self.factor, gray),
+        };
         let q = self.quadrature.as_ref().map(|_| quadrature.as_slice());
         self.analytic_into((gray, q), GRID, demod, sampled);
         FixedField {
