@@ -4,7 +4,9 @@
 //! Per frame: luminance at the working resolution → mean removed → 2-D FFT → separable
 //! band-pass window centred on the first order → inverse FFT → analytic signal `z`. The
 //! wrapped phase difference is `arg(z_frame · conj(z_ref))`, the reference's `z` being
-//! computed once.
+//! computed once. Where the lens puts the colours' gratings apart, each colour's fringe is
+//! turned onto the luminance's first, as on the device path: `analytic(L) − i·analytic(Q)`
+//! ([`super::lateral`]), one more transform pair per frame.
 //!
 //! Two windows ([`BandWindow`]):
 //! * **Matched** (default): per axis `|D_L(Δν)|²`, the exact frequency response of the
