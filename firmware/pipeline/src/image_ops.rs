@@ -36,6 +36,31 @@ pub fn gray_down_q8<'a>(img: impl Into<Pixels<'a>>, f: usize) -> (Vec<u16>, usiz
     (gray, ow, oh, saturated)
 }
 
+/// Calls `$func::<F>($args)` for the downsampling factor `$f` as a constant (0 and 1 → 1,
+/// above 8 → 8), so each factor's loops are compiled for it.
+macro_rules! by_factor {
+    ($f:expr, $func:ident($($arg:expr),*)) => {
+        match $f {
+            0 | 1 => $func::<1>($($arg),*),
+            2 => $func::<2>($($arg),*),
+            3 => $func::<3>($($arg),*),
+            4 => $func::<4>($($arg),*),
+            5 => $func::<5>($($arg),*),
+            6 => $func::<6>($($arg),*),
+            7 => $func::<7>($($arg),*),
+            _ => $func::<8>($($arg),*),
+        }
+    };
+}
+
+/// What a downsampling by `f` (as [`by_factor!`] takes it) returns: the output's width and
+/// height, and the saturated fraction of `img`.
+fn downsampled(img: Pixels<'_>, f: usize) -> (usize, usize, f32) {
+    let f = f.clamp(1, 8);
+    let (ow, oh) = (img.width() as usize / f, img.height() as usize / f);
+    (ow, oh, saturated_fraction(img))
+}
+
 /// [`gray_down_q8`] into a buffer the caller keeps from frame to frame (its contents are
 /// replaced); returns the output's width and height and the saturated fraction.
 pub fn gray_down_q8_into<'a>(
@@ -45,19 +70,8 @@ pub fn gray_down_q8_into<'a>(
 ) -> (usize, usize, f32) {
     let img = img.into();
     out.clear();
-    match f {
-        0 | 1 => gray_down_with::<1>(&img, out),
-        2 => gray_down_with::<2>(&img, out),
-        3 => gray_down_with::<3>(&img, out),
-        4 => gray_down_with::<4>(&img, out),
-        5 => gray_down_with::<5>(&img, out),
-        6 => gray_down_with::<6>(&img, out),
-        7 => gray_down_with::<7>(&img, out),
-        _ => gray_down_with::<8>(&img, out),
-    };
-    let f = f.clamp(1, 8);
-    let (ow, oh) = (img.width() as usize / f, img.height() as usize / f);
-    (ow, oh, saturated_fraction(img))
+    by_factor!(f, gray_down_with(&img, out));
+    downsampled(img, f)
 }
 
 /// The mean luminance of a block of `n` pixels whose weighted channel sums are `acc`
@@ -96,31 +110,46 @@ fn gray_down_rows_first<const F: usize>(img: &Pixels<'_>, out: &mut Vec<u16>) {
     let lw = luma.weights;
     // Every output is written once: no zeroed buffer first.
     out.reserve(ow * oh);
-    let span = ow * F * 3;
-    let mut sum = vec![0u16; span];
+    let mut sum = vec![0u16; ow * F * 3];
     let n = (F * F) as u32;
     let narrow = luma.fits_32_bits(n);
     for oy in 0..oh {
-        let first = oy * F * w * 3;
-        for (s, v) in sum.iter_mut().zip(&raw[first..first + span]) {
-            *s = u16::from(*v);
-        }
-        for y in oy * F + 1..(oy + 1) * F {
-            let line = &raw[y * w * 3..y * w * 3 + span];
-            for (s, v) in sum.iter_mut().zip(line) {
-                *s += u16::from(*v);
-            }
-        }
+        sum_rows::<F>(raw, w, oy, &mut sum);
         out.extend(sum.chunks_exact(3 * F).map(|block| {
-            let (mut r, mut g, mut b) = (0u32, 0u32, 0u32);
-            for px in block.chunks_exact(3) {
-                r += u32::from(px[0]);
-                g += u32::from(px[1]);
-                b += u32::from(px[2]);
-            }
+            let [r, g, b] = block_rgb(block);
             block_mean(lw[0] * r + lw[1] * g + lw[2] * b, n, &luma, narrow)
         }));
     }
+}
+
+/// The bytes of output row `oy`'s `F` input rows (`w` pixels wide) summed column by column
+/// into `sum` (its length: the bytes of the row's whole blocks; `u16`, a loop the compiler
+/// vectorises on any core).
+#[inline(always)]
+fn sum_rows<const F: usize>(raw: &[u8], w: usize, oy: usize, sum: &mut [u16]) {
+    let span = sum.len();
+    let first = oy * F * w * 3;
+    for (s, v) in sum.iter_mut().zip(&raw[first..first + span]) {
+        *s = u16::from(*v);
+    }
+    for y in oy * F + 1..(oy + 1) * F {
+        let line = &raw[y * w * 3..y * w * 3 + span];
+        for (s, v) in sum.iter_mut().zip(line) {
+            *s += u16::from(*v);
+        }
+    }
+}
+
+/// A block's three colour sums from its columns' sums ([`sum_rows`], three per column).
+#[inline(always)]
+fn block_rgb(block: &[u16]) -> [u32; 3] {
+    let (mut r, mut g, mut b) = (0u32, 0u32, 0u32);
+    for px in block.chunks_exact(3) {
+        r += u32::from(px[0]);
+        g += u32::from(px[1]);
+        b += u32::from(px[2]);
+    }
+    [r, g, b]
 }
 
 /// [`gray_down_q8`] weighting every input pixel first, in 16 bits (a luminance is at most
@@ -178,22 +207,8 @@ pub fn gray_lateral_down_q8_into<'a>(
     q: &mut Vec<i16>,
 ) -> (usize, usize, f32) {
     let img = img.into();
-    gray.clear();
-    q.clear();
-    let out = (gray, q);
-    match f {
-        0 | 1 => gray_lateral_with::<1>(&img, k, out),
-        2 => gray_lateral_with::<2>(&img, k, out),
-        3 => gray_lateral_with::<3>(&img, k, out),
-        4 => gray_lateral_with::<4>(&img, k, out),
-        5 => gray_lateral_with::<5>(&img, k, out),
-        6 => gray_lateral_with::<6>(&img, k, out),
-        7 => gray_lateral_with::<7>(&img, k, out),
-        _ => gray_lateral_with::<8>(&img, k, out),
-    };
-    let f = f.clamp(1, 8);
-    let (ow, oh) = (img.width() as usize / f, img.height() as usize / f);
-    (ow, oh, saturated_fraction(img))
+    by_factor!(f, gray_lateral_with(&img, k, (gray, q)));
+    downsampled(img, f)
 }
 
 /// [`gray_down_rows_first`] with the quadrature term of each block from the same colour
@@ -209,23 +224,16 @@ fn gray_lateral_with<const F: usize>(
     let raw: &[u8] = img.raw();
     let luma = luma(img.colour());
     let lw = luma.weights;
+    // Every output is written by index (cheaper here than a push per block).
+    gray.clear();
+    q.clear();
     gray.resize(ow * oh, 0);
     q.resize(ow * oh, 0);
-    let span = ow * F * 3;
-    let mut sum = vec![0u16; span];
+    let mut sum = vec![0u16; ow * F * 3];
     let n = (F * F) as u32;
     let narrow = luma.fits_32_bits(n);
     for oy in 0..oh {
-        let first = oy * F * w * 3;
-        for (s, v) in sum.iter_mut().zip(&raw[first..first + span]) {
-            *s = u16::from(*v);
-        }
-        for y in oy * F + 1..(oy + 1) * F {
-            let line = &raw[y * w * 3..y * w * 3 + span];
-            for (s, v) in sum.iter_mut().zip(line) {
-                *s += u16::from(*v);
-            }
-        }
+        sum_rows::<F>(raw, w, oy, &mut sum);
         let row = oy * ow..(oy + 1) * ow;
         let factors = k[0][row.clone()]
             .iter()
@@ -235,12 +243,7 @@ fn gray_lateral_with<const F: usize>(
         for ((block, ((&k0, &k1), &k2)), (g_out, q_out)) in
             sum.chunks_exact(3 * F).zip(factors).zip(outs)
         {
-            let (mut r, mut g, mut b) = (0u32, 0u32, 0u32);
-            for px in block.chunks_exact(3) {
-                r += u32::from(px[0]);
-                g += u32::from(px[1]);
-                b += u32::from(px[2]);
-            }
+            let [r, g, b] = block_rgb(block);
             *g_out = block_mean(lw[0] * r + lw[1] * g + lw[2] * b, n, &luma, narrow);
             // Q15 factors times colour sums of n pixels: over n for the means, then Q15 → Q8.
             let acc =

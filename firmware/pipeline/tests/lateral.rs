@@ -13,6 +13,7 @@ use vistaf_pipeline::ftp::band::BandWindow;
 use vistaf_pipeline::ftp::carrier;
 use vistaf_pipeline::ftp::fixed::{FixedFtp, Scratch};
 use vistaf_pipeline::ftp::float::FloatFtp;
+use vistaf_pipeline::input::{luma, Colour};
 use vistaf_pipeline::phase::{PhaseMap, GRID};
 
 const W: u32 = 320;
@@ -45,8 +46,7 @@ fn stripes(amps: [f64; 3], bump_rad: f64) -> RgbImage {
 /// no colour to read apart.
 fn grey(img: &RgbImage) -> RgbImage {
     RgbImage::from_fn(img.width(), img.height(), |x, y| {
-        let [r, g, b] = img.get_pixel(x, y).0;
-        let l = (77 * u32::from(r) + 150 * u32::from(g) + 29 * u32::from(b) + 128) >> 8;
+        let l = (luma(Colour::Rgb).weighted(&img.get_pixel(x, y).0) + 128) >> 8;
         image::Rgb([l as u8; 3])
     })
 }

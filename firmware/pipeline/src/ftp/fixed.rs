@@ -318,13 +318,11 @@ struct Mix {
     planes: [Vec<i16>; 2],
 }
 
-/// The quadrature term of the lateral correction ([`super::lateral`]) on this path: per
-/// colour and working pixel `weightₖ/256 · εₖ`, Q15, and the largest |q| a frame can
-/// give, Q8.
+/// The quadrature term of the lateral correction ([`super::lateral`]) on this path: each
+/// colour's offsets, and per colour and working pixel `weightₖ/256 · εₖ`, Q15.
 #[derive(Debug, Clone)]
 struct Quadrature {
     k: [Vec<i16>; 3],
-    top: u32,
     offsets: Offsets,
 }
 
@@ -356,9 +354,13 @@ impl Quadrature {
         let weights = luma(Colour::Rgb).weights;
         Some(Quadrature {
             k: offsets.weighted(weights, |v| (v * 32_767.0).round() as i16),
-            top: (offsets.largest_rad() * 65_280.0).ceil() as u32 + 1,
             offsets,
         })
+    }
+
+    /// The largest |q| a frame can give, Q8 luminance units: the weights sum to one.
+    fn top(&self) -> u32 {
+        (self.offsets.largest_rad() * 65_280.0).ceil() as u32 + 1
     }
 }
 
@@ -468,7 +470,7 @@ impl FixedFtp {
     ) -> FixedFtp {
         let (factor, carrier) = (working.factor, working.carrier);
         let reference = reference.into();
-        let (gray, w, h, _) = gray_down_q8(reference, factor);
+        let (mut gray, w, h, _) = gray_down_q8(reference, factor);
         let q15 = |f: fn(f64) -> f64| -> Vec<i16> {
             (0..w * h)
                 .map(|i| {
@@ -503,9 +505,9 @@ impl FixedFtp {
         };
         f.reference = f.analytic(&gray, None, GRID);
         if let Some(quad) = Quadrature::of(&f, reference) {
-            f.shift = headroom_shift(lx, ly, 65_280 + quad.top);
+            f.shift = headroom_shift(lx, ly, 65_280 + quad.top());
             let mut q = Vec::new();
-            gray_lateral_down_q8_into(reference, factor, &quad.k, &mut Vec::new(), &mut q);
+            gray_lateral_down_q8_into(reference, factor, &quad.k, &mut gray, &mut q);
             f.quadrature = Some(quad);
             f.reference = f.analytic(&gray, Some(&q), GRID);
         }

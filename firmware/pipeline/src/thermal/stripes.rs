@@ -369,7 +369,6 @@ fn run<const F: usize>(
     }
     // Where the frame is not RGB, the rows read are converted into these first.
     let (mut line_buf, mut contact_buf) = (Vec::new(), Vec::new());
-    let row_of = |y: usize| y * g.w..(y + 1) * g.w;
     for yw in 0..g.h {
         if yw > 0 && yw % g.block_px == 0 {
             if apart {
@@ -407,11 +406,16 @@ fn run<const F: usize>(
                 factor: f,
             };
             // Most rows hold no saturated byte, which their maximum (a loop the compiler
-            // vectorises) tells; their samples then skip the test.
+            // vectorises) tells; their samples then skip the test (colours placed apart
+            // test every sample).
             let saturates = line.as_flattened().iter().fold(0u8, |m, &b| m.max(b)) == 255;
             if let Some(c) = &g.colour_units {
-                let colours = [&c[0][row_of(yw)], &c[1][row_of(yw)], &c[2][row_of(yw)]];
-                row.add_per_colour::<F>(&mut apart_parts, class, lin, colours);
+                row.add_per_colour::<F>(
+                    &mut apart_parts,
+                    class,
+                    lin,
+                    colour_row(c, yw * g.w..(yw + 1) * g.w),
+                );
             } else if saturates {
                 row.add_to::<F, true>(&mut parts, class, lin);
             } else {
@@ -436,7 +440,7 @@ fn run<const F: usize>(
                 colours: g
                     .colour_units
                     .as_ref()
-                    .map(|c| [&c[0][row_of(yw)], &c[1][row_of(yw)], &c[2][row_of(yw)]]),
+                    .map(|c| colour_row(c, yw * g.w..(yw + 1) * g.w)),
             };
             row.add_to::<F>(f, lin, &mut contact);
         }
@@ -446,6 +450,11 @@ fn run<const F: usize>(
         flush(&mut apart_parts, &mut blocks);
     }
     (blocks, contact)
+}
+
+/// Each colour's offsets (`c`, [`Geometry::colour_units`]) along one working row.
+fn colour_row(c: &[Vec<i16>; 3], row: std::ops::Range<usize>) -> [&[i16]; 3] {
+    [&c[0][row.clone()], &c[1][row.clone()], &c[2][row]]
 }
 
 /// The input pixels of one working row's contact stretch, as sRGB.
