@@ -25,3 +25,68 @@ pub fn dilate(on: &[bool], tw: usize, th: usize) -> Vec<bool> {
     }
     dil
 }
+
+/// The separate parts of `on` (`tw × th` cells), cells touching across an edge or a corner
+/// belonging to one part: each part as a mask of its own, in the order of its first cell
+/// (row by row).
+pub fn parts(on: &[bool], tw: usize, th: usize) -> Vec<Vec<bool>> {
+    let n = (tw * th).min(on.len());
+    let mut seen = vec![false; n];
+    let mut out = Vec::new();
+    for start in 0..n {
+        if !on[start] || seen[start] {
+            continue;
+        }
+        let mut part = vec![false; n];
+        let mut stack = vec![start];
+        seen[start] = true;
+        while let Some(i) = stack.pop() {
+            part[i] = true;
+            let (x, y) = (i % tw, i / tw);
+            for ny in y.saturating_sub(1)..(y + 2).min(th) {
+                for nx in x.saturating_sub(1)..(x + 2).min(tw) {
+                    let j = ny * tw + nx;
+                    if on[j] && !seen[j] {
+                        seen[j] = true;
+                        stack.push(j);
+                    }
+                }
+            }
+        }
+        out.push(part);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grid(rows: &[&str]) -> (Vec<bool>, usize, usize) {
+        let on = rows
+            .iter()
+            .flat_map(|r| r.bytes().map(|b| b == b'#'))
+            .collect();
+        (on, rows[0].len(), rows.len())
+    }
+
+    #[test]
+    fn cells_touching_at_a_corner_are_one_part_and_a_gap_makes_two() {
+        let (on, tw, th) = grid(&["##...", ".#..#", "..#.#", "....#"]);
+        let parts = parts(&on, tw, th);
+        assert_eq!(parts.len(), 2);
+        let cells = |p: &[bool]| -> Vec<usize> { (0..p.len()).filter(|&i| p[i]).collect() };
+        assert_eq!(cells(&parts[0]), vec![0, 1, 6, 12]);
+        assert_eq!(cells(&parts[1]), vec![9, 14, 19]);
+        // Every cell set is in exactly one part.
+        for (i, &o) in on.iter().enumerate() {
+            assert_eq!(parts.iter().filter(|p| p[i]).count(), usize::from(o));
+        }
+    }
+
+    #[test]
+    fn nothing_set_has_no_part() {
+        assert!(parts(&[false; 6], 3, 2).is_empty());
+        assert!(parts(&[], 0, 0).is_empty());
+    }
+}

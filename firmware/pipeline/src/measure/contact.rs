@@ -217,7 +217,7 @@ pub(super) struct Faint<'a> {
 impl Faint<'_> {
     /// Whether phase `v` (units) at working pixel `(x, y)` stands beyond `threshold` with
     /// the threshold raised as the fringes there are fainter than their median.
-    fn stands(&self, v: i32, (x, y): (usize, usize), threshold: i32) -> bool {
+    pub(super) fn stands(&self, v: i32, (x, y): (usize, usize), threshold: i32) -> bool {
         let i = (y / GRID) * self.cw + (x / GRID).min(self.cw.saturating_sub(1));
         let (mf, mr) = (u128::from(self.medians.0), u128::from(self.medians.1));
         let a = |amp: &[u32], median: u128| amp.get(i).map_or(median, |&a| u128::from(a));

@@ -38,6 +38,7 @@ use register::Background;
 use crate::calibration::{Calibration, ForceInputs};
 use crate::fixed_point::UNITS_PER_RAD;
 use crate::ftp::carrier::Carrier;
+use crate::mask;
 pub use crate::phase::GRID;
 use crate::phase::{PhaseMap, PhaseNum, WrappedPhase};
 use crate::Measurement;
@@ -386,19 +387,28 @@ fn within(mut reliable: Vec<bool>, w: usize, margin: &Margin) -> Vec<bool> {
 fn image_flags<M: PhaseMap>(
     map: &M,
     coarse: &Coarse<'_, M::P>,
-    (amp_frame_median, amp_ref_median): (u32, u32),
+    amp_medians: (u32, u32),
     ctx: &Context<'_>,
 ) -> QualityFlags {
     let mut flags = QualityFlags::NONE;
-    if (amp_frame_median as f32) < LOW_CONTRAST_RATIO * amp_ref_median as f32
-        || coarse.reliable_n * 2 < coarse.inside_n
-    {
+    if fringes_faint(coarse, amp_medians) {
         flags.insert(Flag::LowContrast);
     }
     if map.saturated_fraction() - ctx.ref_saturated_fraction > OVER_EXPOSED_FRACTION {
         flags.insert(Flag::OverExposure);
     }
     flags
+}
+
+/// Whether the frame's fringes are too faint to read (`low_contrast`): its median amplitude
+/// (`amp_frame_median`) below [`LOW_CONTRAST_RATIO`] of the reference's, or fewer than half
+/// the samples inside the margin reliable.
+fn fringes_faint<P: PhaseNum>(
+    coarse: &Coarse<'_, P>,
+    (amp_frame_median, amp_ref_median): (u32, u32),
+) -> bool {
+    (amp_frame_median as f32) < LOW_CONTRAST_RATIO * amp_ref_median as f32
+        || coarse.reliable_n * 2 < coarse.inside_n
 }
 
 /// Flags the background earns: an offset too large to remove for sure, and fringes too
@@ -585,6 +595,81 @@ impl<M: PhaseMap> Found<'_, M> {
         }
     }
 
+    /// The contact of a region the dipole test rejected as a whole, read from the one part
+    /// of it that makes a contact by itself (`None` when no part does, or when more than
+    /// one does). The tiles join whatever stands above the noise floor anywhere in the
+    /// view, so a press's region may take in groups far from it (faint fringes' noise, a
+    /// glare's edge) whose opposite-signed phase outweighs it; a dipole's two lobes lie
+    /// side by side and stay one part, which the test still rejects. Where several parts
+    /// stand by the indentation's sign, the view's phase departs both ways in many places
+    /// (a skin far from the reference's temperature moves it against a fixed term in the
+    /// band) and none of them can be told for a press: the whole region's verdict holds.
+    /// It holds too where the colour's field was taken out of the frame (what the field
+    /// misses by a little is left in parts of both signs, one of which may stand alone) and
+    /// where the frame's fringes are faint (`low_contrast`: noise raises parts anywhere).
+    /// So it does for a part whose contact reaches the edge of the view
+    /// (`contact_at_edge`): there the kernel averages padding, the noise floor's own groups
+    /// gather, and nothing tells such a part from them.
+    fn part_that_stands(
+        &self,
+        carrier: Carrier,
+        ctx: &Context<'_>,
+        reliable: &[bool],
+        wrapped: &mut WrappedPhase,
+    ) -> Option<ContactResult> {
+        let grid = Grid::of(self.map.size());
+        let parts = mask::parts(self.tiles_on, grid.tiles.0, grid.tiles.1);
+        let faint = fringes_faint(self.coarse, self.amp_medians)
+            || background_flags(self.bg).contains(Flag::LowContrast);
+        if parts.len() < 2 || wrapped.colour_field || faint {
+            return None;
+        }
+        let min_total = register::min_contact_samples(carrier);
+        let sign = ctx.indentation_sign();
+        let mut standing = parts
+            .iter()
+            .filter(|part| self.stands_alone(part, &grid, sign, min_total));
+        let (Some(part), None) = (standing.next(), standing.next()) else {
+            return None;
+        };
+        let whole = wrapped.local.clone();
+        let found = Found {
+            tiles_on: part,
+            ..*self
+        };
+        let c = found
+            .measure(carrier, ctx, reliable, wrapped)
+            .filter(|c| !c.flags.contains(Flag::ContactAtEdge));
+        if c.is_none() {
+            wrapped.local = whole;
+        }
+        c
+    }
+
+    /// Whether the tiles `part` hold a contact by themselves, by the rules a contact must
+    /// meet to be found at all ([`coarse::contact_tiles`]) with only the indentation's sign
+    /// (`sign`) counted: `min_total` reliable samples whose phase stands beyond the
+    /// threshold against their own fringes' noise ([`contact::Faint`]), a tile's worth of
+    /// them ([`TILE_MIN_SAMPLES`]) in one tile. Groups raised by noise where fringes are
+    /// faint stand in a few samples; a press stands over a disc a period across.
+    fn stands_alone(&self, part: &[bool], grid: &Grid, sign: i32, min_total: usize) -> bool {
+        const PER: usize = TILE_PX / GRID;
+        let (cw, tw) = (grid.coarse.0, grid.tiles.0);
+        let faint = self.faint(cw);
+        let (offset, threshold) = (self.bg.offset, self.bg.threshold);
+        let mut count = vec![0usize; part.len()];
+        let samples = self.coarse.phase.iter().zip(&self.coarse.rel_contact);
+        for (k, (p, &ok)) in samples.enumerate() {
+            let (cx, cy) = (k % cw, k / cw);
+            let t = (cy / PER) * tw + cx / PER;
+            let v = sign * p.minus(offset).units();
+            if ok && part.get(t) == Some(&true) && v > threshold {
+                count[t] += usize::from(faint.stands(v, (cx * GRID, cy * GRID), threshold));
+            }
+        }
+        count.iter().any(|&n| n >= TILE_MIN_SAMPLES) && count.iter().sum::<usize>() >= min_total
+    }
+
     /// The contact read at every pixel of its window: `None` when it turns out to be no
     /// contact (a dipole, or nothing above the threshold's depth). The window's phase as
     /// read goes into `wrapped`.
@@ -639,7 +724,7 @@ impl<M: PhaseMap> Found<'_, M> {
                 self.bg.threshold,
             )
         {
-            return None;
+            return self.part_that_stands(carrier, ctx, reliable, wrapped);
         }
         // The contact: the region holding the most indentation, its apex (the blurred map's
         // deepest point there) and the half-depth component around the apex. The map's value

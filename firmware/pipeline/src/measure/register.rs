@@ -140,6 +140,14 @@ impl<'c, P: PhaseNum> Directions<'c, P> {
     }
 }
 
+/// The coarse samples a contact covers at least: a disc one period across, and no fewer
+/// than a tile needs ([`TILE_MIN_SAMPLES`]).
+pub(super) fn min_contact_samples(carrier: Carrier) -> usize {
+    ((carrier.period_px() / GRID as f32).powi(2) * std::f32::consts::FRAC_PI_4)
+        .round()
+        .max(TILE_MIN_SAMPLES as f32) as usize
+}
+
 /// Registers the frame on its background, measures the noise floor and finds the contact
 /// tiles above it; with a contact, registration and noise are measured again outside it
 /// (and on the rim instead when the rim stands raised above it, [`raised_rim`]). `sign` is
@@ -165,10 +173,7 @@ pub(super) fn background<P: PhaseNum>(
     let noise_box = ((2.0 * carrier.period_px()) / GRID as f32).round().max(2.0) as usize;
     let min_threshold = P::from_rad(MIN_CONTACT_RAD).units();
     let threshold_of = |noise: i32| ((CONTACT_SIGMAS * noise as f32) as i32).max(min_threshold);
-    // A contact covers at least a disc one period across, in coarse samples.
-    let min_total = ((carrier.period_px() / GRID as f32).powi(2) * std::f32::consts::FRAC_PI_4)
-        .round()
-        .max(TILE_MIN_SAMPLES as f32) as usize;
+    let min_total = min_contact_samples(carrier);
     let tiles_above = |phi: &[i32], thr: i32| {
         contact_tiles(
             phi,
