@@ -402,9 +402,100 @@ pub fn fit_force(
     }
 }
 
+/// Setpoints read at fewer places than this say nothing of how places differ.
+pub const PLACE_MIN_SAMPLES: usize = 2;
+/// Fewer setpoints than this leave the spread between places unknown.
+pub const PLACE_MIN_SETPOINTS: usize = 3;
+
+/// How far readings of one setpoint at different places of the view lie apart, as a share
+/// of the setpoint: the pooled standard deviation of `read(u) / y` within each group of
+/// `samples` at least `min_y` deep (each group's mean taken out, so whatever bias the model
+/// leaves at a setpoint does not count). A kit presses each depth at more than one place;
+/// a unit whose phase gain varies across the view (pigment mottle, a lamp's glare, the
+/// lens) reads them apart by a share of the depth, where cross-validation over setpoints
+/// averages it with the shallow presses' small errors. `None` with fewer than
+/// [`PLACE_MIN_SETPOINTS`] such groups read at [`PLACE_MIN_SAMPLES`] places or more.
+pub fn place_spread(samples: &[Sample], read: impl Fn(f64) -> f64, min_y: f64) -> Option<f64> {
+    let mut groups: Vec<f64> = samples
+        .iter()
+        .filter(|s| s.y >= min_y)
+        .map(|s| s.group)
+        .collect();
+    groups.sort_by(f64::total_cmp);
+    groups.dedup();
+    let (mut ss, mut dof, mut used) = (0.0, 0usize, 0usize);
+    for g in groups {
+        let shares: Vec<f64> = samples
+            .iter()
+            .filter(|s| s.group == g && s.y > 0.0)
+            .map(|s| read(s.u) / s.y)
+            .collect();
+        if shares.len() < PLACE_MIN_SAMPLES {
+            continue;
+        }
+        let mean = shares.iter().sum::<f64>() / shares.len() as f64;
+        ss += shares.iter().map(|r| (r - mean).powi(2)).sum::<f64>();
+        dof += shares.len() - 1;
+        used += 1;
+    }
+    (used >= PLACE_MIN_SETPOINTS && dof > 0).then(|| (ss / dof as f64).sqrt())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn places_reading_a_depth_apart_by_a_share_of_it_give_that_share() {
+        // Two places per depth, one reading 3 % deep and the other 3 % shallow: a pooled
+        // standard deviation of 3 % · √2 over one degree of freedom per depth.
+        let samples: Vec<Sample> = (1..=8)
+            .flat_map(|k| {
+                let y = 0.25 * k as f64;
+                [1.03, 0.97].map(|g| Sample {
+                    u: y * g,
+                    y,
+                    group: y,
+                })
+            })
+            .collect();
+        let spread = place_spread(&samples, |u| u, 0.0).unwrap();
+        assert!((spread - 0.03 * 2f64.sqrt()).abs() < 1e-9, "{spread}");
+        // A bias shared by both places is the model's, not the places'.
+        let biased = place_spread(&samples, |u| 1.1 * u, 0.0).unwrap();
+        assert!((biased - 1.1 * 0.03 * 2f64.sqrt()).abs() < 1e-9, "{biased}");
+        // Only the setpoints at least `min_y` deep count.
+        let shallow_only: Vec<Sample> = samples
+            .iter()
+            .map(|s| Sample {
+                u: if s.y < 1.0 { s.u } else { s.y },
+                ..*s
+            })
+            .collect();
+        assert_eq!(place_spread(&shallow_only, |u| u, 1.0), Some(0.0));
+    }
+
+    #[test]
+    fn too_few_setpoints_read_at_two_places_leave_the_spread_unknown() {
+        let one_place: Vec<Sample> = (1..=8)
+            .map(|k| Sample {
+                u: 0.25 * k as f64,
+                y: 0.25 * k as f64,
+                group: k as f64,
+            })
+            .collect();
+        assert_eq!(place_spread(&one_place, |u| u, 0.0), None);
+        let two: Vec<Sample> = (1..=2)
+            .flat_map(|k| {
+                [0.99, 1.01].map(|g| Sample {
+                    u: g * k as f64,
+                    y: k as f64,
+                    group: k as f64,
+                })
+            })
+            .collect();
+        assert_eq!(place_spread(&two, |u| u, 0.0), None);
+    }
 
     fn samples(f: impl Fn(f64) -> f64, noise: f64) -> Vec<Sample> {
         (1..=12)

@@ -35,6 +35,7 @@ use vistaf_pipeline::ftp::carrier;
 use vistaf_pipeline::image_ops::gray_down_f32;
 use vistaf_pipeline::input::decode_scale;
 use vistaf_pipeline::measure::profile::Shape;
+use vistaf_pipeline::measure::{DEPTH_TOLERANCE_SHARE, DEPTH_TOLERANCE_UM};
 use vistaf_pipeline::thermal::extremes::{departures_sigmas, STAND_OUT_SIGMAS};
 use vistaf_pipeline::thermal::model::{
     mean_read_rises, MeanRead, StandOut, TemperatureModel, CHROMA_SPREAD_LIMIT,
@@ -43,7 +44,7 @@ use vistaf_pipeline::thermal::model::{
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement, PipelineError};
 use vistaf_protocol::{Flag, QualityFlags};
 
-use crate::fit::{fit_depth, fit_force, Sample};
+use crate::fit::{fit_depth, fit_force, place_spread, Sample};
 use crate::temperature::rms;
 
 /// What went wrong.
@@ -740,6 +741,7 @@ fn identity(unit: &UnitGeometry, sign: f64) -> Calibration {
             candidates: vec![],
             range: None,
         },
+        depth_place_spread: None,
         force: None,
         shape: None,
         temperature: None,
@@ -791,7 +793,7 @@ fn fit_models<O: Observer>(
         sign = phase_sign(run, unit)?;
     }
     let mut calib = identity(unit, sign);
-    calib.depth = depth_model(run, &calib)?;
+    (calib.depth, calib.depth_place_spread) = depth_model(run, &calib)?;
     calib.shape = shape_signature(run, &calib)?;
     calib.force = force_model(run, &calib)?;
     (calib.temperature, calib.colour_phase) = temperature_model(run, &calib)?;
@@ -909,11 +911,13 @@ fn phase_sign<O: Observer>(
 }
 
 /// Phase → depth: every trusted frame labelled `depth_mm > 0`, analysed with the identity
-/// depth model of `calib`, gives its peak phase against its label.
+/// depth model of `calib`, gives its peak phase against its label. With it, how far the
+/// fitted model reads one depth's presses apart from place to place
+/// ([`place_spread`], over the depths where the tolerance's share outweighs its floor).
 fn depth_model<O: Observer>(
     run: &mut Run<'_, O>,
     calib: &Calibration,
-) -> Result<Fitted<DepthModel>, CalibrateError> {
+) -> Result<(Fitted<DepthModel>, Option<f64>), CalibrateError> {
     let depth_frames = run.analyze(calib, Label::Depth, "phase → depth", &|_| true)?;
     let samples: Vec<Sample> = depth_frames
         .iter()
@@ -929,7 +933,9 @@ fn depth_model<O: Observer>(
             "phase → depth needs trusted frames at three or more depths".into(),
         )
     })?;
-    Ok(Fitted {
+    let share_outweighs_floor_mm = f64::from(DEPTH_TOLERANCE_UM / DEPTH_TOLERANCE_SHARE) / 1000.0;
+    let spread = place_spread(&samples, |u| model.depth_mm(u), share_outweighs_floor_mm);
+    let fitted = Fitted {
         equation: model.equation(),
         model,
         cv_rmse: chosen.cv_rmse,
@@ -937,7 +943,8 @@ fn depth_model<O: Observer>(
         n: samples.len(),
         candidates,
         range: FitRange::of(samples.iter().map(|s| (s.u, s.y))),
-    })
+    };
+    Ok((fitted, spread))
 }
 
 /// The calibrated indenter's contact area and reciprocal load against its measured depth,

@@ -9,7 +9,8 @@
 
 use vistaf_pipeline::calibration::Calibration;
 use vistaf_pipeline::measure::{
-    depth_uncertain_below_mm, DEPTH_CONFIDENCE_SIGMAS, DEPTH_TOLERANCE_SHARE, DEPTH_TOLERANCE_UM,
+    depth_uncertain_above_mm, depth_uncertain_below_mm, DEPTH_CONFIDENCE_SIGMAS,
+    DEPTH_TOLERANCE_SHARE, DEPTH_TOLERANCE_UM,
 };
 
 /// Depth target, mm.
@@ -52,6 +53,9 @@ pub struct Verdict {
     pub error: f64,
     /// The target, same unit.
     pub target: f64,
+    /// For depth: how far the kit's presses of one depth read apart from place to place,
+    /// a share of the depth ([`Calibration::depth_place_spread`]).
+    pub place_spread: Option<f64>,
 }
 
 impl Verdict {
@@ -68,6 +72,7 @@ pub fn verdicts(c: &Calibration) -> Vec<Verdict> {
         n: c.depth.n,
         error: c.depth.cv_rmse,
         target: DEPTH_TARGET_MM,
+        place_spread: c.depth_place_spread,
     }];
     if let Some(f) = &c.force {
         v.push(Verdict {
@@ -75,6 +80,7 @@ pub fn verdicts(c: &Calibration) -> Vec<Verdict> {
             n: f.n,
             error: f.cv_rmse,
             target: FORCE_TARGET_N,
+            place_spread: None,
         });
     }
     if let Some(t) = &c.temperature {
@@ -83,6 +89,7 @@ pub fn verdicts(c: &Calibration) -> Vec<Verdict> {
             n: t.n,
             error: t.cv_rmse_transition_c,
             target: TEMPERATURE_TARGET_C,
+            place_spread: None,
         });
     }
     v
@@ -110,6 +117,19 @@ pub fn report(verdicts: &[Verdict]) -> (String, bool) {
                 "",
                 100.0 * DEPTH_TOLERANCE_SHARE,
                 DEPTH_TOLERANCE_UM / 1000.0,
+            ));
+        }
+        if let (Some(spread), Some(above_mm)) =
+            (v.place_spread, depth_uncertain_above_mm(v.place_spread))
+        {
+            text.push_str(&format!(
+                "  {:<24} peak depths over {above_mm:.2} mm will carry depth_uncertain: the \
+                 kit's presses of one depth read {:.1} % apart from place to place (standard \
+                 deviation), and the tolerance's share ({} %) is less than \
+                 {DEPTH_CONFIDENCE_SIGMAS} times that\n",
+                "",
+                100.0 * spread,
+                100.0 * DEPTH_TOLERANCE_SHARE,
             ));
         }
     }
@@ -155,5 +175,23 @@ mod tests {
             !pass && text.contains("under 1.33 mm will carry depth_uncertain"),
             "{text}"
         );
+    }
+
+    /// Presses of one depth reading 2 % apart from place to place: the tolerance's 3 % is
+    /// under twice that beyond 0.02 mm / (4 % − 3 %), and the report says so; at 1 % apart
+    /// no depth is flagged.
+    #[test]
+    fn places_reading_apart_say_from_which_depth_up_readings_are_flagged() {
+        let mut c = Calibration::default_sim();
+        c.depth_place_spread = Some(0.02);
+        let (text, _) = report(&verdicts(&c));
+        assert!(
+            text.contains("over 2.00 mm will carry depth_uncertain")
+                && text.contains("2.0 % apart"),
+            "{text}"
+        );
+        c.depth_place_spread = Some(0.01);
+        let (text, _) = report(&verdicts(&c));
+        assert!(!text.contains("depth_uncertain"), "{text}");
     }
 }

@@ -474,3 +474,43 @@ fn a_depth_model_that_missed_its_kit_flags_the_depths_it_cannot_hold() {
         }
     }
 }
+
+/// A unit whose kit's presses of one depth read apart from place to place by a share of the
+/// depth (`depth_place_spread`) cannot hold the tolerance's share at depths its floor no
+/// longer covers: with a spread of 2.2 %, a 1.8 mm press (over 0.02 mm / (4.4 % − 3 %) =
+/// 1.43 mm) is flagged `depth_uncertain` and a 1 mm one is not; with a spread of 1 %, or
+/// none recorded, neither is.
+#[test]
+fn presses_that_read_apart_from_place_to_place_flag_the_deep_presses() {
+    let r = Renderer::new(unit());
+    let (reference, _) = r.render(&SkinState::idle(ROOM_C), 1);
+    let opts = AnalyzerOptions {
+        force_calibration: true,
+        ..Default::default()
+    };
+    let held = Calibration::default_sim();
+    let spread = |s: f64| Calibration {
+        depth_place_spread: Some(s),
+        ..held.clone()
+    };
+    for imp in [Implementation::Fixed, Implementation::Float] {
+        for (depth_mm, uncertain) in [(1.0, false), (1.8, true)] {
+            let (img, _) = r.render(&sphere(SPHERE_R_MM, depth_mm), 9);
+            for (calib, want) in [
+                (held.clone(), false),
+                (spread(0.01), false),
+                (spread(0.022), uncertain),
+            ] {
+                let a = Analyzer::new(&reference, calib.clone(), imp, opts).unwrap();
+                let m = a.analyze(&img).unwrap();
+                assert!(m.peak_depth_mm > 0.0, "{imp:?} {depth_mm} mm: {m:?}");
+                assert_eq!(
+                    m.flags.contains(Flag::DepthUncertain),
+                    want,
+                    "{imp:?} {depth_mm} mm, places {:?} apart: {m:?}",
+                    calib.depth_place_spread
+                );
+            }
+        }
+    }
+}

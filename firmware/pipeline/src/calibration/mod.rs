@@ -435,6 +435,14 @@ pub struct Calibration {
     pub phase_sign: f64,
     /// Phase → depth.
     pub depth: Fitted<DepthModel>,
+    /// How far the kit's presses of one depth read apart from place to place, as a share of
+    /// the depth (a pooled standard deviation over the depths where the depth tolerance's
+    /// share outweighs its floor): a unit whose phase gain varies across the view reads a
+    /// deep press wrong by a share of its depth at places the kit never pressed. Absent
+    /// when too few such depths were pressed at two places or more, and in files written
+    /// before it was recorded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub depth_place_spread: Option<f64>,
     /// Measurement → force, if the kit had force labels.
     pub force: Option<Fitted<ForceModel>>,
     /// The calibrated indenter's contact area by depth (for the sharpness check).
@@ -750,7 +758,10 @@ mod tests {
         };
         type Edit<'a> = &'a dyn Fn(&mut serde_json::Value);
         let colour = |setpoints: serde_json::Value| serde_json::json!({"step": 2, "nodes": [4, 3], "setpoints": setpoints});
-        let cases: [(&str, Edit<'_>); 21] = [
+        let cases: [(&str, Edit<'_>); 22] = [
+            ("`depth_place_spread`", &|v| {
+                v["depth_place_spread"] = serde_json::json!(-0.01)
+            }),
             ("`shape`", &|v| {
                 v["shape"]["area_mm2"] = serde_json::json!([1.0])
             }),

@@ -69,6 +69,14 @@ pub fn check(c: &Calibration) -> Check {
     check_unit(c)?;
     check_depth(&c.depth.model, c.depth.range.as_ref())?;
     check_range("depth.range", c.depth.range.as_ref())?;
+    if let Some(spread) = c.depth_place_spread {
+        if !(0.0..=1.0).contains(&spread) {
+            return Err(bad(
+                "depth_place_spread",
+                format!("{}: must be a share of the depth, 0…1", num(spread)),
+            ));
+        }
+    }
     if let Some(f) = &c.force {
         check_range("force.range", f.range.as_ref())?;
         check_force(&f.model, f.range.as_ref())?;

@@ -9,9 +9,9 @@ use super::features::slope_p98_exceeds;
 use super::profile::Shape;
 use super::window::upsample2;
 use super::{
-    depth_uncertain_below_mm, Context, Grid, Unwrap, BAND_LOSS_FRACTION, BAND_LOSS_MIN,
-    BLUNTNESS_RATIO, DEPTH_RANGE_SLACK, DIPOLE_RATIO, LOAD_RATIO, MAX_RESIDUES, SHARPNESS_RATIO,
-    SLOPE_LIMIT, TILE_PX, UNWRAP_TRIGGER_RAD,
+    depth_uncertain_above_mm, depth_uncertain_below_mm, Context, Grid, Unwrap, BAND_LOSS_FRACTION,
+    BAND_LOSS_MIN, BLUNTNESS_RATIO, DEPTH_RANGE_SLACK, DIPOLE_RATIO, LOAD_RATIO, MAX_RESIDUES,
+    SHARPNESS_RATIO, SLOPE_LIMIT, TILE_PX, UNWRAP_TRIGGER_RAD,
 };
 use crate::calibration::{ForceInputs, LoadSignature};
 use crate::ftp::band::BAND_HALF_WIDTH;
@@ -433,8 +433,13 @@ impl<P> Limits<'_, P> {
             flags.insert(Flag::DepthOutOfRange);
         }
         // The calibration's depth model missed its own kit by more than this depth's
-        // tolerance allows.
-        if f64::from(read.peak_mm) < depth_uncertain_below_mm(ctx.calib.depth.cv_rmse) {
+        // tolerance allows, or its kit's presses of one depth read apart from place to
+        // place by more.
+        let calib = ctx.calib;
+        if f64::from(read.peak_mm) < depth_uncertain_below_mm(calib.depth.cv_rmse)
+            || depth_uncertain_above_mm(calib.depth_place_spread)
+                .is_some_and(|above_mm| f64::from(read.peak_mm) > above_mm)
+        {
             flags.insert(Flag::DepthUncertain);
         }
         if !self.resolved {

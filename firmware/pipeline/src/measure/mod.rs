@@ -157,6 +157,19 @@ pub fn depth_uncertain_below_mm(cv_rmse_mm: f64) -> f64 {
     ((DEPTH_CONFIDENCE_SIGMAS * cv_rmse_mm - floor_mm) / f64::from(DEPTH_TOLERANCE_SHARE)).max(0.0)
 }
 
+/// The peak depth over which a calibration whose kit's presses of one depth read apart
+/// from place to place by `place_spread` (a share of the depth, a standard deviation:
+/// [`Calibration::depth_place_spread`]) flags `depth_uncertain`: where the depth tolerance
+/// is less than [`DEPTH_CONFIDENCE_SIGMAS`] times that share of the depth, mm; `None`
+/// where it nowhere is (a spread within half the tolerance's share, or none recorded). A
+/// unit whose phase gain varies across the view reads deep presses wrong by a share of
+/// their depth at places its kit never pressed, which the depth model's held-out error,
+/// averaged with the shallow presses', does not show.
+pub fn depth_uncertain_above_mm(place_spread: Option<f64>) -> Option<f64> {
+    let share = DEPTH_CONFIDENCE_SIGMAS * place_spread? - f64::from(DEPTH_TOLERANCE_SHARE);
+    (share > 0.0).then(|| f64::from(DEPTH_TOLERANCE_UM) / 1000.0 / share)
+}
+
 /// Whether a peak read `peak_mm` deep through the sphere's blur correction would lie
 /// beyond the depth tolerance if the contact were a flat punch of the same blurred
 /// sharpness, `punch_excess` deeper as a sphere's ([`apex::BlurLoss::punch_excess`]; zero
