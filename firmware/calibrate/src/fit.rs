@@ -438,7 +438,8 @@ pub fn place_spread(samples: &[Sample], read: impl Fn(f64) -> f64, min_y: f64) -
         dof += shares.len() - 1;
         used += 1;
     }
-    (used >= PLACE_MIN_SETPOINTS && dof > 0).then(|| (ss / dof as f64).sqrt())
+    // Each group used gives at least one degree of freedom.
+    (used >= PLACE_MIN_SETPOINTS).then(|| (ss / dof as f64).sqrt())
 }
 
 #[cfg(test)]

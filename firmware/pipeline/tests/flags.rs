@@ -448,30 +448,11 @@ fn a_press_near_the_noise_floor_is_within_tolerance_or_flagged() {
 /// which carries the flag on any calibration: the test above.)
 #[test]
 fn a_depth_model_that_missed_its_kit_flags_the_depths_it_cannot_hold() {
-    let r = Renderer::new(unit());
-    let (reference, _) = r.render(&SkinState::idle(ROOM_C), 1);
-    let opts = AnalyzerOptions {
-        force_calibration: true,
-        ..Default::default()
-    };
     let held = Calibration::default_sim();
     let mut missed = held.clone();
     missed.depth.cv_rmse = 0.03;
-    for imp in [Implementation::Fixed, Implementation::Float] {
-        for (depth_mm, uncertain) in [(1.0, true), (1.8, false)] {
-            let (img, _) = r.render(&sphere(SPHERE_R_MM, depth_mm), 9);
-            for (calib, want) in [(&held, false), (&missed, uncertain)] {
-                let a = Analyzer::new(&reference, calib.clone(), imp, opts).unwrap();
-                let m = a.analyze(&img).unwrap();
-                assert!(m.peak_depth_mm > 0.0, "{imp:?} {depth_mm} mm: {m:?}");
-                assert_eq!(
-                    m.flags.contains(Flag::DepthUncertain),
-                    want,
-                    "{imp:?} {depth_mm} mm, depth model's held-out error {} mm: {m:?}",
-                    calib.depth.cv_rmse
-                );
-            }
-        }
+    for (depth_mm, uncertain) in [(1.0, true), (1.8, false)] {
+        depth_uncertain_as(depth_mm, &[(&held, false), (&missed, uncertain)]);
     }
 }
 
@@ -482,35 +463,43 @@ fn a_depth_model_that_missed_its_kit_flags_the_depths_it_cannot_hold() {
 /// none recorded, neither is.
 #[test]
 fn presses_that_read_apart_from_place_to_place_flag_the_deep_presses() {
-    let r = Renderer::new(unit());
-    let (reference, _) = r.render(&SkinState::idle(ROOM_C), 1);
-    let opts = AnalyzerOptions {
-        force_calibration: true,
-        ..Default::default()
-    };
     let held = Calibration::default_sim();
     let spread = |s: f64| Calibration {
         depth_place_spread: Some(s),
         ..held.clone()
     };
+    let (narrow, wide) = (spread(0.01), spread(0.022));
+    for (depth_mm, uncertain) in [(1.0, false), (1.8, true)] {
+        depth_uncertain_as(
+            depth_mm,
+            &[(&held, false), (&narrow, false), (&wide, uncertain)],
+        );
+    }
+}
+
+/// Asserts on both paths that a press of the calibrated sphere `depth_mm` deep is read, and
+/// carries `depth_uncertain` under each calibration of `cases` as its flag says.
+fn depth_uncertain_as(depth_mm: f32, cases: &[(&Calibration, bool)]) {
+    let r = Renderer::new(unit());
+    let (reference, _) = r.render(&SkinState::idle(ROOM_C), 1);
+    let (img, _) = r.render(&sphere(SPHERE_R_MM, depth_mm), 9);
+    let opts = AnalyzerOptions {
+        force_calibration: true,
+        ..Default::default()
+    };
     for imp in [Implementation::Fixed, Implementation::Float] {
-        for (depth_mm, uncertain) in [(1.0, false), (1.8, true)] {
-            let (img, _) = r.render(&sphere(SPHERE_R_MM, depth_mm), 9);
-            for (calib, want) in [
-                (held.clone(), false),
-                (spread(0.01), false),
-                (spread(0.022), uncertain),
-            ] {
-                let a = Analyzer::new(&reference, calib.clone(), imp, opts).unwrap();
-                let m = a.analyze(&img).unwrap();
-                assert!(m.peak_depth_mm > 0.0, "{imp:?} {depth_mm} mm: {m:?}");
-                assert_eq!(
-                    m.flags.contains(Flag::DepthUncertain),
-                    want,
-                    "{imp:?} {depth_mm} mm, places {:?} apart: {m:?}",
-                    calib.depth_place_spread
-                );
-            }
+        for &(calib, want) in cases {
+            let a = Analyzer::new(&reference, calib.clone(), imp, opts).unwrap();
+            let m = a.analyze(&img).unwrap();
+            assert!(m.peak_depth_mm > 0.0, "{imp:?} {depth_mm} mm: {m:?}");
+            assert_eq!(
+                m.flags.contains(Flag::DepthUncertain),
+                want,
+                "{imp:?} {depth_mm} mm, depth model's held-out error {} mm, places {:?} \
+                 apart: {m:?}",
+                calib.depth.cv_rmse,
+                calib.depth_place_spread
+            );
         }
     }
 }

@@ -55,7 +55,7 @@ pub fn contact_tiles(
         return None;
     }
     let bar = u64::from(thr) * u64::from(amp_med);
-    let stands = |p: i32, a: u32| u64::from(p.unsigned_abs()) * u64::from(a.min(amp_med)) > bar;
+    let stands = |p: i32, a: u32, _| u64::from(p.unsigned_abs()) * u64::from(a.min(amp_med)) > bar;
     let samples = Samples {
         phi,
         rel,
@@ -72,25 +72,25 @@ pub fn contact_tiles(
 }
 
 /// The coarse grid's samples as the contact test reads them (`cw` across).
-struct Samples<'a> {
-    phi: &'a [i32],
-    rel: &'a [bool],
-    amp_r: &'a [u32],
-    cw: usize,
+pub(super) struct Samples<'a> {
+    pub(super) phi: &'a [i32],
+    pub(super) rel: &'a [bool],
+    pub(super) amp_r: &'a [u32],
+    pub(super) cw: usize,
 }
 
 impl Samples<'_> {
-    /// Whether the reliable samples that `stand` out (given a sample's phase and its
-    /// reference's amplitude) make a contact by [`contact_tiles`]'s rules: a tile with
-    /// [`TILE_MIN_SAMPLES`] of them, `min_total` in all. They are a subset of the samples
-    /// above the plain threshold, so only the tiles where those were counted (`plain`,
-    /// `tw` across) are read, and the reading stops once a contact is made.
-    fn make_contact(
+    /// Whether the reliable samples that `stand` out (given a sample's phase, its
+    /// reference's amplitude and its index) make a contact by [`contact_tiles`]'s rules: a
+    /// tile with [`TILE_MIN_SAMPLES`] of them, `min_total` in all. They are a subset of the
+    /// samples above the plain threshold, so only the tiles where those were counted
+    /// (`plain`, `tw` across) are read, and the reading stops once a contact is made.
+    pub(super) fn make_contact(
         &self,
         plain: &[usize],
         tw: usize,
         min_total: usize,
-        stand: impl Fn(i32, u32) -> bool,
+        stand: impl Fn(i32, u32, usize) -> bool,
     ) -> bool {
         const PER: usize = TILE_PX / GRID;
         let mut count = vec![0usize; plain.len()];
@@ -102,7 +102,7 @@ impl Samples<'_> {
             let t0 = (cy / PER) * tw;
             for (cx, ((p, r), a)) in prow.iter().zip(rrow).zip(arow).enumerate() {
                 let t = t0 + cx / PER;
-                if plain.get(t).is_some_and(|&n| n > 0) && *r && stand(*p, *a) {
+                if plain.get(t).is_some_and(|&n| n > 0) && *r && stand(*p, *a, cy * self.cw + cx) {
                     count[t] += 1;
                     total += 1;
                     tile_made |= count[t] >= TILE_MIN_SAMPLES;

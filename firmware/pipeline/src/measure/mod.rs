@@ -28,7 +28,7 @@ pub use coarse::{contact_tiles, local_noise_units};
 pub use features::{bounded_force, dominant_component, peak_component, summarize, Features};
 pub use window::upsample2;
 
-use coarse::{median, read_coarse, Coarse, Margin, NOISE_STEP};
+use coarse::{median, read_coarse, Coarse, Margin, Samples, NOISE_STEP};
 use contact::{
     indentation_phase, region_pixels, region_samples, upsampled, DepthPass, Faint, Limits, Window,
 };
@@ -339,6 +339,7 @@ pub fn measure<M: PhaseMap>(
         bg: &bg,
         tiles_on,
         amp_medians,
+        low_contrast: frame.flags.contains(Flag::LowContrast),
     };
     let contact_reliable = reliable_pixels(&coarse.rel_contact, &grid, &contact_margin);
     let mut c = found.measure(carrier, ctx, &contact_reliable, &mut wrapped);
@@ -404,24 +405,16 @@ fn image_flags<M: PhaseMap>(
     ctx: &Context<'_>,
 ) -> QualityFlags {
     let mut flags = QualityFlags::NONE;
-    if fringes_faint(coarse, amp_medians) {
+    let (amp_frame_median, amp_ref_median) = amp_medians;
+    if (amp_frame_median as f32) < LOW_CONTRAST_RATIO * amp_ref_median as f32
+        || coarse.reliable_n * 2 < coarse.inside_n
+    {
         flags.insert(Flag::LowContrast);
     }
     if map.saturated_fraction() - ctx.ref_saturated_fraction > OVER_EXPOSED_FRACTION {
         flags.insert(Flag::OverExposure);
     }
     flags
-}
-
-/// Whether the frame's fringes are too faint to read (`low_contrast`): its median amplitude
-/// (`amp_frame_median`) below [`LOW_CONTRAST_RATIO`] of the reference's, or fewer than half
-/// the samples inside the margin reliable.
-fn fringes_faint<P: PhaseNum>(
-    coarse: &Coarse<'_, P>,
-    (amp_frame_median, amp_ref_median): (u32, u32),
-) -> bool {
-    (amp_frame_median as f32) < LOW_CONTRAST_RATIO * amp_ref_median as f32
-        || coarse.reliable_n * 2 < coarse.inside_n
 }
 
 /// Flags the background earns: an offset too large to remove for sure, and fringes too
@@ -573,6 +566,8 @@ struct Found<'a, M: PhaseMap> {
     bg: &'a Background<M::P>,
     tiles_on: &'a [bool],
     amp_medians: (u32, u32),
+    /// Whether the frame carries `low_contrast`.
+    low_contrast: bool,
 }
 
 impl<M: PhaseMap> Found<'_, M> {
@@ -632,20 +627,22 @@ impl<M: PhaseMap> Found<'_, M> {
     ) -> Option<ContactResult> {
         let grid = Grid::of(self.map.size());
         let parts = mask::parts(self.tiles_on, grid.tiles.0, grid.tiles.1);
-        let faint = fringes_faint(self.coarse, self.amp_medians)
-            || background_flags(self.bg).contains(Flag::LowContrast);
-        if parts.len() < 2 || wrapped.colour_field || faint {
+        if parts.len() < 2 || wrapped.colour_field || self.low_contrast {
             return None;
         }
-        let min_total = register::min_contact_samples(carrier);
         let sign = ctx.indentation_sign();
+        let offset = self.bg.offset;
+        let signed: Vec<i32> = (self.coarse.phase.iter())
+            .map(|p| sign * p.minus(offset).units())
+            .collect();
+        let min_total = register::min_contact_samples(carrier);
         let mut standing = parts
             .iter()
-            .filter(|part| self.stands_alone(part, &grid, sign, min_total));
+            .filter(|part| self.stands_alone(part, &signed, &grid, min_total));
         let (Some(part), None) = (standing.next(), standing.next()) else {
             return None;
         };
-        let whole = wrapped.local.clone();
+        let whole = wrapped.local.take();
         let found = Found {
             tiles_on: part,
             ..*self
@@ -660,27 +657,26 @@ impl<M: PhaseMap> Found<'_, M> {
     }
 
     /// Whether the tiles `part` hold a contact by themselves, by the rules a contact must
-    /// meet to be found at all ([`coarse::contact_tiles`]) with only the indentation's sign
-    /// (`sign`) counted: `min_total` reliable samples whose phase stands beyond the
-    /// threshold against their own fringes' noise ([`contact::Faint`]), a tile's worth of
-    /// them ([`TILE_MIN_SAMPLES`]) in one tile. Groups raised by noise where fringes are
-    /// faint stand in a few samples; a press stands over a disc a period across.
-    fn stands_alone(&self, part: &[bool], grid: &Grid, sign: i32, min_total: usize) -> bool {
-        const PER: usize = TILE_PX / GRID;
-        let (cw, tw) = (grid.coarse.0, grid.tiles.0);
+    /// meet to be found at all ([`Samples::make_contact`]) with only the indentation's sign
+    /// counted (`signed`: each coarse sample's phase against the registration, indentation
+    /// positive): `min_total` reliable samples whose phase stands beyond the threshold
+    /// against their own fringes' noise ([`contact::Faint`]), a tile's worth of them in one
+    /// tile. Groups raised by noise where fringes are faint stand in a few samples; a press
+    /// stands over a disc a period across.
+    fn stands_alone(&self, part: &[bool], signed: &[i32], grid: &Grid, min_total: usize) -> bool {
+        let cw = grid.coarse.0;
         let faint = self.faint(cw);
-        let (offset, threshold) = (self.bg.offset, self.bg.threshold);
-        let mut count = vec![0usize; part.len()];
-        let samples = self.coarse.phase.iter().zip(&self.coarse.rel_contact);
-        for (k, (p, &ok)) in samples.enumerate() {
-            let (cx, cy) = (k % cw, k / cw);
-            let t = (cy / PER) * tw + cx / PER;
-            let v = sign * p.minus(offset).units();
-            if ok && part.get(t) == Some(&true) && v > threshold {
-                count[t] += usize::from(faint.stands(v, (cx * GRID, cy * GRID), threshold));
-            }
-        }
-        count.iter().any(|&n| n >= TILE_MIN_SAMPLES) && count.iter().sum::<usize>() >= min_total
+        let threshold = self.bg.threshold;
+        let samples = Samples {
+            phi: signed,
+            rel: &self.coarse.rel_contact,
+            amp_r: &self.coarse.amp_r,
+            cw,
+        };
+        let tiles: Vec<usize> = part.iter().map(|&on| usize::from(on)).collect();
+        samples.make_contact(&tiles, grid.tiles.0, min_total, |v, _, k| {
+            v > threshold && faint.stands(v, ((k % cw) * GRID, (k / cw) * GRID), threshold)
+        })
     }
 
     /// The contact read at every pixel of its window: `None` when it turns out to be no
