@@ -57,9 +57,10 @@ pub enum Flag {
     /// coloured pigments' transition only the black stripes' faint change is left, and a
     /// contact's stripe ratio is less sure than flat skin's). Or a reported temperature
     /// lies where the calibration's own held-out test missed by more than that. Or the
-    /// contact is the skin's hottest place and another flag doubts its temperature (the
-    /// phase its stripes are placed by): the hottest place is doubted with it. Reported
-    /// as read.
+    /// skin's mean lies more than half a degree outside the span from its coldest place to
+    /// its hottest (readings no neighbourhood confirmed move it). Or the contact is the
+    /// skin's hottest place and another flag doubts its temperature (the phase its stripes
+    /// are placed by): the hottest place is doubted with it. Reported as read.
     TemperatureUncertain = 9,
     /// The contact is narrower than the band resolves (a radius under two of its blur σ,
     /// about 1.6 mm whatever the camera): the band keeps a share of its peak that depends on

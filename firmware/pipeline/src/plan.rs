@@ -603,6 +603,7 @@ mod tests {
             contact_sigma_c: Some(0.2),
             out_of_range: false,
             calibration_misses: false,
+            mean_apart: false,
             measured: 1,
         }
     }
@@ -624,5 +625,16 @@ mod tests {
         let depth_model = QualityFlags::NONE.with(Flag::DepthUncertain);
         assert_eq!(read(depth_model, true), depth_model);
         assert_eq!(read(QualityFlags::NONE, true), QualityFlags::NONE);
+    }
+
+    /// A skin whose mean lies outside the span of its places carries
+    /// `temperature_uncertain`, whatever else the frame says.
+    #[test]
+    fn a_mean_apart_from_its_places_doubts_the_temperatures() {
+        let mut t = warm_contact(false);
+        t.mean_apart = true;
+        let mut flags = QualityFlags::NONE;
+        temperature_flags(&mut flags, &t);
+        assert_eq!(flags, QualityFlags::NONE.with(Flag::TemperatureUncertain));
     }
 }

@@ -83,6 +83,9 @@ pub struct Temperature {
     /// near a reading this frame reports (the skin's mean, coldest and hottest places,
     /// the contact): the reading may be off by as much ([`TemperatureModel::held_out_error_c`]).
     pub calibration_misses: bool,
+    /// The mean lies further than [`MEAN_APART_LIMIT_C`] outside the span from the
+    /// coldest place to the hottest ([`mean_apart`]).
+    pub mean_apart: bool,
     /// Blocks measured.
     pub measured: usize,
 }
@@ -95,9 +98,10 @@ impl Temperature {
     }
 
     /// Whether a reported temperature is not held to its tolerance: the contact's
-    /// deviation, or the calibration's held-out miss near a reading, exceeds it.
+    /// deviation, or the calibration's held-out miss near a reading, exceeds it, or the
+    /// mean lies apart from the places.
     pub fn uncertain(&self) -> bool {
-        self.contact_uncertain() || self.calibration_misses
+        self.contact_uncertain() || self.calibration_misses || self.mean_apart
     }
 }
 
@@ -118,6 +122,11 @@ pub const CONTACT_SIGMA_LIMIT_C: f32 = 1.0;
 /// Largest miss of the calibration's held-out test near a reported temperature without
 /// `Flag::TemperatureUncertain`, °C: the same tolerance.
 pub const HELD_OUT_MISS_LIMIT_C: f32 = CONTACT_SIGMA_LIMIT_C;
+
+/// Furthest the mean may lie outside the span from the coldest place to the hottest
+/// without `Flag::TemperatureUncertain`, °C: half the tolerance, so that the tolerance is
+/// at least twice the disagreement (as a depth is held, `measure::DEPTH_CONFIDENCE_SIGMAS`).
+pub const MEAN_APART_LIMIT_C: f32 = CONTACT_SIGMA_LIMIT_C / 2.0;
 
 /// Fewest samples of each population in the contact core before the whole contact region
 /// is used instead.
@@ -375,6 +384,7 @@ impl Thermometer {
             self.as_skin(map.sum_c / n as f64)
         };
         let reported = [mean_c, min_c, max_c, contact.map_or(f32::NAN, |r| r.t_c)];
+        let mean_apart = mean_apart(mean_c, min_c, max_c);
         let calibration_misses = self
             .model
             .as_ref()
@@ -394,6 +404,7 @@ impl Thermometer {
             contact_sigma_c: contact.map(|r| r.var_c2.max(0.0).sqrt()),
             out_of_range,
             calibration_misses,
+            mean_apart,
             measured: n,
         })
     }
@@ -408,6 +419,17 @@ fn misses_near(model: &TemperatureModel, readings: &[f32]) -> bool {
         .iter()
         .filter(|t| t.is_finite())
         .any(|&t| model.held_out_error_c(f64::from(t)) > f64::from(HELD_OUT_MISS_LIMIT_C))
+}
+
+/// Whether the map's mean (°C) lies further than [`MEAN_APART_LIMIT_C`] outside the span
+/// from its coldest place to its hottest. Each place is read over a neighbourhood's
+/// majority, and one that does not stand out of the noise is the skin's median
+/// ([`extremes`]); the mean takes every block as read. A mean colder than the coldest place
+/// (or warmer than the hottest) averages readings no neighbourhood confirmed, scattered or
+/// in thin bands: either they are misread and carry the mean away from the skin, or they
+/// are real and the places missed them. Not a number anywhere: no verdict.
+pub fn mean_apart(mean_c: f32, min_c: f32, max_c: f32) -> bool {
+    mean_c < min_c - MEAN_APART_LIMIT_C || mean_c > max_c + MEAN_APART_LIMIT_C
 }
 
 /// The sums a contact's temperature is read from, of the contact region's and its core's
@@ -465,6 +487,21 @@ fn drop_partial(blocks: &mut [Sums]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A mean within half the tolerance of the span between the coldest and hottest
+    /// places passes; one further out on either side does not; a map without a reading
+    /// anywhere gives no verdict.
+    #[test]
+    fn a_mean_outside_the_span_of_its_places_is_doubted() {
+        assert!(!mean_apart(25.0, 25.0, 25.0));
+        assert!(!mean_apart(26.0, 24.0, 30.0));
+        assert!(!mean_apart(24.6, 25.0, 25.0));
+        assert!(!mean_apart(25.4, 25.0, 25.0));
+        assert!(mean_apart(23.2, 24.9, 24.9));
+        assert!(mean_apart(25.6, 24.0, 25.0));
+        assert!(!mean_apart(f32::NAN, 25.0, 25.0));
+        assert!(!mean_apart(25.0, f32::NAN, f32::NAN));
+    }
 
     /// Estimates order by their integer keys as by their temperatures, on either path
     /// (negative, zero and positive, near and far apart).
