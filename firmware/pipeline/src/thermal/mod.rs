@@ -384,7 +384,8 @@ impl Thermometer {
             self.as_skin(map.sum_c / n as f64)
         };
         let reported = [mean_c, min_c, max_c, contact.map_or(f32::NAN, |r| r.t_c)];
-        let mean_apart = mean_apart(mean_c, min_c, max_c);
+        // As reported: a coldest place no neighbourhood confirmed is none (NaN), not +∞.
+        let mean_apart = mean_apart(mean_c, nan(min_c), max_c);
         let calibration_misses = self
             .model
             .as_ref()
