@@ -38,22 +38,37 @@ pub fn parts(on: &[bool], tw: usize, th: usize) -> Vec<Vec<bool>> {
             continue;
         }
         let mut part = vec![false; n];
-        let mut stack = vec![start];
-        seen[start] = true;
-        while let Some(i) = stack.pop() {
+        for i in component(&mut seen, (tw, th), start, |j| on[j]) {
             part[i] = true;
-            let (x, y) = (i % tw, i / tw);
-            for ny in y.saturating_sub(1)..(y + 2).min(th) {
-                for nx in x.saturating_sub(1)..(x + 2).min(tw) {
-                    let j = ny * tw + nx;
-                    if on[j] && !seen[j] {
-                        seen[j] = true;
-                        stack.push(j);
-                    }
+        }
+        out.push(part);
+    }
+    out
+}
+
+/// The 8-connected component of `seed` among the cells of a `w × h` grid that are
+/// `inside`, as indices in the order they are reached (the seed first), marking each in
+/// `seen`; cells already `seen` are not entered. The caller has checked the seed.
+pub fn component(
+    seen: &mut [bool],
+    (w, h): (usize, usize),
+    seed: usize,
+    inside: impl Fn(usize) -> bool,
+) -> Vec<usize> {
+    let (mut stack, mut out) = (vec![seed], Vec::new());
+    seen[seed] = true;
+    while let Some(i) = stack.pop() {
+        out.push(i);
+        let (x, y) = (i % w, i / w);
+        for ny in y.saturating_sub(1)..(y + 2).min(h) {
+            for nx in x.saturating_sub(1)..(x + 2).min(w) {
+                let j = ny * w + nx;
+                if !seen[j] && inside(j) {
+                    seen[j] = true;
+                    stack.push(j);
                 }
             }
         }
-        out.push(part);
     }
     out
 }

@@ -155,22 +155,9 @@ pub fn peak_component(depth_um: &[i32], w: usize, peak_at: usize, thr_um: i32) -
     }
     let (h, half) = (depth_um.len() / w.max(1), peak / 2);
     let mut seen = vec![false; depth_um.len()];
-    let (mut stack, mut out) = (vec![peak_at], Vec::new());
-    seen[peak_at] = true;
-    while let Some(i) = stack.pop() {
-        out.push(i);
-        let (x, y) = (i % w, i / w);
-        for ny in y.saturating_sub(1)..(y + 2).min(h) {
-            for nx in x.saturating_sub(1)..(x + 2).min(w) {
-                let j = ny * w + nx;
-                if !seen[j] && depth_um[j] >= half && depth_um[j] > thr_um {
-                    seen[j] = true;
-                    stack.push(j);
-                }
-            }
-        }
-    }
-    out
+    crate::mask::component(&mut seen, (w, h), peak_at, |j| {
+        depth_um[j] >= half && depth_um[j] > thr_um
+    })
 }
 
 /// Force from the calibration's model, N, and whether it lies beyond what the calibration

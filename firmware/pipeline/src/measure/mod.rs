@@ -401,11 +401,10 @@ fn within(mut reliable: Vec<bool>, w: usize, margin: &Margin) -> Vec<bool> {
 fn image_flags<M: PhaseMap>(
     map: &M,
     coarse: &Coarse<'_, M::P>,
-    amp_medians: (u32, u32),
+    (amp_frame_median, amp_ref_median): (u32, u32),
     ctx: &Context<'_>,
 ) -> QualityFlags {
     let mut flags = QualityFlags::NONE;
-    let (amp_frame_median, amp_ref_median) = amp_medians;
     if (amp_frame_median as f32) < LOW_CONTRAST_RATIO * amp_ref_median as f32
         || coarse.reliable_n * 2 < coarse.inside_n
     {
