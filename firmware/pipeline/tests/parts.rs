@@ -115,3 +115,65 @@ fn a_press_is_not_weighed_with_phase_of_the_other_sign_far_from_it() {
         assert!(off_mm < 1.5, "centre {off_mm:.2} mm off: {m:?}");
     }
 }
+
+/// `img` with each square of `patches` (centre px, phase rad) taken from the reference
+/// rendered with its grating shifted by that phase.
+fn with_patches(
+    r: &Renderer,
+    img: &image::RgbImage,
+    patches: &[((u32, u32), f32)],
+) -> image::RgbImage {
+    let period_px = unit().period_px;
+    patches.iter().fold(img.clone(), |out, &(at, rad)| {
+        let mut s = SkinState::idle(ROOM_C);
+        s.shift_px = (rad / std::f32::consts::TAU * period_px, 0.0);
+        pasted(&out, &r.render(&s, 5).0, &[at])
+    })
+}
+
+/// The sign of a grating shift that reads as indentation: a patch shifted by it alone is
+/// a contact.
+fn indentation_sign(r: &Renderer, reference: &image::RgbImage, a: &Analyzer) -> f32 {
+    let only = with_patches(r, reference, &[((460, 120), PATCH_RAD)]);
+    if a.analyze(&only).unwrap().contact {
+        1.0
+    } else {
+        -1.0
+    }
+}
+
+/// Several groups stand alone beside a press, as the phase of a skin away from the
+/// reference's temperature does in many places: two shallow patches of the indentation's
+/// sign and, between them, two of the other sign that make the whole region a dipole. The
+/// press, its phase standing more than twice as far out as theirs, is still reported at
+/// its place on both paths.
+#[test]
+fn a_press_standing_out_of_several_groups_is_reported() {
+    let u = unit();
+    let r = Renderer::new(u.clone());
+    let (reference, _) = r.render(&SkinState::idle(ROOM_C), 1);
+    let mmpp = u.mm_per_px();
+    let at_px = (180.0, 300.0);
+    let (frame, truth) = r.render(&press((at_px.0 * mmpp, at_px.1 * mmpp), 0.6), 9);
+    let analyzers = analyzers(&reference);
+    let sign = indentation_sign(&r, &reference, &analyzers[0]);
+    let shallow = 0.12 * sign;
+    let img = with_patches(
+        &r,
+        &frame,
+        &[
+            ((470, 90), shallow),
+            ((470, 400), shallow),
+            ((420, 200), -3.0 * shallow),
+            ((520, 300), -3.0 * shallow),
+        ],
+    );
+    let truth_px = truth.contact_px.unwrap();
+    for a in &analyzers {
+        let m = a.analyze(&img).unwrap();
+        assert!(m.contact, "no contact: {m:?}");
+        let (x, y) = centre_px(&m);
+        let off_mm = (x - truth_px.0).hypot(y - truth_px.1) * mmpp;
+        assert!(off_mm < 1.5, "centre {off_mm:.2} mm off: {m:?}");
+    }
+}

@@ -135,6 +135,10 @@ pub const BLUNTNESS_RATIO: f64 = 1.3;
 /// depth was misread (a glare spot at the apex). `docs/pipeline.md` gives the measured
 /// trade.
 pub const LOAD_RATIO: f64 = 1.2;
+/// Of several parts of a rejected region that each stand alone, one whose deepest sample
+/// lies this many times beyond every other's holds the press (`docs/pipeline.md`, "One
+/// part standing out").
+pub const STANDS_OUT_RATIO: f32 = 2.0;
 /// Misregistration flag: a global offset beyond this, rad (0.4 of a period: up to there the
 /// offset is removed exactly; towards half a period it becomes ambiguous).
 pub const MISREGISTRATION_RAD: f32 = 0.8 * std::f32::consts::PI;
@@ -635,11 +639,17 @@ impl<M: PhaseMap> Found<'_, M> {
             .map(|p| sign * p.minus(offset).units())
             .collect();
         let min_total = register::min_contact_samples(carrier);
-        let mut standing = parts
-            .iter()
-            .filter(|part| self.stands_alone(part, &signed, &grid, min_total));
-        let (Some(part), None) = (standing.next(), standing.next()) else {
-            return None;
+        let standing: Vec<&Vec<bool>> = (parts.iter())
+            .filter(|part| self.stands_alone(part, &signed, &grid, min_total))
+            .collect();
+        let core;
+        let part = match standing[..] {
+            [part] => part,
+            [_, _, ..] => {
+                core = self.press_standing_out(&standing, &signed, &grid, carrier)?;
+                &core
+            }
+            [] => return None,
         };
         let whole = wrapped.local.take();
         let found = Found {
@@ -653,6 +663,72 @@ impl<M: PhaseMap> Found<'_, M> {
             wrapped.local = whole;
         }
         c
+    }
+
+    /// Of several `parts` that stand alone, the press in the one whose deepest
+    /// indentation-signed sample (`signed`, reliable samples only) lies [`STANDS_OUT_RATIO`]
+    /// times or more beyond every other's: a press amid the phase that a skin away from the
+    /// reference's temperature moves in many places, all near the threshold. Such a part
+    /// takes in that phase around the press too, so the press is its tiles reaching
+    /// beyond every other part's deepest sample, joined to the deepest tile, and a grating
+    /// period of the part's tiles around them (where the press's flank falls to the
+    /// threshold). `None` where no part stands that far out: nothing tells a press there.
+    fn press_standing_out(
+        &self,
+        parts: &[&Vec<bool>],
+        signed: &[i32],
+        grid: &Grid,
+        carrier: Carrier,
+    ) -> Option<Vec<bool>> {
+        let peaks = self.tile_peaks(signed, grid);
+        let deepest = |part: &Vec<bool>| {
+            (part.iter().zip(&peaks).filter(|(&on, _)| on))
+                .max_by_key(|(_, &p)| p)
+                .map(|(_, &p)| p)
+        };
+        let mut ranked: Vec<(i32, &Vec<bool>)> = parts
+            .iter()
+            .filter_map(|&p| Some((deepest(p)?, p)))
+            .collect();
+        ranked.sort_unstable_by_key(|&(peak, _)| std::cmp::Reverse(peak));
+        let [(first, part), (second, _), ..] = ranked[..] else {
+            return None;
+        };
+        let second = second.max(self.bg.threshold);
+        if (first as f32) < STANDS_OUT_RATIO * second as f32 {
+            return None;
+        }
+        let (tw, th) = grid.tiles;
+        let seed = (part.iter().zip(&peaks)).position(|(&on, &p)| on && p == first)?;
+        let mut seen = vec![false; tw * th];
+        let mut core = vec![false; tw * th];
+        for i in mask::component(&mut seen, (tw, th), seed, |j| part[j] && peaks[j] > second) {
+            core[i] = true;
+        }
+        let flank_tiles = (carrier.period_px() / TILE_PX as f32).ceil() as usize;
+        for _ in 0..flank_tiles {
+            core = mask::dilate(&core, tw, th);
+            for (c, &on) in core.iter_mut().zip(part.iter()) {
+                *c &= on;
+            }
+        }
+        Some(core)
+    }
+
+    /// Per tile, the deepest of `signed` over its reliable coarse samples (`i32::MIN` where
+    /// none is reliable).
+    fn tile_peaks(&self, signed: &[i32], grid: &Grid) -> Vec<i32> {
+        const PER: usize = TILE_PX / GRID;
+        let ((cw, _), (tw, th)) = (grid.coarse, grid.tiles);
+        let mut peaks = vec![i32::MIN; tw * th];
+        let samples = signed.iter().zip(&self.coarse.rel_contact).enumerate();
+        for (k, (&v, _)) in samples.filter(|(_, (_, &rel))| rel) {
+            let t = (k / cw / PER) * tw + (k % cw) / PER;
+            if let Some(p) = peaks.get_mut(t) {
+                *p = (*p).max(v);
+            }
+        }
+        peaks
     }
 
     /// Whether the tiles `part` hold a contact by themselves, by the rules a contact must
