@@ -13,6 +13,7 @@
 //! kit = "/var/lib/vistaf/kit"           # guided calibrations' frames [default: beside the calibration]
 //! pipeline = "fixed"                    # or float
 //! max_rate_hz = 0                       # 0: a summary per frame
+//! camera_hold_s = 2.0                   # hold the camera's automatic light this long after it starts (0: never)
 //!
 //! [led]
 //! ring = "spi0"                         # spi0 (WS2812 on SPI0 MOSI) or none
@@ -164,6 +165,9 @@ pub struct Config {
     pub fps: Option<f32>,
     /// Summary rate limit, Hz (0: every frame).
     pub max_rate_hz: Option<u16>,
+    /// Seconds a camera streams before its automatic exposure, gain, white balance and
+    /// focus are held where they settled (0: left automatic).
+    pub camera_hold_s: Option<f32>,
     /// The LED ring.
     #[serde(default)]
     pub led: LedSection,
@@ -173,6 +177,16 @@ pub struct Config {
 }
 
 impl Config {
+    /// How long a camera streams before its automatic light settings are held; `None`
+    /// where the file says never (0).
+    pub fn camera_hold(&self) -> Option<std::time::Duration> {
+        match self.camera_hold_s {
+            Some(s) if s > 0.0 => Some(std::time::Duration::from_secs_f32(s)),
+            Some(_) => None,
+            None => Some(vistaf_hardware::light_hold::HOLD_AFTER),
+        }
+    }
+
     /// Reads and checks a file.
     pub fn load(path: &Path) -> Result<Config, ConfigError> {
         let p = path.display().to_string();
@@ -214,6 +228,14 @@ impl Config {
         if let Some(f) = self.fps {
             if !(f.is_finite() && f > 0.0) {
                 return Err(bad("fps", format!("{f}: must be a positive rate")));
+            }
+        }
+        if let Some(h) = self.camera_hold_s {
+            if !(h.is_finite() && (0.0..=3600.0).contains(&h)) {
+                return Err(bad(
+                    "camera_hold_s",
+                    format!("{h}: seconds from 0 (never) to 3600"),
+                ));
             }
         }
         if !matches!(self.led.ring.as_str(), "spi0" | "none") {
@@ -279,6 +301,12 @@ mod tests {
     fn the_shipped_default_parses() {
         let c = Config::parse(include_str!("../deploy/skin.toml"), "skin.toml").unwrap();
         assert_eq!(c.led.ring, "spi0");
+        assert_eq!(
+            c.camera_hold(),
+            Some(vistaf_hardware::light_hold::HOLD_AFTER)
+        );
+        let never = Config::parse("camera_hold_s = 0", "skin.toml").unwrap();
+        assert_eq!(never.camera_hold(), None);
     }
 
     #[test]
@@ -296,6 +324,7 @@ mod tests {
         assert!(e("pipeline = \"gpu\"").contains("`pipeline`"));
         assert!(e("[reference]\ndrift_rad = -1").contains("reference.drift_rad"));
         assert!(e("fps = 0").contains("`fps`"));
+        assert!(e("camera_hold_s = -1").contains("`camera_hold_s`"));
         assert!(e("source = [").contains("skin.toml"));
         assert!(Config::parse("", "empty").unwrap() == Config::default());
     }

@@ -60,6 +60,9 @@ pub struct OpenOptions {
     pub looping: bool,
     /// Requested camera size, pixels.
     pub size: (u32, u32),
+    /// How long a camera streams before its automatic light settings are held; `None`
+    /// leaves them automatic (`vistaf_hardware::light_hold`).
+    pub camera_hold: Option<std::time::Duration>,
 }
 
 impl Default for OpenOptions {
@@ -71,6 +74,7 @@ impl Default for OpenOptions {
             fps: None,
             looping: false,
             size: (640, 480),
+            camera_hold: Some(vistaf_hardware::light_hold::HOLD_AFTER),
         }
     }
 }
@@ -134,6 +138,7 @@ fn open_source(spec: &SourceSpec, o: &OpenOptions) -> Result<Box<dyn FrameSource
             let req = CaptureRequest {
                 width: o.size.0,
                 height: o.size.1,
+                hold_after: o.camera_hold,
                 ..CaptureRequest::default()
             };
             let open = move || Camera::open(&sel, &req);

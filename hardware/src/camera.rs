@@ -11,6 +11,10 @@
 //! * **Newest frame.** Every [`FrameSource::next_frame`] drains the driver's queue and
 //!   returns the newest filled buffer; older ones are counted as stale. A slow consumer
 //!   therefore never reads frames tens of milliseconds old.
+//! * **Light held.** [`CaptureRequest::hold_after`] after it starts streaming (the image
+//!   settled under the LED ring), the camera's automatic exposure, gain, white balance and
+//!   focus are switched off at the values they settled to ([`crate::light_hold`]);
+//!   [`FrameSource::take_note`] says once what was held and what the camera refused.
 //! * **Unplugged.** A vanished device surfaces as [`SourceError::Gone`]; wrap the camera in
 //!   [`crate::source::Reconnect`] to reopen it with back-off.
 //!
@@ -19,7 +23,7 @@
 //! --list-devices` shows what the kernel sees.
 
 use std::path::{Path, PathBuf};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use v4l::buffer::Type;
 use v4l::io::mmap::Stream;
@@ -28,6 +32,7 @@ use v4l::video::Capture;
 use v4l::{Device, FourCC};
 
 use crate::frame::{Frame, PixelFormat};
+use crate::light_hold::{self, Controls};
 use crate::source::{FrameSource, SourceError, SourceFormat};
 
 /// How to find the camera.
@@ -52,6 +57,9 @@ pub struct CaptureRequest {
     pub fps: u32,
     /// Pixel formats in order of preference.
     pub formats: Vec<PixelFormat>,
+    /// How long after streaming starts the automatic light settings are held
+    /// ([`crate::light_hold`]); `None` leaves them automatic.
+    pub hold_after: Option<Duration>,
 }
 
 impl Default for CaptureRequest {
@@ -61,6 +69,7 @@ impl Default for CaptureRequest {
             height: 480,
             fps: 30,
             formats: vec![PixelFormat::Yuyv, PixelFormat::Mjpeg],
+            hold_after: Some(light_hold::HOLD_AFTER),
         }
     }
 }
@@ -257,6 +266,22 @@ pub fn list_nodes() -> Vec<Node> {
     nodes
 }
 
+/// The device's controls, for [`light_hold`]: integer, menu and boolean values.
+impl Controls for Device {
+    fn get(&self, id: u32) -> Option<i64> {
+        match self.control(id).ok()?.value {
+            v4l::control::Value::Integer(v) => Some(v),
+            v4l::control::Value::Boolean(b) => Some(i64::from(b)),
+            _ => None,
+        }
+    }
+
+    fn set(&mut self, id: u32, value: i64) -> std::io::Result<()> {
+        let value = v4l::control::Value::Integer(value);
+        self.set_control(v4l::control::Control { id, value })
+    }
+}
+
 /// `VIDIOC_QUERYCAP`. The v4l crate panics on a driver name that is not UTF-8; a driver's
 /// bytes must never crash the service, so that panic is caught and reported.
 fn query_caps(dev: &Device) -> std::io::Result<v4l::capability::Flags> {
@@ -272,7 +297,11 @@ pub struct Camera {
     stride: usize,
     format: SourceFormat,
     stream: Stream<'static>,
-    _dev: Device,
+    dev: Device,
+    /// When the automatics are to be held; `None` once done, or never.
+    hold_at: Option<Instant>,
+    /// What the hold did, until [`FrameSource::take_note`] takes it.
+    note: Option<String>,
     last_seq: Option<u32>,
     /// Frames the driver dropped (sequence gaps) since opening.
     pub driver_dropped: u64,
@@ -306,6 +335,12 @@ impl Camera {
     /// Filled buffers skipped because a newer one was already waiting (newest wins).
     pub fn stale_skipped(&self) -> u64 {
         self.stale_skipped
+    }
+
+    /// A V4L2 control's current value (`light_hold`'s ids); `None` where the camera has
+    /// no such control.
+    pub fn control(&self, id: u32) -> Option<i64> {
+        self.dev.get(id)
     }
 
     /// Finds, opens and starts the camera.
@@ -380,7 +415,9 @@ impl Camera {
                 interval,
             },
             stream,
-            _dev: dev,
+            dev,
+            hold_at: req.hold_after.map(|d| Instant::now() + d),
+            note: None,
             last_seq: None,
             driver_dropped: 0,
             stale_skipped: 0,
@@ -396,6 +433,10 @@ impl FrameSource for Camera {
 
     fn name(&self) -> String {
         self.path.display().to_string()
+    }
+
+    fn take_note(&mut self) -> Option<String> {
+        self.note.take()
     }
 
     fn next_frame(&mut self) -> Result<Option<Frame>, SourceError> {
@@ -416,6 +457,11 @@ impl FrameSource for Camera {
         }
         self.last_seq = Some(seq);
         self.seq += 1;
+        if self.hold_at.is_some_and(|at| Instant::now() >= at) {
+            self.hold_at = None;
+            let held = light_hold::hold(&mut self.dev);
+            self.note = Some(format!("camera light {}", light_hold::describe(&held)));
+        }
         Ok(Some(Frame {
             width: self.format.width,
             height: self.format.height,

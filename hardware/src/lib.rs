@@ -25,6 +25,7 @@ pub mod frame;
 pub mod frameset;
 mod jpeg;
 pub mod led;
+pub mod light_hold;
 pub mod source;
 mod yuyv;
 

@@ -75,6 +75,11 @@ pub trait FrameSource: Send {
     fn name(&self) -> String;
     /// The next frame, blocking until it is due; `Ok(None)` at the end of a finite source.
     fn next_frame(&mut self) -> Result<Option<Frame>, SourceError>;
+    /// A remark worth one log line, given once (a camera's light settings held:
+    /// [`crate::light_hold`]); none by default.
+    fn take_note(&mut self) -> Option<String> {
+        None
+    }
 }
 
 /// How a replayed set is paced.
@@ -304,5 +309,9 @@ impl<S: FrameSource, F: FnMut() -> Result<S, SourceError> + Send> FrameSource fo
             }
             other => other,
         }
+    }
+
+    fn take_note(&mut self) -> Option<String> {
+        self.current.as_mut().and_then(|s| s.take_note())
     }
 }

@@ -150,6 +150,7 @@ pub fn open(a: &ServiceArgs, pipeline: Option<Implementation>, fresh_ok: bool) -
         sim_frames: a.sim_frames,
         unit_seed: a.unit_seed,
         fps: a.fps.or(cfg.fps),
+        camera_hold: cfg.camera_hold(),
         ..OpenOptions::default()
     };
     let (source, bench) = open_with_bench(&source, &opts)?;

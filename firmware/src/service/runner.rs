@@ -140,6 +140,9 @@ fn capture(
             edge.camera_restarts.fetch_add(1, Ordering::Relaxed);
             let _ = camera.try_send(CameraEvent::Back);
         }
+        if let Some(note) = source.take_note() {
+            eprintln!("vistaf-skin: {}: {note}", source.name());
+        }
         edge.captured.fetch_add(1, Ordering::Relaxed);
         let buf = out.spare.try_recv().unwrap_or_default();
         let scale = edge.decode_scale.load(Ordering::Relaxed);

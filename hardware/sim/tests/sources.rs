@@ -50,6 +50,9 @@ impl FrameSource for Flaky {
     fn name(&self) -> String {
         "flaky".into()
     }
+    fn take_note(&mut self) -> Option<String> {
+        (self.left == 1).then(|| "one frame left".into())
+    }
     fn next_frame(&mut self) -> Result<Option<Frame>, SourceError> {
         if self.left == 0 {
             return Err(SourceError::Gone {
@@ -85,6 +88,8 @@ fn a_vanished_camera_is_reported_then_reopened_with_back_off() {
     };
     let mut cam = Reconnect::new(open).unwrap().with_sleep(|_| {});
     assert!(cam.next_frame().unwrap().is_some());
+    // The open source's note passes through.
+    assert_eq!(cam.take_note().as_deref(), Some("one frame left"));
     assert!(cam.next_frame().unwrap().is_some());
     let lost = cam.next_frame().unwrap_err();
     assert!(

@@ -72,6 +72,7 @@ mod vivid {
             height: h,
             fps: 30,
             formats,
+            hold_after: None,
         }
     }
 
@@ -92,6 +93,7 @@ mod vivid {
         }
         r.check("by-name-mjpeg-preferred", by_name_mjpeg_preferred());
         r.check("pipeline", pipeline(&path));
+        r.check("light-held", light_held(&path));
         r.check("unbind-rebind", rebind());
         println!("VIVID-RESULT {}", if r.failed { "FAIL" } else { "PASS" });
     }
@@ -169,6 +171,24 @@ mod vivid {
                     Err(format!("only {flagged} of 5 frames flagged low_contrast"))
                 }
             }
+        }
+    }
+
+    /// Held from the first frame on: vivid's automatic gain goes off at the gain it had,
+    /// and the note says so once.
+    fn light_held(path: &Selector) -> Result<String, String> {
+        use vistaf_hardware::light_hold::{AUTOGAIN, GAIN};
+        let mut ask = req(320, 240, vec![PixelFormat::Yuyv]);
+        ask.hold_after = Some(Duration::ZERO);
+        let mut cam = Camera::open(path, &ask).map_err(|e| e.to_string())?;
+        cam.next_frame().map_err(|e| e.to_string())?;
+        let note = cam.take_note().ok_or("no note after the first frame")?;
+        if cam.take_note().is_some() {
+            return Err("the note came twice".into());
+        }
+        match (cam.control(AUTOGAIN), cam.control(GAIN)) {
+            (Some(0), Some(g)) if note.contains(&format!("gain held at {g}")) => Ok(note),
+            other => Err(format!("autogain, gain {other:?} after \"{note}\"")),
         }
     }
 
