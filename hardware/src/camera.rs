@@ -416,7 +416,7 @@ impl Camera {
             },
             stream,
             dev,
-            hold_at: req.hold_after.map(|d| Instant::now() + d),
+            hold_at: req.hold_after.and_then(|d| Instant::now().checked_add(d)),
             note: None,
             last_seq: None,
             driver_dropped: 0,
