@@ -64,6 +64,28 @@ fn centre_px(m: &Measurement) -> (f32, f32) {
     m.centroid_px.unwrap()
 }
 
+/// The reference unit's renderer, its reference at rest, and a frame of the calibrated
+/// sphere pressed `depth_mm` at (180, 300) px with the truth's contact centre, px.
+fn pressed_scene(depth_mm: f32) -> (Renderer, image::RgbImage, image::RgbImage, (f32, f32)) {
+    let u = unit();
+    let r = Renderer::new(u.clone());
+    let (reference, _) = r.render(&SkinState::idle(ROOM_C), 1);
+    let mmpp = u.mm_per_px();
+    let (frame, truth) = r.render(&press((180.0 * mmpp, 300.0 * mmpp), depth_mm), 9);
+    (r, reference, frame, truth.contact_px.unwrap())
+}
+
+/// Every analyzer reports a contact in `img` within 1.5 mm of `truth_px`.
+fn assert_found_at(analyzers: &[Analyzer], img: &image::RgbImage, truth_px: (f32, f32)) {
+    for a in analyzers {
+        let m = a.analyze(img).unwrap();
+        assert!(m.contact, "no contact: {m:?}");
+        let (x, y) = centre_px(&m);
+        let off_mm = (x - truth_px.0).hypot(y - truth_px.1) * unit().mm_per_px();
+        assert!(off_mm < 1.5, "centre {off_mm:.2} mm off: {m:?}");
+    }
+}
+
 /// Two patches whose grating stands shifted against the indentation's sign, each larger
 /// than the press, lie far from a 0.3 mm press: weighed with them as one region, its
 /// opposite-signed phase outweighs the press. Judged apart, the press is reported at its
@@ -71,14 +93,9 @@ fn centre_px(m: &Measurement) -> (f32, f32) {
 /// the indentation's sign a contact, of the other none.
 #[test]
 fn a_press_is_not_weighed_with_phase_of_the_other_sign_far_from_it() {
-    let u = unit();
-    let r = Renderer::new(u.clone());
-    let (reference, _) = r.render(&SkinState::idle(ROOM_C), 1);
-    let mmpp = u.mm_per_px();
-    let at_px = (180.0, 300.0);
-    let (frame, truth) = r.render(&press((at_px.0 * mmpp, at_px.1 * mmpp), 0.3), 9);
+    let (r, reference, frame, truth_px) = pressed_scene(0.3);
     let patches = [(460, 120), (470, 360)];
-    let shift_px = PATCH_RAD / std::f32::consts::TAU * u.period_px;
+    let shift_px = PATCH_RAD / std::f32::consts::TAU * unit().period_px;
     let shifted = |sign: f32| {
         let mut s = SkinState::idle(ROOM_C);
         s.shift_px = (sign * shift_px, 0.0);
@@ -106,14 +123,7 @@ fn a_press_is_not_weighed_with_phase_of_the_other_sign_far_from_it() {
     );
     let opposite = reads.iter().find(|(_, c)| !c[0]).unwrap().0;
     let img = pasted(&frame, &shifted(opposite), &patches);
-    let truth_px = truth.contact_px.unwrap();
-    for a in &analyzers {
-        let m = a.analyze(&img).unwrap();
-        assert!(m.contact, "no contact: {m:?}");
-        let (x, y) = centre_px(&m);
-        let off_mm = (x - truth_px.0).hypot(y - truth_px.1) * mmpp;
-        assert!(off_mm < 1.5, "centre {off_mm:.2} mm off: {m:?}");
-    }
+    assert_found_at(&analyzers, &img, truth_px);
 }
 
 /// `img` with each square of `patches` (centre px, phase rad) taken from the reference
@@ -149,12 +159,7 @@ fn indentation_sign(r: &Renderer, reference: &image::RgbImage, a: &Analyzer) -> 
 /// its place on both paths.
 #[test]
 fn a_press_standing_out_of_several_groups_is_reported() {
-    let u = unit();
-    let r = Renderer::new(u.clone());
-    let (reference, _) = r.render(&SkinState::idle(ROOM_C), 1);
-    let mmpp = u.mm_per_px();
-    let at_px = (180.0, 300.0);
-    let (frame, truth) = r.render(&press((at_px.0 * mmpp, at_px.1 * mmpp), 0.6), 9);
+    let (r, reference, frame, truth_px) = pressed_scene(0.6);
     let analyzers = analyzers(&reference);
     let sign = indentation_sign(&r, &reference, &analyzers[0]);
     let shallow = 0.12 * sign;
@@ -168,12 +173,5 @@ fn a_press_standing_out_of_several_groups_is_reported() {
             ((520, 300), -3.0 * shallow),
         ],
     );
-    let truth_px = truth.contact_px.unwrap();
-    for a in &analyzers {
-        let m = a.analyze(&img).unwrap();
-        assert!(m.contact, "no contact: {m:?}");
-        let (x, y) = centre_px(&m);
-        let off_mm = (x - truth_px.0).hypot(y - truth_px.1) * mmpp;
-        assert!(off_mm < 1.5, "centre {off_mm:.2} mm off: {m:?}");
-    }
+    assert_found_at(&analyzers, &img, truth_px);
 }
