@@ -120,8 +120,10 @@ pub const OUT_OF_RANGE_BLOCKS: usize = 2;
 pub const CONTACT_SIGMA_LIMIT_C: f32 = 1.0;
 
 /// Largest miss of the calibration's held-out test near a reported temperature without
-/// `Flag::TemperatureUncertain`, °C: the same tolerance.
-pub const HELD_OUT_MISS_LIMIT_C: f32 = CONTACT_SIGMA_LIMIT_C;
+/// `Flag::TemperatureUncertain`, °C: half the tolerance, so that the tolerance is at least
+/// twice the miss (one draw of the error there), as a depth is held
+/// (`measure::DEPTH_CONFIDENCE_SIGMAS`).
+pub const HELD_OUT_MISS_LIMIT_C: f32 = CONTACT_SIGMA_LIMIT_C / 2.0;
 
 /// Furthest the mean may lie outside the span from the coldest place to the hottest
 /// without `Flag::TemperatureUncertain`, °C: half the tolerance, so that the tolerance is
@@ -488,6 +490,25 @@ fn drop_partial(blocks: &mut [Sums]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A reading where the calibration's held-out test missed by more than half the
+    /// tolerance is doubted, one where it missed by less is not; readings that are not a
+    /// number are not judged.
+    #[test]
+    fn a_reading_where_the_held_out_test_missed_by_half_the_tolerance_is_doubted() {
+        let mut m = crate::calibration::Calibration::default_sim()
+            .temperature
+            .unwrap_or_else(|| unreachable!("the default calibration has a temperature model"));
+        let at = |t: f64, e: f64| model::SetpointError {
+            setpoint_c: t,
+            estimate_c: t + e,
+        };
+        m.held_out = vec![at(22.0, 0.7), at(24.0, 0.1), at(26.0, -0.4)];
+        assert!(misses_near(&m, &[22.0]));
+        assert!(misses_near(&m, &[f32::NAN, 25.0, 22.5]));
+        assert!(!misses_near(&m, &[23.5, 25.0, 26.0, 30.0]));
+        assert!(!misses_near(&m, &[f32::NAN]));
+    }
 
     /// A mean within half the tolerance of the span between the coldest and hottest
     /// places passes; one further out on either side does not; a map without a reading
