@@ -8,8 +8,10 @@
 //! in principle (`docs/temperature.md`); a compressed camera's chroma does not cancel them
 //! wholly, and nothing is gained by letting them happen. So once the image has settled
 //! under the LED ring, each automatic the camera has is switched off with its manual
-//! counterpart written back at the value it had settled to: the image does not jump, and
-//! it stays as the reference saw it.
+//! counterpart written back at the value it had settled to: the image stays as the
+//! reference saw it. (A camera that reports a default instead of the value its automatic
+//! settled to may change once when held; the service's reference keeper sees that as
+//! drift and renews the reference, `docs/service.md`.)
 //!
 //! The controls are V4L2's (`linux/v4l2-controls.h`); a camera that lacks one is left as
 //! it is, and one that refuses a change is reported, never fatal: the service runs on,
@@ -91,7 +93,8 @@ pub const AUTOMATICS: [Automatic; 4] = [
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Outcome {
     /// Switched off; the manual value written back (`None` where the camera has no manual
-    /// control to read, and the switch alone holds it).
+    /// control to read or refused the value: the switch alone holds it, at whatever the
+    /// camera keeps).
     Held(Option<i64>),
     /// The camera has no such automatic.
     Absent,
@@ -114,14 +117,11 @@ fn hold_one(c: &mut impl Controls, a: &Automatic) -> Outcome {
         return Outcome::Absent;
     }
     let settled = c.get(a.manual);
-    let written = c.set(a.switch, a.off).and_then(|()| match settled {
-        Some(v) => c.set(a.manual, v),
-        None => Ok(()),
-    });
-    match written {
-        Ok(()) => Outcome::Held(settled),
-        Err(e) => Outcome::Refused(e.to_string()),
+    if let Err(e) = c.set(a.switch, a.off) {
+        return Outcome::Refused(e.to_string());
     }
+    // Off either way; the value is known only where the camera took it back.
+    Outcome::Held(settled.filter(|&v| c.set(a.manual, v).is_ok()))
 }
 
 /// One line for the log: what is held, at what, and what the camera refused.
@@ -224,6 +224,15 @@ mod tests {
             line.contains("white balance still automatic (Input/output error)"),
             "{line}"
         );
+    }
+
+    #[test]
+    fn a_refused_manual_value_still_leaves_the_automatic_off() {
+        let mut cam = webcam();
+        cam.refuse = Some(EXPOSURE_ABSOLUTE);
+        let held = hold(&mut cam);
+        assert_eq!(cam.get(EXPOSURE_AUTO), Some(1));
+        assert_eq!(describe(&held), "exposure held, white balance held at 4600");
     }
 
     #[test]
