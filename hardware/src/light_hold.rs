@@ -211,14 +211,19 @@ mod tests {
         );
     }
 
+    /// The webcam held while it refuses writes to control `id`, and the report's line.
+    fn held_refusing(id: u32) -> (Fake, String) {
+        let mut cam = webcam();
+        cam.refuse = Some(id);
+        let line = describe(&hold(&mut cam));
+        (cam, line)
+    }
+
     #[test]
     fn a_refused_switch_is_reported_and_the_others_still_held() {
-        let mut cam = webcam();
-        cam.refuse = Some(AUTO_WHITE_BALANCE);
-        let held = hold(&mut cam);
+        let (cam, line) = held_refusing(AUTO_WHITE_BALANCE);
         assert_eq!(cam.get(EXPOSURE_AUTO), Some(1));
         assert_eq!(cam.get(AUTO_WHITE_BALANCE), Some(1));
-        let line = describe(&held);
         assert!(line.contains("exposure held at 156"), "{line}");
         assert!(
             line.contains("white balance still automatic (Input/output error)"),
@@ -228,11 +233,9 @@ mod tests {
 
     #[test]
     fn a_refused_manual_value_still_leaves_the_automatic_off() {
-        let mut cam = webcam();
-        cam.refuse = Some(EXPOSURE_ABSOLUTE);
-        let held = hold(&mut cam);
+        let (cam, line) = held_refusing(EXPOSURE_ABSOLUTE);
         assert_eq!(cam.get(EXPOSURE_AUTO), Some(1));
-        assert_eq!(describe(&held), "exposure held, white balance held at 4600");
+        assert_eq!(line, "exposure held, white balance held at 4600");
     }
 
     #[test]

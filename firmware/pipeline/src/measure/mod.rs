@@ -681,17 +681,17 @@ impl<M: PhaseMap> Found<'_, M> {
         carrier: Carrier,
     ) -> Option<Vec<bool>> {
         let peaks = self.tile_peaks(signed, grid);
-        let deepest = |part: &Vec<bool>| {
-            (part.iter().zip(&peaks).filter(|(&on, _)| on))
-                .max_by_key(|(_, &p)| p)
-                .map(|(_, &p)| p)
-        };
-        let mut ranked: Vec<(i32, &Vec<bool>)> = parts
-            .iter()
-            .filter_map(|&p| Some((deepest(p)?, p)))
+        // Each part's deepest tile (the first of equals): its peak, the tile, the part.
+        let mut ranked: Vec<(i32, usize, &Vec<bool>)> = (parts.iter())
+            .filter_map(|&part| {
+                let (seed, &peak) = (peaks.iter().enumerate())
+                    .filter(|&(t, _)| part[t])
+                    .max_by_key(|&(t, &p)| (p, std::cmp::Reverse(t)))?;
+                Some((peak, seed, part))
+            })
             .collect();
-        ranked.sort_unstable_by_key(|&(peak, _)| std::cmp::Reverse(peak));
-        let [(first, part), (second, _), ..] = ranked[..] else {
+        ranked.sort_unstable_by_key(|&(peak, _, _)| std::cmp::Reverse(peak));
+        let [(first, seed, part), (second, _, _), ..] = ranked[..] else {
             return None;
         };
         let second = second.max(self.bg.threshold);
@@ -699,7 +699,6 @@ impl<M: PhaseMap> Found<'_, M> {
             return None;
         }
         let (tw, th) = grid.tiles;
-        let seed = (part.iter().zip(&peaks)).position(|(&on, &p)| on && p == first)?;
         let mut seen = vec![false; tw * th];
         let mut core = vec![false; tw * th];
         for i in mask::component(&mut seen, (tw, th), seed, |j| part[j] && peaks[j] > second) {
@@ -718,13 +717,11 @@ impl<M: PhaseMap> Found<'_, M> {
     /// Per tile, the deepest of `signed` over its reliable coarse samples (`i32::MIN` where
     /// none is reliable).
     fn tile_peaks(&self, signed: &[i32], grid: &Grid) -> Vec<i32> {
-        const PER: usize = TILE_PX / GRID;
-        let ((cw, _), (tw, th)) = (grid.coarse, grid.tiles);
+        let (tw, th) = grid.tiles;
         let mut peaks = vec![i32::MIN; tw * th];
         let samples = signed.iter().zip(&self.coarse.rel_contact).enumerate();
         for (k, (&v, _)) in samples.filter(|(_, (_, &rel))| rel) {
-            let t = (k / cw / PER) * tw + (k % cw) / PER;
-            if let Some(p) = peaks.get_mut(t) {
+            if let Some(p) = peaks.get_mut(grid.tile_of(k)) {
                 *p = (*p).max(v);
             }
         }

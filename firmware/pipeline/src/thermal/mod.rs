@@ -126,9 +126,9 @@ pub const CONTACT_SIGMA_LIMIT_C: f32 = 1.0;
 pub const HELD_OUT_MISS_LIMIT_C: f32 = CONTACT_SIGMA_LIMIT_C / 2.0;
 
 /// Furthest the mean may lie outside the span from the coldest place to the hottest
-/// without `Flag::TemperatureUncertain`, °C: half the tolerance, so that the tolerance is
-/// at least twice the disagreement (as a depth is held, `measure::DEPTH_CONFIDENCE_SIGMAS`).
-pub const MEAN_APART_LIMIT_C: f32 = CONTACT_SIGMA_LIMIT_C / 2.0;
+/// without `Flag::TemperatureUncertain`, °C: the held-out miss's limit, for its reason
+/// (the tolerance at least twice the disagreement).
+pub const MEAN_APART_LIMIT_C: f32 = HELD_OUT_MISS_LIMIT_C;
 
 /// Fewest samples of each population in the contact core before the whole contact region
 /// is used instead.
