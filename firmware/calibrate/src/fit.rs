@@ -407,14 +407,20 @@ pub const PLACE_MIN_SAMPLES: usize = 2;
 /// Fewer setpoints than this leave the spread between places unknown.
 pub const PLACE_MIN_SETPOINTS: usize = 3;
 
-/// How far readings of one setpoint at different places of the view lie apart, as a share
-/// of the setpoint: the pooled standard deviation of `read(u) / y` within each group of
-/// `samples` at least `min_y` deep (each group's mean taken out, so whatever bias the model
-/// leaves at a setpoint does not count). A kit presses each depth at more than one place;
-/// a unit whose phase gain varies across the view (pigment mottle, a lamp's glare, the
-/// lens) reads them apart by a share of the depth, where cross-validation over setpoints
-/// averages it with the shallow presses' small errors. `None` with fewer than
-/// [`PLACE_MIN_SETPOINTS`] such groups read at [`PLACE_MIN_SAMPLES`] places or more.
+/// How far a reading of one setpoint at a place the kit did not press may lie from the
+/// model, as a share of the setpoint (a standard deviation). A kit presses each depth at
+/// more than one place; a unit whose phase gain varies across the view (pigment mottle, a
+/// lamp's glare, the lens) reads them apart by a share of the depth, where cross-validation
+/// over setpoints averages it with the shallow presses' small errors.
+///
+/// The spread between places is the pooled standard deviation of `read(u) / y` within
+/// each group of `samples` at least `min_y` deep (each group's mean taken out, so whatever
+/// bias the model leaves at a setpoint does not count). The model passes through each
+/// group's mean, which carries its own `n` places' errors, so a new place lies off it by
+/// that spread times `√(1 + 1/n)` (the prediction interval's factor, `n` averaged over the
+/// groups as `1/n`): with the usual two places a kit presses, half as much again in
+/// variance. `None` with fewer than [`PLACE_MIN_SETPOINTS`] such groups read at
+/// [`PLACE_MIN_SAMPLES`] places or more.
 pub fn place_spread(samples: &[Sample], read: impl Fn(f64) -> f64, min_y: f64) -> Option<f64> {
     let mut groups: Vec<f64> = samples
         .iter()
@@ -423,7 +429,7 @@ pub fn place_spread(samples: &[Sample], read: impl Fn(f64) -> f64, min_y: f64) -
         .collect();
     groups.sort_by(f64::total_cmp);
     groups.dedup();
-    let (mut ss, mut dof, mut used) = (0.0, 0usize, 0usize);
+    let (mut ss, mut dof, mut used, mut inverse_places) = (0.0, 0usize, 0usize, 0.0);
     for g in groups {
         let shares: Vec<f64> = samples
             .iter()
@@ -437,9 +443,11 @@ pub fn place_spread(samples: &[Sample], read: impl Fn(f64) -> f64, min_y: f64) -
         ss += shares.iter().map(|r| (r - mean).powi(2)).sum::<f64>();
         dof += shares.len() - 1;
         used += 1;
+        inverse_places += 1.0 / shares.len() as f64;
     }
     // Each group used gives at least one degree of freedom.
-    (used >= PLACE_MIN_SETPOINTS).then(|| (ss / dof as f64).sqrt())
+    (used >= PLACE_MIN_SETPOINTS)
+        .then(|| (ss / dof as f64 * (1.0 + inverse_places / used as f64)).sqrt())
 }
 
 #[cfg(test)]
@@ -449,7 +457,8 @@ mod tests {
     #[test]
     fn places_reading_a_depth_apart_by_a_share_of_it_give_that_share() {
         // Two places per depth, one reading 3 % deep and the other 3 % shallow: a pooled
-        // standard deviation of 3 % · √2 over one degree of freedom per depth.
+        // standard deviation of 3 % · √2 over one degree of freedom per depth, and a new
+        // place off the model (their mean) by that times √(1 + 1/2).
         let samples: Vec<Sample> = (1..=8)
             .flat_map(|k| {
                 let y = 0.25 * k as f64;
@@ -461,10 +470,11 @@ mod tests {
             })
             .collect();
         let spread = place_spread(&samples, |u| u, 0.0).unwrap();
-        assert!((spread - 0.03 * 2f64.sqrt()).abs() < 1e-9, "{spread}");
+        let two_places = 0.03 * 2f64.sqrt() * 1.5f64.sqrt();
+        assert!((spread - two_places).abs() < 1e-9, "{spread}");
         // A bias shared by both places is the model's, not the places'.
         let biased = place_spread(&samples, |u| 1.1 * u, 0.0).unwrap();
-        assert!((biased - 1.1 * 0.03 * 2f64.sqrt()).abs() < 1e-9, "{biased}");
+        assert!((biased - 1.1 * two_places).abs() < 1e-9, "{biased}");
         // Only the setpoints at least `min_y` deep count.
         let shallow_only: Vec<Sample> = samples
             .iter()
@@ -474,6 +484,33 @@ mod tests {
             })
             .collect();
         assert_eq!(place_spread(&shallow_only, |u| u, 1.0), Some(0.0));
+    }
+
+    #[test]
+    fn a_kit_of_more_places_foretells_a_new_place_more_closely() {
+        // The same pooled spread between places, read at two and at four places per depth:
+        // a new place lies off the model by √(1 + 1/n) of it.
+        let at = |gains: &[f64]| -> Vec<Sample> {
+            (1..=8)
+                .flat_map(|k| {
+                    let y = 0.25 * k as f64;
+                    gains.iter().map(move |&g| Sample {
+                        u: y * g,
+                        y,
+                        group: y,
+                    })
+                })
+                .collect()
+        };
+        let two = place_spread(&at(&[1.03, 0.97]), |u| u, 0.0).unwrap();
+        // 3 % off the mean at each of four places: a pooled deviation of 3 % · √(4/3).
+        let four = place_spread(&at(&[1.03, 0.97, 1.03, 0.97]), |u| u, 0.0).unwrap();
+        let between = |n: f64| 0.03 * (n / (n - 1.0)).sqrt();
+        assert!((two - between(2.0) * 1.5f64.sqrt()).abs() < 1e-9, "{two}");
+        assert!(
+            (four - between(4.0) * 1.25f64.sqrt()).abs() < 1e-9,
+            "{four}"
+        );
     }
 
     #[test]

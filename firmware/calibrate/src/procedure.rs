@@ -912,8 +912,9 @@ fn phase_sign<O: Observer>(
 
 /// Phase → depth: every trusted frame labelled `depth_mm > 0`, analysed with the identity
 /// depth model of `calib`, gives its peak phase against its label. With it, how far the
-/// fitted model reads one depth's presses apart from place to place
-/// ([`place_spread`], over the depths where the tolerance's share outweighs its floor).
+/// fitted model may read a press off where the kit never pressed ([`place_spread`], from
+/// how its presses of one depth read apart over the depths where the tolerance's share
+/// outweighs its floor).
 fn depth_model<O: Observer>(
     run: &mut Run<'_, O>,
     calib: &Calibration,

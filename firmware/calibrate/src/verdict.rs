@@ -53,8 +53,8 @@ pub struct Verdict {
     pub error: f64,
     /// The target, same unit.
     pub target: f64,
-    /// For depth: how far the kit's presses of one depth read apart from place to place,
-    /// a share of the depth ([`Calibration::depth_place_spread`]).
+    /// For depth: how far a press where the kit never pressed may read off, a share of the
+    /// depth ([`Calibration::depth_place_spread`]).
     pub place_spread: Option<f64>,
 }
 
@@ -123,10 +123,10 @@ pub fn report(verdicts: &[Verdict]) -> (String, bool) {
             (v.place_spread, depth_uncertain_above_mm(v.place_spread))
         {
             text.push_str(&format!(
-                "  {:<24} peak depths over {above_mm:.2} mm will carry depth_uncertain: the \
-                 kit's presses of one depth read {:.1} % apart from place to place (standard \
-                 deviation), and the tolerance's share ({} %) is less than \
-                 {DEPTH_CONFIDENCE_SIGMAS} times that\n",
+                "  {:<24} peak depths over {above_mm:.2} mm will carry depth_uncertain: a press \
+                 where the kit never pressed may read {:.1} % off (standard deviation, from \
+                 how far the kit's places read apart), and the tolerance's share ({} %) is \
+                 less than {DEPTH_CONFIDENCE_SIGMAS} times that\n",
                 "",
                 100.0 * spread,
                 100.0 * DEPTH_TOLERANCE_SHARE,
@@ -177,17 +177,16 @@ mod tests {
         );
     }
 
-    /// Presses of one depth reading 2 % apart from place to place: the tolerance's 3 % is
-    /// under twice that beyond 0.02 mm / (4 % − 3 %), and the report says so; at 1 % apart
-    /// no depth is flagged.
+    /// A press where the kit never pressed reading 2 % off: the tolerance's 3 % is
+    /// under twice that beyond 0.02 mm / (4 % − 3 %), and the report says so; at 1 % off no
+    /// depth is flagged.
     #[test]
     fn places_reading_apart_say_from_which_depth_up_readings_are_flagged() {
         let mut c = Calibration::default_sim();
         c.depth_place_spread = Some(0.02);
         let (text, _) = report(&verdicts(&c));
         assert!(
-            text.contains("over 2.00 mm will carry depth_uncertain")
-                && text.contains("2.0 % apart"),
+            text.contains("over 2.00 mm will carry depth_uncertain") && text.contains("2.0 % off"),
             "{text}"
         );
         c.depth_place_spread = Some(0.01);

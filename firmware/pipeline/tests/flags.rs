@@ -456,8 +456,8 @@ fn a_depth_model_that_missed_its_kit_flags_the_depths_it_cannot_hold() {
     }
 }
 
-/// A unit whose kit's presses of one depth read apart from place to place by a share of the
-/// depth (`depth_place_spread`) cannot hold the tolerance's share at depths its floor no
+/// A unit where a press the kit never pressed may read off by a share of the depth
+/// (`depth_place_spread`) cannot hold the tolerance's share at depths its floor no
 /// longer covers: with a spread of 2.2 %, a 1.8 mm press (over 0.02 mm / (4.4 % − 3 %) =
 /// 1.43 mm) is flagged `depth_uncertain` and a 1 mm one is not; with a spread of 1 %, or
 /// none recorded, neither is.

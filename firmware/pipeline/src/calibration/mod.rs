@@ -435,12 +435,14 @@ pub struct Calibration {
     pub phase_sign: f64,
     /// Phase → depth.
     pub depth: Fitted<DepthModel>,
-    /// How far the kit's presses of one depth read apart from place to place, as a share of
-    /// the depth (a pooled standard deviation over the depths where the depth tolerance's
-    /// share outweighs its floor): a unit whose phase gain varies across the view reads a
-    /// deep press wrong by a share of its depth at places the kit never pressed. Absent
-    /// when too few such depths were pressed at two places or more, and in files written
-    /// before it was recorded.
+    /// How far a press at a place the kit never pressed may read from the depth model, as a
+    /// share of the depth (a standard deviation): the kit's presses of one depth read apart
+    /// from place to place (pooled over the depths where the depth tolerance's share
+    /// outweighs its floor), widened for the model being fitted between those places
+    /// (`vistaf_calibrate::fit::place_spread`). A unit whose phase gain varies across the
+    /// view reads a deep press wrong by a share of its depth there. Absent when too few
+    /// such depths were pressed at two places or more, and in files written before it was
+    /// recorded.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub depth_place_spread: Option<f64>,
     /// Measurement → force, if the kit had force labels.

@@ -433,8 +433,7 @@ impl<P> Limits<'_, P> {
             flags.insert(Flag::DepthOutOfRange);
         }
         // The calibration's depth model missed its own kit by more than this depth's
-        // tolerance allows, or its kit's presses of one depth read apart from place to
-        // place by more.
+        // tolerance allows, or a press where its kit never pressed may read off by more.
         let calib = ctx.calib;
         if f64::from(read.peak_mm) < depth_uncertain_below_mm(calib.depth.cv_rmse)
             || depth_uncertain_above_mm(calib.depth_place_spread)
