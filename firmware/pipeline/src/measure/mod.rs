@@ -161,8 +161,8 @@ pub fn depth_uncertain_below_mm(cv_rmse_mm: f64) -> f64 {
     ((DEPTH_CONFIDENCE_SIGMAS * cv_rmse_mm - floor_mm) / f64::from(DEPTH_TOLERANCE_SHARE)).max(0.0)
 }
 
-/// The peak depth over which a calibration whose kit's presses of one depth read apart
-/// from place to place by `place_spread` (a share of the depth, a standard deviation:
+/// The peak depth over which a calibration where a press the kit never pressed may read
+/// off by `place_spread` (a share of the depth, a standard deviation:
 /// [`Calibration::depth_place_spread`]) flags `depth_uncertain`: where the depth tolerance
 /// is less than [`DEPTH_CONFIDENCE_SIGMAS`] times that share of the depth, mm; `None`
 /// where it nowhere is (a spread within half the tolerance's share, or none recorded). A
@@ -879,7 +879,7 @@ impl<M: PhaseMap> Found<'_, M> {
             apex_px: (x0 + apex.at % bw, y0 + apex.at / bw),
         };
         let mut flags = limits.flags(&inputs, carrier, ctx);
-        if punch_open {
+        if punch_open || shape.level_open {
             flags.insert(Flag::DepthUncertain);
         }
         // Half the contact's depth reaching where the kernel averages padding: the contact

@@ -35,6 +35,7 @@
 //! the measured trade).
 
 use super::apex::{hertz, punch, LAYER_DECAY_MM, RESOLVED_SIGMAS};
+use super::depth_tolerance_um;
 use super::load::Rings;
 use crate::ftp::band::box2_sigma_px;
 
@@ -114,6 +115,11 @@ pub struct ShapeFit {
     pub depth: f64,
     /// The chosen family's contact radius, pixels (for [`Shape::Unknown`], 0).
     pub radius_px: f64,
+    /// A plateau too narrow for any ring to lie wholly [`CORE_MARGIN_SIGMAS`] inside its rim,
+    /// whose level is then its template's, where the dome's best fit reads a depth beyond
+    /// the depth tolerance from it: a dome whose apex reads low (its phase gain varying
+    /// across the view) has such a blurred top too, and nothing in the map says which.
+    pub level_open: bool,
 }
 
 /// One blurred unit surface averaged over rings.
@@ -215,6 +221,7 @@ impl Shapes {
                 shape,
                 depth: b.depth,
                 radius_px: b.a_px,
+                level_open: false,
             }
         };
         let sphere_clear = if sphere.a_px < WIDE_SPHERE_SIGMAS * self.sigma_px {
@@ -229,9 +236,10 @@ impl Shapes {
         {
             let mut fit = chosen(flat, Shape::Flat);
             if fit.shape == Shape::Flat {
-                fit.depth = self
-                    .plateau_core(&profile.rings, flat.a_px)
-                    .unwrap_or(flat.depth);
+                match self.plateau_core(&profile.rings, flat.a_px) {
+                    Some(level) => fit.depth = level,
+                    None => fit.level_open = beyond_tolerance(sphere.depth, flat.depth),
+                }
             }
             fit
         } else {
@@ -282,6 +290,11 @@ impl Shapes {
             })
             .min_by(|a, b| a.shape_err.total_cmp(&b.shape_err))
     }
+}
+
+/// Whether a reading of `other_um` lies beyond the depth tolerance from one of `level_um`.
+fn beyond_tolerance(other_um: f64, level_um: f64) -> bool {
+    (other_um - level_um).abs() > f64::from(depth_tolerance_um(level_um as f32))
 }
 
 /// The ring means with their pixel counts, up to the first ring below [`PROFILE_CUT`] of the
@@ -468,6 +481,22 @@ mod tests {
                 "a {a_mm} mm: {fit:?}"
             );
         }
+    }
+
+    /// A plateau just wide enough to be told (3.3 kernel σ in radius) has no ring wholly
+    /// inside its rim by the kernel's reach, and a dome reads it deeper than the tolerance:
+    /// its level is open. A wide one's core gives its level.
+    #[test]
+    fn a_plateau_too_narrow_for_a_core_leaves_its_level_open() {
+        let decay = LAYER_DECAY_MM / f64::from(PX_MM);
+        let sigma = shapes().sigma_px;
+        let narrow = blurred_map(161, 0, |r| 800.0 * punch(r, 3.3 * sigma, decay));
+        let fit = shapes().fit(&narrow);
+        assert_eq!(fit.shape, Shape::Flat, "{fit:?}");
+        assert!(fit.level_open, "{fit:?}");
+        let wide = blurred_map(161, 0, |r| 800.0 * punch(r, 6.0 / f64::from(PX_MM), decay));
+        let fit = shapes().fit(&wide);
+        assert!(fit.shape == Shape::Flat && !fit.level_open, "{fit:?}");
     }
 
     /// What neither family describes is neither: a bar (a letter's stroke), and a press
