@@ -80,11 +80,12 @@ pub enum Flag {
     /// depth tolerance (3 % of the depth + 20 µm) at the depth read: on this unit a peak
     /// depth is not held to that tolerance (its kit's presses, read blind, scattered about
     /// as far). Or a deep press where the kit never pressed may read off by more than half
-    /// the tolerance's share (the kit's places read apart). Or the contact's profile is
-    /// neither clearly a dome's nor a plateau's, and a flat punch too narrow to show its
-    /// plateau, whose blurred map is a sphere's a little deeper, would read beyond that
-    /// tolerance; or it reads as a plateau too narrow to show its level, and a dome's fit
-    /// of it reads beyond the tolerance from it. Reported as read.
+    /// that tolerance (one standard deviation, from how far the kit's places read apart).
+    /// Or the contact's profile is neither clearly a dome's nor a plateau's, and a flat
+    /// punch too narrow to show its plateau, whose blurred map is a sphere's a little
+    /// deeper, would read beyond that tolerance; or it reads as a plateau too narrow to show
+    /// its level, and a dome's fit of it reads beyond the tolerance from it. Reported as
+    /// read.
     DepthUncertain = 12,
 }
 

@@ -30,9 +30,10 @@
 //! sphere's of its radius. A flat punch's depth is its plateau's level: the mean of the
 //! rings that lie wholly inside its fitted rim by the kernel's reach, where the blur has
 //! left the plateau as it is and a rim's overshoot does not reach (or, for a plateau too
-//! narrow for such a core, the fit's depth). A plateau is spared the tests of an unknown
-//! shape unless its skirt may have sunk the frame's registration (`docs/pipeline.md` gives
-//! the measured trade).
+//! narrow for such a core, the fit's depth, left open where the dome's fit reads it beyond
+//! the depth tolerance: [`ShapeFit::level_open`]). A plateau is spared the tests of an
+//! unknown shape unless its skirt may have sunk the frame's registration
+//! (`docs/pipeline.md` gives the measured trade).
 
 use super::apex::{hertz, punch, LAYER_DECAY_MM, RESOLVED_SIGMAS};
 use super::depth_tolerance_um;
