@@ -56,7 +56,9 @@ pub enum Flag {
     /// reading is held to: its stripes say little about the temperature there (above the
     /// coloured pigments' transition only the black stripes' faint change is left, and a
     /// contact's stripe ratio is less sure than flat skin's). Or a reported temperature
-    /// lies where the calibration's own held-out test missed by more than half of it. Or the
+    /// lies where the calibration's own held-out test missed by more than half of it, or
+    /// where its kit's reading moved by as much with another uniform frame as the
+    /// reference (the reading follows the temperature the reference was taken at). Or the
     /// skin's mean lies more than half a degree outside the span from its coldest place to
     /// its hottest (readings no neighbourhood confirmed move it). Or the contact is the
     /// skin's hottest place and another flag doubts its temperature (the phase its stripes

@@ -38,9 +38,11 @@ use vistaf_pipeline::measure::profile::Shape;
 use vistaf_pipeline::measure::{DEPTH_TOLERANCE_SHARE, DEPTH_TOLERANCE_UM};
 use vistaf_pipeline::thermal::extremes::{departures_sigmas, STAND_OUT_SIGMAS};
 use vistaf_pipeline::thermal::model::{
-    mean_read_rises, MeanRead, StandOut, TemperatureModel, CHROMA_SPREAD_LIMIT,
-    CHROMA_SPREAD_MIN_PRESSES, MEAN_READ_MIN_SLOPE, STAND_OUT_LIMIT, STAND_OUT_MARGIN,
+    mean_read_rises, MeanRead, ReferenceShift, StandOut, TemperatureModel, CHROMA_SPREAD_LIMIT,
+    CHROMA_SPREAD_MIN_PRESSES, MEAN_READ_MIN_SLOPE, REFERENCE_SHIFT_LIMIT_C, STAND_OUT_LIMIT,
+    STAND_OUT_MARGIN,
 };
+use vistaf_pipeline::thermal::HELD_OUT_MISS_LIMIT_C;
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement, PipelineError};
 use vistaf_protocol::{Flag, QualityFlags};
 
@@ -509,7 +511,8 @@ fn temperature_model<O: Observer>(
     match fit_temperature(&samples) {
         Ok(mut m) => {
             m.blind_above_c = blind_above_c;
-            let reads = kit_reads(run, calib, &m, &kept)?;
+            let reads = kit_reads(run, calib, &m, &kept, None)?;
+            m.reference_shift = reference_shift(run, calib, &m, &kept, &reads)?;
             m.mean_read = mean_read(run, &reads);
             m.stand_out = stand_out(run, &reads);
             Ok((Some(m), colour_phase))
@@ -596,13 +599,79 @@ fn stand_out<O: Observer>(run: &mut Run<'_, O>, reads: &[KitRead]) -> Vec<StandO
     table
 }
 
+/// The temperatures a skin at rest, and so a reference, is taken at indoors, °C: the
+/// kit's frames are read again against its uniform frames nearest each
+/// ([`TemperatureModel::reference_shift`]).
+const REST_C: [f64; 2] = [20.0, 30.0];
+
+/// How far the skin's mean at each setpoint moves from `reads` (against each set's own
+/// reference) when the kit's frames are read against its uniform frames nearest each of
+/// [`REST_C`] instead, the larger move of the two, with a note where it exceeds
+/// [`HELD_OUT_MISS_LIMIT_C`]. A unit's reference is taken at whatever temperature its skin
+/// rests at; where the reading follows it, the table says by how much.
+fn reference_shift<O: Observer>(
+    run: &mut Run<'_, O>,
+    calib: &Calibration,
+    model: &TemperatureModel,
+    kept: &[(usize, usize, f64)],
+    reads: &[KitRead],
+) -> Result<Vec<ReferenceShift>, CalibrateError> {
+    let mut table: Vec<ReferenceShift> = reads
+        .iter()
+        .map(|r| ReferenceShift {
+            setpoint_c: r.setpoint_c,
+            shift_c: 0.0,
+        })
+        .collect();
+    for rest in REST_C {
+        let other = kit_reads(run, calib, model, kept, Some(rest))?;
+        widen_shift(&mut table, reads, &other);
+    }
+    let limit = f64::from(HELD_OUT_MISS_LIMIT_C);
+    let moved: Vec<String> = table
+        .iter()
+        .filter(|p| p.shift_c > limit)
+        .map(|p| format!("{} °C", p.setpoint_c))
+        .collect();
+    if !moved.is_empty() {
+        run.obs.note(format!(
+            "read against the kit's uniform frames nearest {} and {} °C as the reference, the \
+             skin's mean moved by more than {limit} °C at {}: readings near there carry \
+             temperature_uncertain",
+            REST_C[0],
+            REST_C[1],
+            moved.join(", ")
+        ));
+    }
+    Ok(table)
+}
+
+/// Widens `table` (one entry per read of `own`, in its order) to how far each setpoint's
+/// mean moved in `other`, read against another reference: the larger of the two, held
+/// within [`REFERENCE_SHIFT_LIMIT_C`]. A setpoint `other` has no read for, or reads no
+/// finite mean at, keeps its entry.
+fn widen_shift(table: &mut [ReferenceShift], own: &[KitRead], other: &[KitRead]) {
+    for (r, p) in own.iter().zip(table.iter_mut()) {
+        let moved = other
+            .iter()
+            .filter(|o| o.setpoint_c == r.setpoint_c)
+            .map(|o| (o.mean_c - r.mean_c).abs())
+            .find(|m| m.is_finite());
+        if let Some(m) = moved {
+            p.shift_c = p.shift_c.max(m.min(REFERENCE_SHIFT_LIMIT_C));
+        }
+    }
+}
+
 /// What the service reads on the frames `kept` (set, frame, label) at each setpoint, in
-/// setpoint order, each frame read with `model` as the service reads it.
+/// setpoint order, each frame read with `model` as the service reads it: against its set's
+/// reference, or (`rest_c`) against the set's kept frame whose label lies nearest.
 fn kit_reads<O: Observer>(
     run: &mut Run<'_, O>,
     calib: &Calibration,
     model: &TemperatureModel,
     kept: &[(usize, usize, f64)],
+    rest_c: Option<f64>,
 ) -> Result<Vec<KitRead>, CalibrateError> {
     let calib = Calibration {
         temperature: Some(model.clone()),
@@ -624,7 +693,19 @@ fn kit_reads<O: Observer>(
             set: s.dir().display().to_string(),
             cause,
         };
-        let reference = s.decoded_reference(run.scale)?;
+        let reference = match rest_c {
+            None => s.decoded_reference(run.scale)?,
+            Some(rest) => {
+                let away = |k: &&&(usize, usize, f64)| (k.2 - rest).abs();
+                let Some(&&(_, i, _)) = frames.iter().min_by(|a, b| away(a).total_cmp(&away(b)))
+                else {
+                    continue;
+                };
+                let mut r = Decoded::default();
+                s.decoded_frame(i, run.scale, &mut r)?;
+                r
+            }
+        };
         let an = Analyzer::new(&reference, calib.clone(), run.imp, opts).map_err(pipe)?;
         for (done, &&(_, i, t)) in frames.iter().enumerate() {
             run.obs.progress("the skin's mean", done + 1, frames.len());
@@ -1117,6 +1198,42 @@ mod tests {
         assert_eq!(longest_rising(&p[..3]).len(), 2);
         assert!(longest_rising(&pts(&[(20.0, 21.0), (22.0, 20.0)])).len() < 2);
         assert!(longest_rising(&[]).is_empty());
+    }
+
+    /// The table keeps, per setpoint, the largest move over the references tried, held
+    /// within the file's limit; a setpoint another reference did not read, or read no
+    /// finite mean at, keeps what it had.
+    #[test]
+    fn the_reference_shift_keeps_the_largest_move_per_setpoint() {
+        let reads = |v: &[(f64, f64)]| -> Vec<KitRead> {
+            v.iter()
+                .map(|&(setpoint_c, mean_c)| KitRead {
+                    setpoint_c,
+                    mean_c,
+                    departure_sigmas: 0.0,
+                })
+                .collect()
+        };
+        let own = reads(&[(20.0, 20.1), (25.0, 25.0), (30.0, 29.8)]);
+        let mut table: Vec<ReferenceShift> = own
+            .iter()
+            .map(|r| ReferenceShift {
+                setpoint_c: r.setpoint_c,
+                shift_c: 0.0,
+            })
+            .collect();
+        widen_shift(&mut table, &own, &reads(&[(20.0, 20.4), (30.0, f64::NAN)]));
+        widen_shift(
+            &mut table,
+            &own,
+            &reads(&[(20.0, 19.9), (25.0, 24.4), (30.0, 1e9)]),
+        );
+        let shift: Vec<f64> = table.iter().map(|p| p.shift_c).collect();
+        assert!((shift[0] - 0.3).abs() < 1e-9, "{shift:?}");
+        assert!((shift[1] - 0.6).abs() < 1e-9, "{shift:?}");
+        assert_eq!(shift[2], REFERENCE_SHIFT_LIMIT_C);
+        widen_shift(&mut table, &own, &[]);
+        assert!((table[1].shift_c - 0.6).abs() < 1e-9);
     }
 
     #[test]

@@ -521,6 +521,7 @@ pub fn fit_temperature(samples: &[BlockSample]) -> Result<TemperatureModel, Ther
         n: samples.len(),
         mean_read: Vec::new(),
         stand_out: Vec::new(),
+        reference_shift: Vec::new(),
         contact_chroma_spread: [0.0; 2],
     })
 }

@@ -6,7 +6,8 @@
 
 use super::{Calibration, DepthModel, FitRange, ForceForm, ForceModel, ShapeSignature};
 use crate::thermal::model::{
-    mean_read_rises, stand_out_ordered, CHROMA_SPREAD_LIMIT, MEAN_READ_MIN_SLOPE, STAND_OUT_LIMIT,
+    mean_read_rises, reference_shift_ordered, stand_out_ordered, CHROMA_SPREAD_LIMIT,
+    MEAN_READ_MIN_SLOPE, REFERENCE_SHIFT_LIMIT_C, STAND_OUT_LIMIT,
 };
 
 /// A broken rule: the key's path and why.
@@ -104,6 +105,15 @@ pub fn check(c: &Calibration) -> Check {
                 format!(
                     "must hold finite setpoints in increasing order, each with a departure of \
                      0…{STAND_OUT_LIMIT} standard deviations"
+                ),
+            ));
+        }
+        if !reference_shift_ordered(&t.reference_shift) {
+            return Err(bad(
+                "temperature.reference_shift",
+                format!(
+                    "must hold finite setpoints in increasing order, each with a move of \
+                     0…{REFERENCE_SHIFT_LIMIT_C} °C"
                 ),
             ));
         }

@@ -81,7 +81,9 @@ pub struct Temperature {
     pub out_of_range: bool,
     /// The calibration's own held-out test missed by more than [`HELD_OUT_MISS_LIMIT_C`]
     /// near a reading this frame reports (the skin's mean, coldest and hottest places,
-    /// the contact): the reading may be off by as much ([`TemperatureModel::held_out_error_c`]).
+    /// the contact), or its kit's reading moved by as much there with another reference:
+    /// the reading may be off by as much ([`TemperatureModel::held_out_error_c`],
+    /// [`TemperatureModel::reference_shift_c`]).
     pub calibration_misses: bool,
     /// The mean lies further than [`MEAN_APART_LIMIT_C`] outside the span from the
     /// coldest place to the hottest ([`mean_apart`]).
@@ -414,14 +416,17 @@ impl Thermometer {
 }
 
 /// Whether the calibration's held-out test missed by more than [`HELD_OUT_MISS_LIMIT_C`]
-/// near any of the finite `readings` (°C). The readings the table of the skin's mean moved
-/// are judged here too: the blocks' test says where the models could not follow the
-/// colours, which no table of the kit's means mends between its setpoints.
+/// near any of the finite `readings` (°C), or its kit's mean moved by as much there when
+/// another uniform frame served as the reference ([`TemperatureModel::reference_shift_c`]).
+/// The readings the table of the skin's mean moved are judged here too: the blocks' test
+/// says where the models could not follow the colours, which no table of the kit's means
+/// mends between its setpoints.
 fn misses_near(model: &TemperatureModel, readings: &[f32]) -> bool {
-    readings
-        .iter()
-        .filter(|t| t.is_finite())
-        .any(|&t| model.held_out_error_c(f64::from(t)) > f64::from(HELD_OUT_MISS_LIMIT_C))
+    readings.iter().filter(|t| t.is_finite()).any(|&t| {
+        let t = f64::from(t);
+        let miss = model.held_out_error_c(t).max(model.reference_shift_c(t));
+        miss > f64::from(HELD_OUT_MISS_LIMIT_C)
+    })
 }
 
 /// Whether the map's mean (°C) lies further than [`MEAN_APART_LIMIT_C`] outside the span
@@ -508,6 +513,31 @@ mod tests {
         assert!(misses_near(&m, &[f32::NAN, 25.0, 22.5]));
         assert!(!misses_near(&m, &[23.5, 25.0, 26.0, 30.0]));
         assert!(!misses_near(&m, &[f32::NAN]));
+    }
+
+    /// A reading near setpoints where the kit's mean moved by more than half the tolerance
+    /// with another reference is doubted, one where it moved less is not, whatever the
+    /// held-out test says.
+    #[test]
+    fn a_reading_that_follows_the_reference_by_half_the_tolerance_is_doubted() {
+        let mut m = crate::calibration::Calibration::default_sim()
+            .temperature
+            .unwrap_or_else(|| unreachable!("the default calibration has a temperature model"));
+        m.held_out.clear();
+        let at = |setpoint_c: f64, shift_c: f64| model::ReferenceShift {
+            setpoint_c,
+            shift_c,
+        };
+        m.reference_shift = vec![at(30.0, 0.1), at(40.0, 0.3), at(45.0, 0.9)];
+        assert!(!misses_near(&m, &[20.0, 30.0, 40.0]));
+        assert!(misses_near(&m, &[42.0]));
+        assert!(misses_near(&m, &[f32::NAN, 50.0]));
+        assert!(!misses_near(&m, &[41.0]));
+        assert!(model::reference_shift_ordered(&m.reference_shift));
+        m.reference_shift.swap(0, 1);
+        assert!(!model::reference_shift_ordered(&m.reference_shift));
+        m.reference_shift = vec![at(30.0, -0.1)];
+        assert!(!model::reference_shift_ordered(&m.reference_shift));
     }
 
     /// A mean within half the tolerance of the span between the coldest and hottest

@@ -500,6 +500,11 @@ pub struct TemperatureModel {
     /// before it.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub stand_out: Vec<StandOut>,
+    /// How far the skin's mean, read on the kit's uniform frames, moved at each setpoint
+    /// when another of those frames served as the reference, in order
+    /// ([`TemperatureModel::reference_shift_c`]). Empty in files written before it.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub reference_shift: Vec<ReferenceShift>,
     /// How far a press moves the contact's chromaticity (`r`, `g`) from the skin's,
     /// relative: the RMS over the kit's trusted presses, whose skin is at one temperature
     /// throughout, so that the press alone moves it. The camera's blur and its chroma
@@ -533,6 +538,21 @@ pub struct StandOut {
     pub sigmas: f64,
 }
 
+/// How far the skin's mean, read on the kit's uniform frames at one setpoint, moved when
+/// another of the kit's uniform frames served as the reference (the largest move over the
+/// references tried).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ReferenceShift {
+    /// Setpoint, °C.
+    pub setpoint_c: f64,
+    /// The move, °C (not negative).
+    pub shift_c: f64,
+}
+
+/// The largest move a calibration file may hold in [`TemperatureModel::reference_shift`],
+/// °C: beyond any range a pigment covers.
+pub const REFERENCE_SHIFT_LIMIT_C: f64 = 100.0;
+
 /// The largest departure a calibration file may hold in [`TemperatureModel::stand_out`],
 /// standard deviations: far beyond any kit's, short of overflowing what it multiplies.
 pub const STAND_OUT_LIMIT: f64 = 1e3;
@@ -540,10 +560,27 @@ pub const STAND_OUT_LIMIT: f64 = 1e3;
 /// Whether a table of [`StandOut`] holds finite setpoints in increasing order, each with a
 /// departure within 0…[`STAND_OUT_LIMIT`].
 pub fn stand_out_ordered(table: &[StandOut]) -> bool {
-    table
+    ordered(table, |p| (p.setpoint_c, p.sigmas), STAND_OUT_LIMIT)
+}
+
+/// Whether a table of [`ReferenceShift`] holds finite setpoints in increasing order, each
+/// with a move within 0…[`REFERENCE_SHIFT_LIMIT_C`].
+pub fn reference_shift_ordered(table: &[ReferenceShift]) -> bool {
+    ordered(
+        table,
+        |p| (p.setpoint_c, p.shift_c),
+        REFERENCE_SHIFT_LIMIT_C,
+    )
+}
+
+/// Whether `table`'s (setpoint, value) pairs (`read`) hold finite setpoints in increasing
+/// order, each with a value within 0…`limit`.
+fn ordered<P>(table: &[P], read: impl Fn(&P) -> (f64, f64), limit: f64) -> bool {
+    let pairs: Vec<(f64, f64)> = table.iter().map(read).collect();
+    pairs
         .iter()
-        .all(|p| p.setpoint_c.is_finite() && (0.0..=STAND_OUT_LIMIT).contains(&p.sigmas))
-        && table.windows(2).all(|w| w[0].setpoint_c < w[1].setpoint_c)
+        .all(|&(s, v)| s.is_finite() && (0.0..=limit).contains(&v))
+        && pairs.windows(2).all(|w| w[0].0 < w[1].0)
 }
 
 /// How far beyond the largest departure its kit's uniform frames showed a place must
@@ -738,6 +775,18 @@ impl TemperatureModel {
     pub fn held_out_error_c(&self, t: f64) -> f64 {
         let miss = |e: &SetpointError| (e.setpoint_c, (e.estimate_c - e.setpoint_c).abs());
         along_setpoints(&self.held_out, miss, t).unwrap_or(0.0)
+    }
+
+    /// How far the skin's mean moved near `t` (°C) when the kit's frames were read against
+    /// another of its uniform frames as the reference ([`TemperatureModel::reference_shift`],
+    /// linear between setpoints and the end setpoint's beyond them); 0 without any. The
+    /// reference a unit is used with is taken at whatever temperature the skin rests at,
+    /// rarely the kit reference's: where the light's pattern in the stripes' ratio
+    /// ([`super::ratio_field`]) changes with the pigment's colour, the reading follows the
+    /// reference's temperature by as much.
+    pub fn reference_shift_c(&self, t: f64) -> f64 {
+        let shift = |p: &ReferenceShift| (p.setpoint_c, p.shift_c);
+        along_setpoints(&self.reference_shift, shift, t).unwrap_or(0.0)
     }
 
     /// Whether the stored shapes agree with each other.
