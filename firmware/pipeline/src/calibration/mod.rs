@@ -760,7 +760,7 @@ mod tests {
         };
         type Edit<'a> = &'a dyn Fn(&mut serde_json::Value);
         let colour = |setpoints: serde_json::Value| serde_json::json!({"step": 2, "nodes": [4, 3], "setpoints": setpoints});
-        let cases: [(&str, Edit<'_>); 22] = [
+        let cases: [(&str, Edit<'_>); 24] = [
             ("`depth_place_spread`", &|v| {
                 v["depth_place_spread"] = serde_json::json!(-0.01)
             }),
@@ -849,6 +849,18 @@ mod tests {
                 v["temperature"]["stand_out"] = serde_json::json!([
                     {"setpoint_c": 22.0, "sigmas": 4.0},
                     {"setpoint_c": 20.0, "sigmas": 5.0}
+                ])
+            }),
+            ("`temperature.reference_shift`", &|v| {
+                v["temperature"]["reference_shift"] = serde_json::json!([
+                    {"setpoint_c": 20.0, "shift_c": 0.2},
+                    {"setpoint_c": 22.0, "shift_c": 1e6}
+                ])
+            }),
+            ("`temperature.reference_shift`", &|v| {
+                v["temperature"]["reference_shift"] = serde_json::json!([
+                    {"setpoint_c": 22.0, "shift_c": 0.2},
+                    {"setpoint_c": 20.0, "shift_c": 0.3}
                 ])
             }),
             ("`temperature.contact_chroma_spread`", &|v| {
