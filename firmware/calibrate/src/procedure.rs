@@ -616,17 +616,11 @@ fn reference_shift<O: Observer>(
     kept: &[(usize, usize, f64)],
     reads: &[KitRead],
 ) -> Result<Vec<ReferenceShift>, CalibrateError> {
-    let mut table: Vec<ReferenceShift> = reads
+    let others = REST_C
         .iter()
-        .map(|r| ReferenceShift {
-            setpoint_c: r.setpoint_c,
-            shift_c: 0.0,
-        })
-        .collect();
-    for rest in REST_C {
-        let other = kit_reads(run, calib, model, kept, Some(rest))?;
-        widen_shift(&mut table, reads, &other);
-    }
+        .map(|&rest| kit_reads(run, calib, model, kept, Some(rest)))
+        .collect::<Result<Vec<_>, _>>()?;
+    let table = widest_shift(reads, &others);
     let limit = f64::from(HELD_OUT_MISS_LIMIT_C);
     let moved: Vec<String> = table
         .iter()
@@ -646,21 +640,26 @@ fn reference_shift<O: Observer>(
     Ok(table)
 }
 
-/// Widens `table` (one entry per read of `own`, in its order) to how far each setpoint's
-/// mean moved in `other`, read against another reference: the larger of the two, held
-/// within [`REFERENCE_SHIFT_LIMIT_C`]. A setpoint `other` has no read for, or reads no
-/// finite mean at, keeps its entry.
-fn widen_shift(table: &mut [ReferenceShift], own: &[KitRead], other: &[KitRead]) {
-    for (r, p) in own.iter().zip(table.iter_mut()) {
-        let moved = other
+/// How far each setpoint's mean in `own` moved in each of `others` (the kit read against
+/// other references): the largest move, held within [`REFERENCE_SHIFT_LIMIT_C`], one entry
+/// per read of `own` in its order. A setpoint another reading has no read for, or reads no
+/// finite mean at, adds nothing from it.
+fn widest_shift(own: &[KitRead], others: &[Vec<KitRead>]) -> Vec<ReferenceShift> {
+    let moved = |r: &KitRead| {
+        others
             .iter()
+            .flatten()
             .filter(|o| o.setpoint_c == r.setpoint_c)
             .map(|o| (o.mean_c - r.mean_c).abs())
-            .find(|m| m.is_finite());
-        if let Some(m) = moved {
-            p.shift_c = p.shift_c.max(m.min(REFERENCE_SHIFT_LIMIT_C));
-        }
-    }
+            .filter(|m| m.is_finite())
+            .fold(0.0, f64::max)
+    };
+    own.iter()
+        .map(|r| ReferenceShift {
+            setpoint_c: r.setpoint_c,
+            shift_c: moved(r).min(REFERENCE_SHIFT_LIMIT_C),
+        })
+        .collect()
 }
 
 /// What the service reads on the frames `kept` (set, frame, label) at each setpoint, in
@@ -1202,7 +1201,7 @@ mod tests {
 
     /// The table keeps, per setpoint, the largest move over the references tried, held
     /// within the file's limit; a setpoint another reference did not read, or read no
-    /// finite mean at, keeps what it had.
+    /// finite mean at, adds nothing from it.
     #[test]
     fn the_reference_shift_keeps_the_largest_move_per_setpoint() {
         let reads = |v: &[(f64, f64)]| -> Vec<KitRead> {
@@ -1215,25 +1214,23 @@ mod tests {
                 .collect()
         };
         let own = reads(&[(20.0, 20.1), (25.0, 25.0), (30.0, 29.8)]);
-        let mut table: Vec<ReferenceShift> = own
+        let others = [
+            reads(&[(20.0, 20.4), (30.0, f64::NAN)]),
+            reads(&[(20.0, 19.9), (25.0, 24.4), (30.0, 1e9)]),
+        ];
+        let shift: Vec<f64> = widest_shift(&own, &others)
             .iter()
-            .map(|r| ReferenceShift {
-                setpoint_c: r.setpoint_c,
-                shift_c: 0.0,
-            })
+            .map(|p| p.shift_c)
             .collect();
-        widen_shift(&mut table, &own, &reads(&[(20.0, 20.4), (30.0, f64::NAN)]));
-        widen_shift(
-            &mut table,
-            &own,
-            &reads(&[(20.0, 19.9), (25.0, 24.4), (30.0, 1e9)]),
-        );
-        let shift: Vec<f64> = table.iter().map(|p| p.shift_c).collect();
         assert!((shift[0] - 0.3).abs() < 1e-9, "{shift:?}");
         assert!((shift[1] - 0.6).abs() < 1e-9, "{shift:?}");
         assert_eq!(shift[2], REFERENCE_SHIFT_LIMIT_C);
-        widen_shift(&mut table, &own, &[]);
-        assert!((table[1].shift_c - 0.6).abs() < 1e-9);
+        let alone = widest_shift(&own[..2], &others[..1]);
+        assert_eq!(alone.len(), 2);
+        assert_eq!(
+            alone[1].shift_c, 0.0,
+            "a setpoint no other reference read moved nowhere"
+        );
     }
 
     #[test]
