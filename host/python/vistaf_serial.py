@@ -24,7 +24,7 @@ import json
 import sys
 import zlib
 
-PROTOCOL_VERSION = 10
+PROTOCOL_VERSION = 11
 SCHEMA_HASH = 0xC9D8_EA77_8716_206A
 # Largest frame on the wire (a full map tile), bytes: anything longer is garbage.
 FRAME_MAX = 1700
@@ -43,6 +43,7 @@ FLAG_NAMES = [
     "depth_unresolved",
     "contact_at_edge",
     "depth_uncertain",
+    "faint_contact",
 ]
 # The summary's readings, and which of them each flag says may lie beyond its tolerance
 # (vistaf_protocol::Flag::concerns; the interop test holds the two to each other).
@@ -63,6 +64,7 @@ FLAG_CONCERNS = {
     "depth_unresolved": ["peak_depth", "contact", "contact_temperature"],
     "contact_at_edge": _GEOMETRY + ["contact_temperature"],
     "depth_uncertain": ["peak_depth"],
+    "faint_contact": _GEOMETRY + ["contact_temperature"],
 }
 RUN_STATES = ["Stopped", "Streaming", "Referencing", "CameraLost"]
 

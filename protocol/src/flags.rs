@@ -89,6 +89,13 @@ pub enum Flag {
     /// its level, and a dome's fit of it reads beyond the tolerance from it. Reported as
     /// read.
     DepthUncertain = 12,
+    /// The contact stands less than twice the contact threshold above the background, over
+    /// too few samples to be found as a press is, and was found by its shape instead (the
+    /// band spreads a press narrower than itself to its own width, and a speck of the image
+    /// is narrower). So faint a contact may be none; its depth reads low by what the band
+    /// spread, its force integrates only what stands above the threshold, and its place
+    /// and temperature rest on samples near the noise: every reading of it is doubted.
+    FaintContact = 13,
 }
 
 /// A reading of a [`crate::Summary`] that flags speak for.
@@ -147,7 +154,7 @@ impl Flag {
             | Flag::StaleReference => true,
             // The phase under the contact is in doubt, and the temperature path places the
             // contact's stripes by that phase.
-            Flag::PhaseSlope | Flag::UnwrapFailure | Flag::ContactAtEdge => {
+            Flag::PhaseSlope | Flag::UnwrapFailure | Flag::ContactAtEdge | Flag::FaintContact => {
                 !matches!(reading, Temperature)
             }
             Flag::DepthUnresolved => !matches!(reading, Force | Temperature),
@@ -160,7 +167,7 @@ impl Flag {
     }
 
     /// Every flag, in bit order.
-    pub const ALL: [Flag; 13] = [
+    pub const ALL: [Flag; 14] = [
         Flag::LowContrast,
         Flag::PhaseSlope,
         Flag::UnwrapFailure,
@@ -174,6 +181,7 @@ impl Flag {
         Flag::DepthUnresolved,
         Flag::ContactAtEdge,
         Flag::DepthUncertain,
+        Flag::FaintContact,
     ];
 
     /// The flag's bit in [`QualityFlags`].
@@ -197,6 +205,7 @@ impl Flag {
             Flag::DepthUnresolved => "depth_unresolved",
             Flag::ContactAtEdge => "contact_at_edge",
             Flag::DepthUncertain => "depth_uncertain",
+            Flag::FaintContact => "faint_contact",
         }
     }
 

@@ -10,7 +10,7 @@ use postcard_schema::key::Key;
 use crate::msg::{DeviceMsg, HostMsg};
 
 /// Version of the wire protocol; bump it with every change to a message type.
-pub const PROTOCOL_VERSION: u16 = 10;
+pub const PROTOCOL_VERSION: u16 = 11;
 
 const SCHEMA_KEY: Key = Key::for_path::<(DeviceMsg, HostMsg)>("vistaf/v1");
 

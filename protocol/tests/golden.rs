@@ -242,7 +242,7 @@ fn every_golden_file_has_a_sample() {
 /// bump `PROTOCOL_VERSION` and update the constant below together with the golden files.
 #[test]
 fn schema_hash_is_pinned() {
-    assert_eq!(PROTOCOL_VERSION, 10);
+    assert_eq!(PROTOCOL_VERSION, 11);
     assert_eq!(
         schema_hash(),
         PINNED_SCHEMA_HASH,

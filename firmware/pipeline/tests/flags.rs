@@ -503,3 +503,38 @@ fn depth_uncertain_as(depth_mm: f32, cases: &[(&Calibration, bool)]) {
         }
     }
 }
+
+/// On a noisy unit a narrow press's peak stands barely above the noise, over fewer samples
+/// than a disc a period across: from 0.2 mm on it is still reported at its place, and
+/// where it was found by its shape alone it says so (`faint_contact`, which doubts its
+/// force too). The untouched skin stays untouched.
+#[test]
+fn a_faint_narrow_press_is_reported_at_its_place_and_said_to_be_faint() {
+    let mut noisy = unit();
+    noisy.noise_dn = 4.0;
+    let idle = analyze_on(
+        noisy.clone(),
+        &SkinState::idle(ROOM_C),
+        Implementation::Fixed,
+    );
+    assert!(!idle.contact, "{idle:?}");
+    let (cx, cy) = center_mm(&noisy);
+    let mut faint = 0;
+    for step in 0..=20 {
+        let depth_mm = 0.05 + 0.0125 * step as f32;
+        let m = analyze_on(noisy.clone(), &sphere(2.5, depth_mm), Implementation::Fixed);
+        if m.contact {
+            let (x, y) = m.centroid_px.unwrap();
+            let mmpp = noisy.mm_per_px();
+            let off_mm = (x * mmpp - cx).hypot(y * mmpp - cy);
+            assert!(off_mm < 1.5, "{depth_mm} mm: {off_mm} mm off");
+        } else {
+            assert!(depth_mm < 0.2, "{depth_mm} mm missed: {m:?}");
+        }
+        if m.flags.contains(Flag::FaintContact) {
+            faint += 1;
+            assert!(m.flags.contains(Flag::DepthUnresolved), "{m:?}");
+        }
+    }
+    assert!(faint > 0, "no press was found by its shape alone");
+}

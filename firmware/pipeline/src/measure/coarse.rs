@@ -20,17 +20,23 @@ use crate::phase::{PhaseMap, GRID};
 /// contact by the same rules with each sample's threshold raised as its fringes are
 /// fainter (`|phi| · min(amp_r, amp_med) > thr · amp_med`). Once there is one, its region
 /// is every tile above `thr` itself, the fainter samples of a press included.
+///
+/// A press whose peak stands less than twice the threshold above the background holds
+/// fewer samples above it than a disc a period across, however wide the band spreads it:
+/// it is found by its own shape instead (its half-peak flood, with `sign` the
+/// indentation's phase sign), and said to be faint.
 pub fn contact_tiles(
     phi: &[i32],
     rel: &[bool],
     (amp_r, amp_med): (&[u32], u32),
-    thr: i32,
+    (thr, sign): (i32, i32),
     (cw, ch): (usize, usize),
     (tw, th): (usize, usize),
     min_total: usize,
-) -> Option<(Vec<bool>, usize)> {
+) -> Option<ContactTiles> {
     const PER: usize = TILE_PX / GRID;
-    let thr = thr.max(0).unsigned_abs();
+    let thr_units = thr.max(0);
+    let thr = thr_units.unsigned_abs();
     let mut count = vec![0usize; tw * th];
     let above = |p: &[i32], r: &[bool]| -> usize {
         p.iter()
@@ -51,24 +57,38 @@ pub fn contact_tiles(
             *t += above(p_rest, r_rest);
         }
     }
-    if count.iter().all(|&c| c < TILE_MIN_SAMPLES) || count.iter().sum::<usize>() < min_total {
+    if count.iter().all(|&c| c < TILE_MIN_SAMPLES) {
         return None;
     }
     let bar = u64::from(thr) * u64::from(amp_med);
-    let stands = |p: i32, a: u32, _| u64::from(p.unsigned_abs()) * u64::from(a.min(amp_med)) > bar;
+    let stands = |p: i32, a: u32| u64::from(p.unsigned_abs()) * u64::from(a.min(amp_med)) > bar;
     let samples = Samples {
         phi,
         rel,
         amp_r,
         cw,
     };
-    if !samples.make_contact(&count, tw, min_total, stands) {
+    let plain = count.iter().sum::<usize>() >= min_total
+        && samples.make_contact(&count, tw, min_total, |p, a, _| stands(p, a));
+    let faint = !plain && samples.faint_press((ch, sign, thr_units), min_total, stands);
+    if !plain && !faint {
         return None;
     }
     let active: Vec<bool> = count.iter().map(|&c| c >= TILE_MIN_SAMPLES).collect();
-    let dil = dilate(&active, tw, th);
-    let tiles = dil.iter().filter(|t| **t).count();
-    Some((dil, tiles))
+    let on = dilate(&active, tw, th);
+    let n = on.iter().filter(|t| **t).count();
+    Some(ContactTiles { on, n, faint })
+}
+
+/// A contact's tiles, as [`contact_tiles`] finds them.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ContactTiles {
+    /// Per tile, whether it is in the contact region.
+    pub on: Vec<bool>,
+    /// How many are.
+    pub n: usize,
+    /// Whether the contact was found by its shape alone, by its half-peak flood.
+    pub faint: bool,
 }
 
 /// The coarse grid's samples as the contact test reads them (`cw` across).
@@ -114,7 +134,94 @@ impl Samples<'_> {
         }
         false
     }
+
+    /// Whether a faint press stands among the samples (`ch` rows, threshold `thr`), by its
+    /// half-peak flood: from a reliable sample, the samples joined to it above half its
+    /// phase. A flood covering `min_total` samples or more (a disc a period across) and at
+    /// most [`FAINT_PRESS_MAX_DISCS`] times that is press-sized: the band spreads a narrow
+    /// press over its own width whatever its depth, so its flood is that wide even where
+    /// few samples pass the threshold, while a speck of the image (a glare's edge under the
+    /// grating) swings both ways within a period and floods a few samples, and a field near
+    /// the threshold floods far beyond a press's width.
+    ///
+    /// The band spreads the phase's noise to the same width, so the frame's noise makes
+    /// press-sized floods of both signs: a faint press is the highest press-sized flood of
+    /// the indentation's sign (`sign`), its peak passes the threshold where it `stands`
+    /// (its fringes' faintness read with it), and it peaks [`FAINT_STANDS_OUT`] times or
+    /// more above every other press-sized flood of either sign.
+    pub(super) fn faint_press(
+        &self,
+        (ch, sign, thr): (usize, i32, i32),
+        min_total: usize,
+        stands: impl Fn(i32, u32) -> bool,
+    ) -> bool {
+        let n = self.cw * ch;
+        if [self.phi.len(), self.rel.len(), self.amp_r.len()]
+            .iter()
+            .any(|&l| l < n)
+        {
+            return false;
+        }
+        // Floods peaking lower than this cannot hold a press back.
+        let floor = (thr as f32 / FAINT_STANDS_OUT) as i32;
+        let press = self.press_floods((ch, sign), floor, min_total);
+        let Some(&(peak, seed)) = press.first() else {
+            return false;
+        };
+        let other = (press.get(1).into_iter())
+            .chain(self.press_floods((ch, -sign), floor, min_total).first())
+            .map(|&(p, _)| p)
+            .max();
+        peak > thr
+            && stands(peak, self.amp_r[seed])
+            && other.is_none_or(|o| peak as f32 >= FAINT_STANDS_OUT * o as f32)
+    }
+
+    /// The press-sized half-peak floods ([`Self::faint_press`]) of the samples' phase
+    /// signed by `sign`, from seeds above `floor` (units) that no higher seed's flood took
+    /// in: each one's peak and seed, highest first.
+    fn press_floods(
+        &self,
+        (ch, sign): (usize, i32),
+        floor: i32,
+        min_total: usize,
+    ) -> Vec<(i32, usize)> {
+        let n = self.cw * ch;
+        let signed = |k: usize| match self.rel[k] {
+            true => self.phi[k].saturating_mul(sign),
+            false => i32::MIN,
+        };
+        let mut seeds: Vec<usize> = (0..n).filter(|&k| signed(k) > floor).collect();
+        seeds.sort_unstable_by_key(|&k| std::cmp::Reverse(signed(k)));
+        // One buffer for every flood, cleared behind it: a flood marks only what it takes.
+        let (mut taken, mut seen) = (vec![false; n], vec![false; n]);
+        let mut out = Vec::new();
+        for seed in seeds {
+            if taken[seed] {
+                continue;
+            }
+            let half = signed(seed) / 2;
+            let flood =
+                crate::mask::component(&mut seen, (self.cw, ch), seed, |j| signed(j) > half);
+            for &j in &flood {
+                (taken[j], seen[j]) = (true, false);
+            }
+            if (min_total..=FAINT_PRESS_MAX_DISCS * min_total).contains(&flood.len()) {
+                out.push((signed(seed), seed));
+            }
+        }
+        out
+    }
 }
+
+/// How many discs a period across a faint press's half-peak flood may cover
+/// ([`contact_tiles`]): a press that faint is narrower than the band, so the band's
+/// own spread sets its width; wider is a field.
+pub const FAINT_PRESS_MAX_DISCS: usize = 8;
+/// How many times higher than every other press-sized flood of the frame, of either sign, a
+/// faint press must peak ([`contact_tiles`]): those are the frame's own noise, which
+/// the band spreads to a press's width.
+pub const FAINT_STANDS_OUT: f32 = 1.25;
 
 /// Per coarse sample (`cw × ch`), whether its tile is set in `tiles` (`tw` across). The
 /// rows of a tile row are the same: the first is built, the others copied.
@@ -488,7 +595,7 @@ mod tests {
         };
         let rel = vec![true; cw * ch];
         let tiles = |phi: &[i32], amp_r: &[u32]| {
-            contact_tiles(phi, &rel, (amp_r, 90), 10, (cw, ch), (tw, th), 0)
+            contact_tiles(phi, &rel, (amp_r, 90), (10, 1), (cw, ch), (tw, th), 0)
         };
         let found = |phi: &[i32], amp: u32| tiles(phi, &vec![amp; cw * ch]).is_some();
         assert!(found(&phase(11), 90));
@@ -502,10 +609,81 @@ mod tests {
         amp_r[..per].fill(90);
         let mut phi = phase(31);
         stand_out(&mut phi, 2, 11);
-        assert_eq!(tiles(&phi, &amp_r), Some((vec![true; 3], 3)));
+        let want = ContactTiles {
+            on: vec![true; 3],
+            n: 3,
+            faint: false,
+        };
+        assert_eq!(tiles(&phi, &amp_r), Some(want));
         let mut faint_only = vec![0i32; cw * ch];
         stand_out(&mut faint_only, 2, 11);
         assert_eq!(tiles(&faint_only, &amp_r), None);
+    }
+
+    /// A press the band spread wider than the few samples its peak lifts above the
+    /// threshold is found by its half-peak flood, and said to be faint; a speck as high and
+    /// a field that floods the view are not, nor is a raised spot (the sign is the
+    /// indentation's), nor a press the frame's own noise matches elsewhere.
+    #[test]
+    fn a_faint_press_is_found_by_its_shape() {
+        let (cw, ch) = (40usize, 40usize);
+        let (tw, th) = (cw * GRID / TILE_PX, ch * GRID / TILE_PX);
+        let thr = 100;
+        let (min_total, sign) = (22, -1);
+        let bump_at = |(x, y): (f32, f32), peak: f32, sigma: f32| -> Vec<i32> {
+            (0..cw * ch)
+                .map(|k| {
+                    let (dx, dy) = ((k % cw) as f32 - x, (k / cw) as f32 - y);
+                    let g = (-(dx * dx + dy * dy) / (2.0 * sigma * sigma)).exp();
+                    (sign as f32 * peak * thr as f32 * g).round() as i32
+                })
+                .collect()
+        };
+        let bump = |peak: f32, sigma: f32| bump_at((20.0, 20.0), peak, sigma);
+        let rel = vec![true; cw * ch];
+        let amp = vec![9u32; cw * ch];
+        let find = |phi: &[i32], sign: i32| {
+            contact_tiles(
+                phi,
+                &rel,
+                (&amp, 9),
+                (thr, sign),
+                (cw, ch),
+                (tw, th),
+                min_total,
+            )
+        };
+        // Peak 1.3 thresholds, σ 3 samples: about 15 samples above the threshold, 39 above
+        // half the peak.
+        let press = bump(1.3, 3.0);
+        let above = press.iter().filter(|p| p.abs() > thr).count();
+        assert!((TILE_MIN_SAMPLES..min_total).contains(&above), "{above}");
+        assert!(find(&press, sign).is_some_and(|t| t.faint && t.on.iter().any(|&o| o)));
+        // The same spot raised instead of sunk is no press.
+        assert!(find(&press, -sign).is_none());
+        // A speck three thresholds high, σ one sample: its flood is a few samples.
+        assert!(find(&bump(3.0, 1.0), sign).is_none());
+        // A field at 0.6 thresholds over the view with a bump lifting one place past it.
+        let field: Vec<i32> = bump(0.45, 1.5)
+            .iter()
+            .map(|&b| b + sign * 6 * thr / 10)
+            .collect();
+        assert!(field.iter().any(|p| p.abs() > thr));
+        assert!(find(&field, sign).is_none());
+        // Beside a raised spot of the frame's noise as wide and nearly as high, nothing
+        // tells the press from noise; beside a lower one it stands out.
+        let beside = |other: f32| -> Vec<i32> {
+            let noise = bump_at((32.0, 8.0), other, 3.0);
+            bump_at((12.0, 30.0), 1.3, 3.0)
+                .iter()
+                .zip(&noise)
+                .map(|(p, n)| p - n)
+                .collect()
+        };
+        assert!(find(&beside(1.1), sign).is_none());
+        assert!(find(&beside(0.9), sign).is_some_and(|t| t.faint));
+        // A press standing high enough is found as every press is, not as a faint one.
+        assert!(find(&bump(3.0, 3.0), sign).is_some_and(|t| !t.faint));
     }
 
     /// Tile counts and per-sample tile membership against a plain reading, sample by
@@ -545,21 +723,30 @@ mod tests {
                 })
                 .collect();
             let amp = (&vec![9; phi.len()][..], 9);
-            let got = contact_tiles(&phi, &vec![true; phi.len()], amp, 10, (cw, ch), (tw, th), 0);
+            let got = contact_tiles(
+                &phi,
+                &vec![true; phi.len()],
+                amp,
+                (10, 1),
+                (cw, ch),
+                (tw, th),
+                0,
+            );
             let unreliable = contact_tiles(
                 &phi,
                 &vec![false; phi.len()],
                 amp,
-                10,
+                (10, 1),
                 (cw, ch),
                 (tw, th),
                 0,
             );
             assert!(unreliable.is_none());
             match got {
-                Some((tiles, n)) => {
-                    assert_eq!(tiles, want, "{w}x{h}");
+                Some(ContactTiles { on, n, faint }) => {
+                    assert_eq!(on, want, "{w}x{h}");
                     assert_eq!(n, want.iter().filter(|t| **t).count());
+                    assert!(!faint, "{w}x{h}");
                 }
                 None => assert!(active.iter().all(|a| !a), "{w}x{h}"),
             }

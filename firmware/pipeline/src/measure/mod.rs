@@ -24,7 +24,7 @@ pub mod profile;
 mod register;
 mod window;
 
-pub use coarse::{contact_tiles, local_noise_units};
+pub use coarse::{contact_tiles, local_noise_units, ContactTiles};
 pub use features::{bounded_force, dominant_component, peak_component, summarize, Features};
 pub use window::upsample2;
 
@@ -331,7 +331,16 @@ pub fn measure<M: PhaseMap>(
     // The region is found on |Δφ|: at the centre of a deep press the wrapped phase has
     // wrapped to the other sign, and it must be unwrapped, not seeded from. Only
     // indentation (positive signed phase) is reported as depth.
-    let Some((tiles_on, tiles)) = &bg.contact else {
+    // A faint contact stands out of the frame's noise, and where the colour's field was
+    // taken out, what the field missed by a little is left in floods of both signs that
+    // are no noise: nothing tells a faint press among them.
+    let contact = (bg.contact.as_ref()).filter(|t| !(t.faint && colour.is_some()));
+    let Some(ContactTiles {
+        on: tiles_on,
+        n: tiles,
+        faint,
+    }) = contact
+    else {
         let reliable = reliable_pixels(&coarse.rel, &grid, &margin);
         return (frame.without_contact(reliable), wrapped);
     };
@@ -356,7 +365,12 @@ pub fn measure<M: PhaseMap>(
     // What the temperature reads: the same map within the background's margin.
     let reliable = within(contact_reliable, grid.w, &margin);
     match c {
-        Some(c) => (frame.with_contact(c, *tiles, reliable), wrapped),
+        Some(mut c) => {
+            if *faint {
+                c.flags.insert(Flag::FaintContact);
+            }
+            (frame.with_contact(c, *tiles, reliable), wrapped)
+        }
         None => (frame.without_contact(reliable), wrapped),
     }
 }

@@ -8,7 +8,7 @@
 //! Where the whole background is the contact's far field (a thick skin's), registration
 //! is on its level beyond the field ([`far_field`]).
 
-use super::coarse::{contact_tiles, local_noise_units, samples_in, Coarse};
+use super::coarse::{contact_tiles, local_noise_units, samples_in, Coarse, ContactTiles};
 use super::far_field;
 use super::{Grid, CONTACT_SIGMAS, MIN_CONTACT_RAD, TILE_MIN_SAMPLES, TILE_PX};
 use crate::ftp::carrier::Carrier;
@@ -37,8 +37,8 @@ pub(super) struct Background<P> {
     pub(super) noise_clean: bool,
     /// The contact threshold, units.
     pub(super) threshold: i32,
-    /// The contact region's tiles (and how many), if there is contact.
-    pub(super) contact: Option<(Vec<bool>, usize)>,
+    /// The contact region's tiles (how many, and whether it was found faint), if any.
+    pub(super) contact: Option<ContactTiles>,
     /// Where a contact's offset was registered.
     pub(super) registered_on: RegisteredOn,
 }
@@ -179,7 +179,7 @@ pub(super) fn background<P: PhaseNum>(
             phi,
             &coarse.rel_contact,
             (&coarse.amp_r, amp_med),
-            thr,
+            (thr, sign),
             grid.coarse,
             grid.tiles,
             min_total,
@@ -187,7 +187,7 @@ pub(super) fn background<P: PhaseNum>(
     };
     let noise = local_noise_units(&phi, &coarse.rel, grid.coarse.0, grid.coarse.1, noise_box);
     let threshold = threshold_of(noise);
-    let Some((region, _)) = tiles_above(&phi, threshold) else {
+    let Some(ContactTiles { on: region, .. }) = tiles_above(&phi, threshold) else {
         return Background {
             offset,
             noise,
@@ -206,7 +206,9 @@ pub(super) fn background<P: PhaseNum>(
     let mut counts = raised_and_sunk(&phi, &coarse.rel, sign, threshold);
     let rim = raised_rim(&phi, &coarse.rel, grid.coarse, (sign, threshold), counts);
     if let Some(rim) = rim.and_then(|r| dirs.of_background(&r)) {
-        if let Some((rim_region, _)) = tiles_above(&dirs.relative(rim), threshold) {
+        if let Some(ContactTiles { on: rim_region, .. }) =
+            tiles_above(&dirs.relative(rim), threshold)
+        {
             (registered, background, outside_n) = outside_contact(&dirs, &rim_region, grid);
             offset = registered.offset;
             phi = dirs.relative(offset);
