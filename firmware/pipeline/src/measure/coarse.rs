@@ -23,13 +23,13 @@ use crate::phase::{PhaseMap, GRID};
 ///
 /// A press whose peak stands less than twice the threshold above the background holds
 /// fewer samples above it than a disc a period across, however wide the band spreads it:
-/// it is found by its own shape instead (its half-peak flood, with `sign` the
-/// indentation's phase sign), and said to be faint.
+/// it is found by its own shape instead (its half-peak flood, with `faint_sign` the
+/// indentation's phase sign; `None` where none is looked for), and said to be faint.
 pub fn contact_tiles(
     phi: &[i32],
     rel: &[bool],
     (amp_r, amp_med): (&[u32], u32),
-    (thr, sign): (i32, i32),
+    (thr, faint_sign): (i32, Option<i32>),
     (cw, ch): (usize, usize),
     (tw, th): (usize, usize),
     min_total: usize,
@@ -70,7 +70,9 @@ pub fn contact_tiles(
     };
     let plain = count.iter().sum::<usize>() >= min_total
         && samples.make_contact(&count, tw, min_total, |p, a, _| stands(p, a));
-    let faint = !plain && samples.faint_press((ch, sign, thr_units), min_total, stands);
+    let faint = !plain
+        && faint_sign
+            .is_some_and(|sign| samples.faint_press((ch, sign, thr_units), min_total, stands));
     if !plain && !faint {
         return None;
     }
@@ -164,12 +166,16 @@ impl Samples<'_> {
         }
         // Floods peaking lower than this cannot hold a press back.
         let floor = (thr as f32 / FAINT_STANDS_OUT) as i32;
-        let press = self.press_floods((ch, sign), floor, min_total);
+        // The highest two of the indentation's sign, the highest one of the other.
+        let press = self.press_floods((ch, sign), floor, (min_total, 2));
         let Some(&(peak, seed)) = press.first() else {
             return false;
         };
         let other = (press.get(1).into_iter())
-            .chain(self.press_floods((ch, -sign), floor, min_total).first())
+            .chain(
+                self.press_floods((ch, -sign), floor, (min_total, 1))
+                    .first(),
+            )
             .map(|&(p, _)| p)
             .max();
         peak > thr
@@ -177,14 +183,14 @@ impl Samples<'_> {
             && other.is_none_or(|o| peak as f32 >= FAINT_STANDS_OUT * o as f32)
     }
 
-    /// The press-sized half-peak floods ([`Self::faint_press`]) of the samples' phase
-    /// signed by `sign`, from seeds above `floor` (units) that no higher seed's flood took
-    /// in: each one's peak and seed, highest first.
+    /// The highest `wanted` press-sized half-peak floods ([`Self::faint_press`]) of the
+    /// samples' phase signed by `sign`, from seeds above `floor` (units) that no higher
+    /// seed's flood took in: each one's peak and seed, highest first.
     fn press_floods(
         &self,
         (ch, sign): (usize, i32),
         floor: i32,
-        min_total: usize,
+        (min_total, wanted): (usize, usize),
     ) -> Vec<(i32, usize)> {
         let n = self.cw * ch;
         let signed = |k: usize| match self.rel[k] {
@@ -197,6 +203,9 @@ impl Samples<'_> {
         let (mut taken, mut seen) = (vec![false; n], vec![false; n]);
         let mut out = Vec::new();
         for seed in seeds {
+            if out.len() == wanted {
+                break;
+            }
             if taken[seed] {
                 continue;
             }
@@ -595,7 +604,7 @@ mod tests {
         };
         let rel = vec![true; cw * ch];
         let tiles = |phi: &[i32], amp_r: &[u32]| {
-            contact_tiles(phi, &rel, (amp_r, 90), (10, 1), (cw, ch), (tw, th), 0)
+            contact_tiles(phi, &rel, (amp_r, 90), (10, Some(1)), (cw, ch), (tw, th), 0)
         };
         let found = |phi: &[i32], amp: u32| tiles(phi, &vec![amp; cw * ch]).is_some();
         assert!(found(&phase(11), 90));
@@ -642,23 +651,19 @@ mod tests {
         let bump = |peak: f32, sigma: f32| bump_at((20.0, 20.0), peak, sigma);
         let rel = vec![true; cw * ch];
         let amp = vec![9u32; cw * ch];
-        let find = |phi: &[i32], sign: i32| {
-            contact_tiles(
-                phi,
-                &rel,
-                (&amp, 9),
-                (thr, sign),
-                (cw, ch),
-                (tw, th),
-                min_total,
-            )
+        let find_by = |phi: &[i32], sign: Option<i32>| {
+            let amp = (&amp[..], 9);
+            contact_tiles(phi, &rel, amp, (thr, sign), (cw, ch), (tw, th), min_total)
         };
+        let find = |phi: &[i32], sign: i32| find_by(phi, Some(sign));
         // Peak 1.3 thresholds, σ 3 samples: about 15 samples above the threshold, 39 above
         // half the peak.
         let press = bump(1.3, 3.0);
         let above = press.iter().filter(|p| p.abs() > thr).count();
         assert!((TILE_MIN_SAMPLES..min_total).contains(&above), "{above}");
         assert!(find(&press, sign).is_some_and(|t| t.faint && t.on.iter().any(|&o| o)));
+        // Nor where no faint press is looked for (the colour's field taken out).
+        assert!(find_by(&press, None).is_none());
         // The same spot raised instead of sunk is no press.
         assert!(find(&press, -sign).is_none());
         // A speck three thresholds high, σ one sample: its flood is a few samples.
@@ -723,25 +728,12 @@ mod tests {
                 })
                 .collect();
             let amp = (&vec![9; phi.len()][..], 9);
-            let got = contact_tiles(
-                &phi,
-                &vec![true; phi.len()],
-                amp,
-                (10, 1),
-                (cw, ch),
-                (tw, th),
-                0,
-            );
-            let unreliable = contact_tiles(
-                &phi,
-                &vec![false; phi.len()],
-                amp,
-                (10, 1),
-                (cw, ch),
-                (tw, th),
-                0,
-            );
-            assert!(unreliable.is_none());
+            let with_rel = |rel: bool| {
+                let rel = vec![rel; phi.len()];
+                contact_tiles(&phi, &rel, amp, (10, Some(1)), (cw, ch), (tw, th), 0)
+            };
+            let got = with_rel(true);
+            assert!(with_rel(false).is_none());
             match got {
                 Some(ContactTiles { on, n, faint }) => {
                     assert_eq!(on, want, "{w}x{h}");

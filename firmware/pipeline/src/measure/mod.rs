@@ -309,7 +309,7 @@ pub fn measure<M: PhaseMap>(
         &coarse,
         &grid,
         carrier,
-        ctx.indentation_sign(),
+        (ctx.indentation_sign(), colour.is_some()),
         amp_ref_median,
     );
     flags.insert_all(background_flags(&bg));
@@ -331,15 +331,11 @@ pub fn measure<M: PhaseMap>(
     // The region is found on |Δφ|: at the centre of a deep press the wrapped phase has
     // wrapped to the other sign, and it must be unwrapped, not seeded from. Only
     // indentation (positive signed phase) is reported as depth.
-    // A faint contact stands out of the frame's noise, and where the colour's field was
-    // taken out, what the field missed by a little is left in floods of both signs that
-    // are no noise: nothing tells a faint press among them.
-    let contact = (bg.contact.as_ref()).filter(|t| !(t.faint && colour.is_some()));
     let Some(ContactTiles {
         on: tiles_on,
         n: tiles,
         faint,
-    }) = contact
+    }) = &bg.contact
     else {
         let reliable = reliable_pixels(&coarse.rel, &grid, &margin);
         return (frame.without_contact(reliable), wrapped);

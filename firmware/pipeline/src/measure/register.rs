@@ -152,12 +152,15 @@ pub(super) fn min_contact_samples(carrier: Carrier) -> usize {
 /// tiles above it; with a contact, registration and noise are measured again outside it
 /// (and on the rim instead when the rim stands raised above it, [`raised_rim`]). `sign` is
 /// the indentation's phase sign; `amp_med` the reference's median fringe amplitude, where
-/// the noise floor's threshold holds as measured ([`contact_tiles`]).
+/// the noise floor's threshold holds as measured ([`contact_tiles`]). Where the colour's
+/// field was taken out of the phase (`colour_field`), what the field missed by a little is
+/// left in floods of both signs that are no noise, and no faint press is looked for among
+/// them.
 pub(super) fn background<P: PhaseNum>(
     coarse: &Coarse<'_, P>,
     grid: &Grid,
     carrier: Carrier,
-    sign: i32,
+    (sign, colour_field): (i32, bool),
     amp_med: u32,
 ) -> Background<P> {
     let dirs = Directions::new(coarse);
@@ -179,7 +182,7 @@ pub(super) fn background<P: PhaseNum>(
             phi,
             &coarse.rel_contact,
             (&coarse.amp_r, amp_med),
-            (thr, sign),
+            (thr, (!colour_field).then_some(sign)),
             grid.coarse,
             grid.tiles,
             min_total,
