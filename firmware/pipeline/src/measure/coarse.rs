@@ -70,16 +70,28 @@ pub fn contact_tiles(
     };
     let plain = count.iter().sum::<usize>() >= min_total
         && samples.make_contact(&count, tw, min_total, |p, a, _| stands(p, a));
-    let faint = !plain
-        && faint_sign
-            .is_some_and(|sign| samples.faint_press((ch, sign, thr_units), min_total, stands));
-    if !plain && !faint {
-        return None;
-    }
-    let active: Vec<bool> = count.iter().map(|&c| c >= TILE_MIN_SAMPLES).collect();
+    let active: Vec<bool> = if plain {
+        count.iter().map(|&c| c >= TILE_MIN_SAMPLES).collect()
+    } else {
+        // A faint press's region is its own flood's tiles: a speck elsewhere that passed
+        // the threshold is not its place.
+        let sign = faint_sign?;
+        let flood = samples.faint_press((ch, sign, thr_units), min_total, stands)?;
+        let mut tiles = vec![false; tw * th];
+        for k in flood {
+            if let Some(t) = tiles.get_mut((k / cw / PER) * tw + (k % cw) / PER) {
+                *t = true;
+            }
+        }
+        tiles
+    };
     let on = dilate(&active, tw, th);
     let n = on.iter().filter(|t| **t).count();
-    Some(ContactTiles { on, n, faint })
+    Some(ContactTiles {
+        on,
+        n,
+        faint: !plain,
+    })
 }
 
 /// A contact's tiles, as [`contact_tiles`] finds them.
@@ -137,8 +149,8 @@ impl Samples<'_> {
         false
     }
 
-    /// Whether a faint press stands among the samples (`ch` rows, threshold `thr`), by its
-    /// half-peak flood: from a reliable sample, the samples joined to it above half its
+    /// The half-peak flood of a faint press standing among the samples (`ch` rows,
+    /// threshold `thr`), if one does: from a reliable sample, the samples joined to it above half its
     /// phase. A flood covering `min_total` samples or more (a disc a period across) and at
     /// most [`FAINT_PRESS_MAX_DISCS`] times that is press-sized: the band spreads a narrow
     /// press over its own width whatever its depth, so its flood is that wide even where
@@ -156,21 +168,19 @@ impl Samples<'_> {
         (ch, sign, thr): (usize, i32, i32),
         min_total: usize,
         stands: impl Fn(i32, u32) -> bool,
-    ) -> bool {
+    ) -> Option<Vec<usize>> {
         let n = self.cw * ch;
         if [self.phi.len(), self.rel.len(), self.amp_r.len()]
             .iter()
             .any(|&l| l < n)
         {
-            return false;
+            return None;
         }
         // Floods peaking lower than this cannot hold a press back.
         let floor = (thr as f32 / FAINT_STANDS_OUT) as i32;
         // The highest two of the indentation's sign, the highest one of the other.
         let press = self.press_floods((ch, sign), floor, (min_total, 2));
-        let Some(&(peak, seed)) = press.first() else {
-            return false;
-        };
+        let &(peak, seed) = press.first()?;
         let other = (press.get(1).into_iter())
             .chain(
                 self.press_floods((ch, -sign), floor, (min_total, 1))
@@ -178,9 +188,26 @@ impl Samples<'_> {
             )
             .map(|&(p, _)| p)
             .max();
-        peak > thr
+        let press = peak > thr
             && stands(peak, self.amp_r[seed])
-            && other.is_none_or(|o| peak as f32 >= FAINT_STANDS_OUT * o as f32)
+            && other.is_none_or(|o| peak as f32 >= FAINT_STANDS_OUT * o as f32);
+        press.then(|| self.flood((ch, sign), seed, &mut vec![false; n]))
+    }
+
+    /// The half-peak flood from `seed` of the samples' phase signed by `sign`
+    /// ([`Self::faint_press`]): the samples joined to it above half its phase, each marked
+    /// in `seen`.
+    fn flood(&self, (ch, sign): (usize, i32), seed: usize, seen: &mut [bool]) -> Vec<usize> {
+        let half = self.signed(seed, sign) / 2;
+        crate::mask::component(seen, (self.cw, ch), seed, |j| self.signed(j, sign) > half)
+    }
+
+    /// Sample `k`'s phase signed by `sign`; the lowest there is where it is unreliable.
+    fn signed(&self, k: usize, sign: i32) -> i32 {
+        match self.rel[k] {
+            true => self.phi[k].saturating_mul(sign),
+            false => i32::MIN,
+        }
     }
 
     /// The highest `wanted` press-sized half-peak floods ([`Self::faint_press`]) of the
@@ -193,10 +220,7 @@ impl Samples<'_> {
         (min_total, wanted): (usize, usize),
     ) -> Vec<(i32, usize)> {
         let n = self.cw * ch;
-        let signed = |k: usize| match self.rel[k] {
-            true => self.phi[k].saturating_mul(sign),
-            false => i32::MIN,
-        };
+        let signed = |k: usize| self.signed(k, sign);
         let mut seeds: Vec<usize> = (0..n).filter(|&k| signed(k) > floor).collect();
         seeds.sort_unstable_by_key(|&k| std::cmp::Reverse(signed(k)));
         // One buffer for every flood, cleared behind it: a flood marks only what it takes.
@@ -209,9 +233,7 @@ impl Samples<'_> {
             if taken[seed] {
                 continue;
             }
-            let half = signed(seed) / 2;
-            let flood =
-                crate::mask::component(&mut seen, (self.cw, ch), seed, |j| signed(j) > half);
+            let flood = self.flood((ch, sign), seed, &mut seen);
             for &j in &flood {
                 (taken[j], seen[j]) = (true, false);
             }
@@ -687,6 +709,20 @@ mod tests {
         };
         assert!(find(&beside(1.1), sign).is_none());
         assert!(find(&beside(0.9), sign).is_some_and(|t| t.faint));
+        // A speck elsewhere, two samples of one tile above the threshold, is not the faint
+        // press's place: the region is the press's own.
+        let per = TILE_PX / GRID;
+        let tile_of = |(x, y): (usize, usize)| (y / per) * tw + x / per;
+        let with_speck: Vec<i32> = bump_at((12.0, 30.0), 1.3, 3.0)
+            .iter()
+            .zip(bump_at((32.5, 8.0), 2.0, 0.8))
+            .map(|(p, s)| p + s)
+            .collect();
+        let above = with_speck.iter().filter(|p| p.abs() > thr).count();
+        assert!(above < min_total, "{above}");
+        let found = find(&with_speck, sign).expect("the faint press");
+        assert!(found.faint && found.on[tile_of((12, 30))]);
+        assert!(!found.on[tile_of((32, 8))]);
         // A press standing high enough is found as every press is, not as a faint one.
         assert!(find(&bump(3.0, 3.0), sign).is_some_and(|t| !t.faint));
     }
