@@ -8,7 +8,7 @@ use vistaf_pipeline::Calibration;
 pub fn calibration_json(c: &Calibration) -> Value {
     json!({
         "id": vistaf_protocol::CalibrationId(c.id()).to_string(),
-        "phase_to_depth": { "equation": c.depth.equation, "model": c.depth.model, "cv_rmse_mm": c.depth.cv_rmse, "place_spread": c.depth_place_spread, "in_sample_rmse_mm": c.depth.in_sample_rmse, "n": c.depth.n },
+        "phase_to_depth": { "equation": c.depth.equation, "model": c.depth.model, "cv_rmse_mm": c.depth.cv_rmse, "place_spread": c.depth_place_spread, "error_by_depth": c.depth_error, "in_sample_rmse_mm": c.depth.in_sample_rmse, "n": c.depth.n },
         "force": c.force.as_ref().map(|f| json!({ "equation": f.equation, "model": f.model, "cv_rmse_n": f.cv_rmse, "in_sample_rmse_n": f.in_sample_rmse, "n": f.n })),
         "temperature": c.temperature.as_ref().map(|t| json!({
             "coloured": { "equation": t.coloured.equation, "fit_range_c": t.coloured.fit_range_c, "cv_rmse_c": t.coloured.cv_rmse_c, "in_sample_rmse_c": t.coloured.in_sample_rmse_c },

@@ -9,7 +9,8 @@
 
 use crate::linear::solve;
 use vistaf_pipeline::calibration::{
-    check_depth, CandidateScore, DepthModel, FitRange, ForceFeature, ForceForm, ForceModel,
+    check_depth, CandidateScore, DepthError, DepthModel, FitRange, ForceFeature, ForceForm,
+    ForceModel,
 };
 
 /// A sample: input, target, and its group (setpoint) for cross-validation.
@@ -198,28 +199,15 @@ fn score_all<M>(
     candidates: Vec<Candidate<M>>,
     predict: &impl Fn(&M, f64) -> f64,
 ) -> Option<Vec<(M, CandidateScore)>> {
-    let mut groups: Vec<f64> = samples.iter().map(|s| s.group).collect();
-    groups.sort_by(f64::total_cmp);
-    groups.dedup();
+    let groups = groups(samples);
     if groups.len() < 3 {
         return None;
     }
     let mut out = Vec::new();
     for c in candidates {
-        let mut fold_rmse = Vec::new();
-        let mut all = Vec::new();
-        for g in &groups {
-            let train: Vec<Sample> = samples.iter().copied().filter(|s| s.group != *g).collect();
-            let m = (c.fit)(&train);
-            let test: Vec<(f64, f64)> = samples
-                .iter()
-                .filter(|s| s.group == *g)
-                .map(|s| (predict(&m, s.u), s.y))
-                .collect();
-            fold_rmse.push(rmse(test.iter().copied()));
-            all.extend(test);
-        }
-        let cv = rmse(all.into_iter());
+        let folds = held_out(samples, &groups, &c.fit, predict);
+        let fold_rmse: Vec<f64> = folds.iter().map(|f| rmse(f.iter().copied())).collect();
+        let cv = rmse(folds.into_iter().flatten());
         let mean = fold_rmse.iter().sum::<f64>() / fold_rmse.len() as f64;
         let var = fold_rmse.iter().map(|r| (r - mean).powi(2)).sum::<f64>()
             / (fold_rmse.len() - 1) as f64;
@@ -239,6 +227,33 @@ fn score_all<M>(
         ));
     }
     Some(out)
+}
+
+/// The samples' groups, ascending, each once.
+fn groups(samples: &[Sample]) -> Vec<f64> {
+    let mut groups: Vec<f64> = samples.iter().map(|s| s.group).collect();
+    groups.sort_by(f64::total_cmp);
+    groups.dedup();
+    groups
+}
+
+/// Per group, its samples read by the model fitted without it: (read, label) pairs.
+fn held_out<M>(
+    samples: &[Sample],
+    groups: &[f64],
+    fit: &Fitter<M>,
+    predict: &impl Fn(&M, f64) -> f64,
+) -> Vec<Vec<(f64, f64)>> {
+    groups
+        .iter()
+        .map(|g| {
+            let train: Vec<Sample> = samples.iter().copied().filter(|s| s.group != *g).collect();
+            let m = fit(&train);
+            (samples.iter().filter(|s| s.group == *g))
+                .map(|s| (predict(&m, s.u), s.y))
+                .collect()
+        })
+        .collect()
 }
 
 /// The parsimony rule: among candidates within one standard error of the best CV RMSE,
@@ -279,7 +294,26 @@ pub fn fit_depth(
     samples: &[Sample],
     progress: impl FnMut(usize, usize),
 ) -> Option<(DepthModel, CandidateScore, Vec<CandidateScore>)> {
-    let cands: Vec<Candidate<DepthModel>> = vec![
+    let cands = depth_candidates();
+    let mut progress = progress;
+    let mut scored = score_all(samples, cands, &|m: &DepthModel, u| m.depth_mm(u))?;
+    let range = FitRange::of(samples.iter().map(|s| (s.u, s.y)));
+    for (m, score) in &mut scored {
+        // A monotone fit has as many free values as it has knots.
+        if let DepthModel::Monotone { x_rad, .. } = m {
+            score.params = x_rad.len();
+        }
+        if let Err(e) = check_depth(m, range.as_ref()) {
+            score.refused = Some(e.why);
+        }
+    }
+    progress(1, 1);
+    choose(scored)
+}
+
+/// The depth model's candidate forms ([`fit_depth`]).
+fn depth_candidates() -> Vec<Candidate<DepthModel>> {
+    vec![
         Candidate {
             name: "linear".into(),
             params: 1,
@@ -331,21 +365,49 @@ pub fn fit_depth(
                 DepthModel::Monotone { x_rad, d_mm }
             }),
         },
-    ];
-    let mut progress = progress;
-    let mut scored = score_all(samples, cands, &|m: &DepthModel, u| m.depth_mm(u))?;
-    let range = FitRange::of(samples.iter().map(|s| (s.u, s.y)));
-    for (m, score) in &mut scored {
-        // A monotone fit has as many free values as it has knots.
-        if let DepthModel::Monotone { x_rad, .. } = m {
-            score.params = x_rad.len();
-        }
-        if let Err(e) = check_depth(m, range.as_ref()) {
-            score.refused = Some(e.why);
-        }
+    ]
+}
+
+/// The kit's presses read by the depth model `fit_depth` chose (its candidate `name`),
+/// each fitted without its setpoint: (read, label) pairs, mm. `None` for a name that is
+/// no candidate's.
+pub fn held_out_depths(samples: &[Sample], name: &str) -> Option<Vec<(f64, f64)>> {
+    let c = depth_candidates().into_iter().find(|c| c.name == name)?;
+    let read = |m: &DepthModel, u| m.depth_mm(u);
+    Some(held_out(samples, &groups(samples), &c.fit, &read).concat())
+}
+
+/// The held-out error by depth ([`DepthError`]) of (read, label) pairs: the floor and
+/// share whose `floor² + (share · label)²` fits the squared errors best (least squares,
+/// neither negative). `None` without two pairs at different depths.
+pub fn error_by_depth(pairs: &[(f64, f64)]) -> Option<DepthError> {
+    // Squared error e² against y²: e² ≈ f² + c²·y², a line in (f², c²).
+    let points: Vec<(f64, f64)> = (pairs.iter())
+        .filter(|(r, y)| r.is_finite() && y.is_finite())
+        .map(|(r, y)| (y * y, (r - y) * (r - y)))
+        .collect();
+    let n = points.len() as f64;
+    let (mx, me) = (
+        points.iter().map(|p| p.0).sum::<f64>() / n,
+        points.iter().map(|p| p.1).sum::<f64>() / n,
+    );
+    let sxx: f64 = points.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    if sxx.is_nan() || sxx <= 0.0 {
+        return None;
     }
-    progress(1, 1);
-    choose(scored)
+    let sxe: f64 = points.iter().map(|p| (p.0 - mx) * (p.1 - me)).sum();
+    let (mut floor2, mut share2) = (me - sxe / sxx * mx, sxe / sxx);
+    if share2 < 0.0 {
+        (floor2, share2) = (me, 0.0);
+    } else if floor2 < 0.0 {
+        // Through the origin: c² = Σ e²·y² / Σ y⁴.
+        let y4: f64 = points.iter().map(|p| p.0 * p.0).sum();
+        (floor2, share2) = (0.0, points.iter().map(|p| p.0 * p.1).sum::<f64>() / y4);
+    }
+    Some(DepthError {
+        floor_mm: floor2.sqrt(),
+        share: share2.sqrt(),
+    })
 }
 
 /// Measurement → force candidates: every feature with every form, chosen together.
@@ -453,6 +515,39 @@ pub fn place_spread(samples: &[Sample], read: impl Fn(f64) -> f64, min_y: f64) -
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Errors of `√(f² + (c·y)²)` over a kit's depths give back `f` and `c`; errors that
+    /// do not grow with the depth give no share, errors in proportion to it no floor.
+    #[test]
+    fn held_out_errors_split_into_a_floor_and_a_share() {
+        let pairs = |f: f64, c: f64| -> Vec<(f64, f64)> {
+            (1..=12)
+                .flat_map(|k| {
+                    let y = 0.2 * f64::from(k);
+                    let e = f.hypot(c * y);
+                    [(y + e, y), (y - e, y)]
+                })
+                .collect()
+        };
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-6;
+        for (f, c) in [(0.01, 0.02), (0.02, 0.0), (0.0, 0.03)] {
+            let e = error_by_depth(&pairs(f, c)).unwrap();
+            assert!(close(e.floor_mm, f) && close(e.share, c), "{e:?}");
+        }
+        // Errors shrinking with the depth: the floor alone, at their mean square.
+        let shrinking: Vec<(f64, f64)> = [(0.5, 0.04), (1.0, 0.02), (2.0, 0.01)]
+            .iter()
+            .map(|&(y, e)| (y + e, y))
+            .collect();
+        let e = error_by_depth(&shrinking).unwrap();
+        let mean_square = (0.04f64.powi(2) + 0.02f64.powi(2) + 0.01f64.powi(2)) / 3.0;
+        assert!(
+            close(e.share, 0.0) && close(e.floor_mm, mean_square.sqrt()),
+            "{e:?}"
+        );
+        // One depth says nothing of how the error grows.
+        assert_eq!(error_by_depth(&[(1.1, 1.0), (0.9, 1.0)]), None);
+    }
 
     #[test]
     fn places_reading_a_depth_apart_by_a_share_of_it_give_that_share() {

@@ -28,8 +28,8 @@ use vistaf_hardware::decode::Decoded;
 use vistaf_hardware::frameset::FrameSet;
 use vistaf_pipeline::calibration::colour_phase::ColourPhase;
 use vistaf_pipeline::calibration::{
-    Calibration, DepthModel, FitRange, Fitted, ForceFeature, ForceModel, LoadSignature, SetRecord,
-    ShapeSignature, UnitGeometry, FORMAT,
+    Calibration, DepthError, DepthModel, FitRange, Fitted, ForceFeature, ForceModel, LoadSignature,
+    SetRecord, ShapeSignature, UnitGeometry, FORMAT,
 };
 use vistaf_pipeline::ftp::carrier;
 use vistaf_pipeline::image_ops::gray_down_f32;
@@ -46,7 +46,7 @@ use vistaf_pipeline::thermal::HELD_OUT_MISS_LIMIT_C;
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement, PipelineError};
 use vistaf_protocol::{Flag, QualityFlags};
 
-use crate::fit::{fit_depth, fit_force, place_spread, Sample};
+use crate::fit::{error_by_depth, fit_depth, fit_force, held_out_depths, place_spread, Sample};
 use crate::temperature::rms;
 
 /// What went wrong.
@@ -822,6 +822,7 @@ fn identity(unit: &UnitGeometry, sign: f64) -> Calibration {
             range: None,
         },
         depth_place_spread: None,
+        depth_error: None,
         force: None,
         shape: None,
         temperature: None,
@@ -873,7 +874,9 @@ fn fit_models<O: Observer>(
         sign = phase_sign(run, unit)?;
     }
     let mut calib = identity(unit, sign);
-    (calib.depth, calib.depth_place_spread) = depth_model(run, &calib)?;
+    let depth = depth_model(run, &calib)?;
+    (calib.depth, calib.depth_place_spread, calib.depth_error) =
+        (depth.fitted, depth.place_spread, depth.error);
     calib.shape = shape_signature(run, &calib)?;
     calib.force = force_model(run, &calib)?;
     (calib.temperature, calib.colour_phase) = temperature_model(run, &calib)?;
@@ -994,11 +997,11 @@ fn phase_sign<O: Observer>(
 /// depth model of `calib`, gives its peak phase against its label. With it, how far the
 /// fitted model may read a press off where the kit never pressed ([`place_spread`], from
 /// how its presses of one depth read apart over the depths where the tolerance's share
-/// outweighs its floor).
+/// outweighs its floor), and its held-out error by depth ([`error_by_depth`]).
 fn depth_model<O: Observer>(
     run: &mut Run<'_, O>,
     calib: &Calibration,
-) -> Result<(Fitted<DepthModel>, Option<f64>), CalibrateError> {
+) -> Result<DepthFit, CalibrateError> {
     let depth_frames = run.analyze(calib, Label::Depth, "phase → depth", &|_| true)?;
     let samples: Vec<Sample> = depth_frames
         .iter()
@@ -1016,6 +1019,7 @@ fn depth_model<O: Observer>(
     })?;
     let share_outweighs_floor_mm = f64::from(DEPTH_TOLERANCE_UM / DEPTH_TOLERANCE_SHARE) / 1000.0;
     let spread = place_spread(&samples, |u| model.depth_mm(u), share_outweighs_floor_mm);
+    let error = held_out_depths(&samples, &chosen.name).and_then(|p| error_by_depth(&p));
     let fitted = Fitted {
         equation: model.equation(),
         model,
@@ -1025,7 +1029,18 @@ fn depth_model<O: Observer>(
         candidates,
         range: FitRange::of(samples.iter().map(|s| (s.u, s.y))),
     };
-    Ok((fitted, spread))
+    Ok(DepthFit {
+        fitted,
+        place_spread: spread,
+        error,
+    })
+}
+
+/// The depth model and what the kit says of its errors ([`depth_model`]).
+struct DepthFit {
+    fitted: Fitted<DepthModel>,
+    place_spread: Option<f64>,
+    error: Option<DepthError>,
 }
 
 /// The calibrated indenter's contact area and reciprocal load against its measured depth,

@@ -7,9 +7,9 @@
 //! cross-validated ones (leave one setpoint out), the best estimate of what a new press
 //! will show.
 
-use vistaf_pipeline::calibration::Calibration;
+use vistaf_pipeline::calibration::{Calibration, DepthError};
 use vistaf_pipeline::measure::{
-    depth_uncertain_above_mm, depth_uncertain_below_mm, DEPTH_CONFIDENCE_SIGMAS,
+    depth_error, depth_uncertain_above_mm, depths_doubted_mm, DEPTH_CONFIDENCE_SIGMAS,
     DEPTH_TOLERANCE_SHARE, DEPTH_TOLERANCE_UM,
 };
 
@@ -56,6 +56,8 @@ pub struct Verdict {
     /// For depth: how far a press where the kit never pressed may read off, a share of the
     /// depth ([`Calibration::depth_place_spread`]).
     pub place_spread: Option<f64>,
+    /// For depth: the held-out error by depth ([`Calibration::depth_error`]).
+    pub depth_error: Option<DepthError>,
 }
 
 impl Verdict {
@@ -73,6 +75,7 @@ pub fn verdicts(c: &Calibration) -> Vec<Verdict> {
         error: c.depth.cv_rmse,
         target: DEPTH_TARGET_MM,
         place_spread: c.depth_place_spread,
+        depth_error: Some(depth_error(c)),
     }];
     if let Some(f) = &c.force {
         v.push(Verdict {
@@ -81,6 +84,7 @@ pub fn verdicts(c: &Calibration) -> Vec<Verdict> {
             error: f.cv_rmse,
             target: FORCE_TARGET_N,
             place_spread: None,
+            depth_error: None,
         });
     }
     if let Some(t) = &c.temperature {
@@ -90,6 +94,7 @@ pub fn verdicts(c: &Calibration) -> Vec<Verdict> {
             error: t.cv_rmse_transition_c,
             target: TEMPERATURE_TARGET_C,
             place_spread: None,
+            depth_error: None,
         });
     }
     v
@@ -105,19 +110,8 @@ pub fn report(verdicts: &[Verdict]) -> (String, bool) {
             "  {name:<24} held-out RMSE {:>8.4} {unit}  target ≤ {} {unit}  {mark}\n",
             v.error, v.target
         ));
-        let below_mm = match v.model {
-            Model::Depth => depth_uncertain_below_mm(v.error),
-            Model::Force | Model::Temperature => 0.0,
-        };
-        if below_mm > 0.0 {
-            text.push_str(&format!(
-                "  {:<24} peak depths under {below_mm:.2} mm will carry depth_uncertain: the \
-                 depth tolerance ({} % + {} mm) is less than {DEPTH_CONFIDENCE_SIGMAS} times \
-                 this error there\n",
-                "",
-                100.0 * DEPTH_TOLERANCE_SHARE,
-                DEPTH_TOLERANCE_UM / 1000.0,
-            ));
+        if let Some(e) = v.depth_error {
+            text.push_str(&depth_error_lines(e));
         }
         if let (Some(spread), Some(above_mm)) =
             (v.place_spread, depth_uncertain_above_mm(v.place_spread))
@@ -134,6 +128,34 @@ pub fn report(verdicts: &[Verdict]) -> (String, bool) {
         }
     }
     (text, verdicts.iter().all(Verdict::pass))
+}
+
+/// The depth model's held-out error by depth, and the depths it flags, as lines.
+fn depth_error_lines(e: DepthError) -> String {
+    let mut text = format!(
+        "  {:<24} held-out error by depth √({:.4}² + ({:.2} % · depth)²) mm\n",
+        "",
+        e.floor_mm,
+        100.0 * e.share
+    );
+    let (under_mm, over_mm) = depths_doubted_mm(e);
+    let range = match (under_mm, over_mm) {
+        (u, _) if u.is_infinite() => Some("every peak depth".to_string()),
+        (u, Some(o)) if u > 0.0 => Some(format!("peak depths under {u:.2} mm and over {o:.2} mm")),
+        (u, None) if u > 0.0 => Some(format!("peak depths under {u:.2} mm")),
+        (_, Some(o)) => Some(format!("peak depths over {o:.2} mm")),
+        _ => None,
+    };
+    if let Some(range) = range {
+        text.push_str(&format!(
+            "  {:<24} {range} will carry depth_uncertain: the depth tolerance ({} % + {} mm) \
+             is less than {DEPTH_CONFIDENCE_SIGMAS} times this error there\n",
+            "",
+            100.0 * DEPTH_TOLERANCE_SHARE,
+            DEPTH_TOLERANCE_UM / 1000.0,
+        ));
+    }
+    text
 }
 
 #[cfg(test)]
@@ -173,6 +195,33 @@ mod tests {
         let (text, pass) = report(&verdicts(&c));
         assert!(
             !pass && text.contains("under 1.33 mm will carry depth_uncertain"),
+            "{text}"
+        );
+    }
+
+    /// A held-out error by depth names the depths it doubts: deep ones where it grows with
+    /// the depth (a floor of 0.004 mm and 2.2 %: `2·√(0.004² + (0.022·d)²)` passes
+    /// `0.02 + 0.03·d` at 1.39 mm), both ends where its floor is high too (0.012 mm and
+    /// 2 %: under 0.16 mm and over 1.55 mm).
+    #[test]
+    fn a_depth_error_by_depth_says_which_depths_it_cannot_hold() {
+        let mut c = Calibration::default_sim();
+        c.depth_error = Some(DepthError {
+            floor_mm: 0.004,
+            share: 0.022,
+        });
+        let (text, _) = report(&verdicts(&c));
+        assert!(
+            text.contains("peak depths over 1.39 mm will carry depth_uncertain"),
+            "{text}"
+        );
+        c.depth_error = Some(DepthError {
+            floor_mm: 0.012,
+            share: 0.02,
+        });
+        let (text, _) = report(&verdicts(&c));
+        assert!(
+            text.contains("under 0.16 mm and over 1.55 mm will carry depth_uncertain"),
             "{text}"
         );
     }

@@ -3,7 +3,7 @@
 //! a benchmark; these are the pass/fail edges.)
 #![allow(clippy::unwrap_used)] // tests unwrap: a failure is the test failing
 
-use vistaf_pipeline::calibration::Calibration;
+use vistaf_pipeline::calibration::{Calibration, DepthError};
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement};
 use vistaf_protocol::Flag;
 use vistaf_sim::contact::{Contact, Footprint, Indenter};
@@ -456,6 +456,25 @@ fn a_depth_model_that_missed_its_kit_flags_the_depths_it_cannot_hold() {
     }
 }
 
+/// The same held-out error of 0.03 mm over a kit whose deep presses missed by a share of
+/// their depth (a floor of 0.004 mm and a share of 2.2 %, `depth_error`) doubts its deep
+/// presses and not its shallow ones: a 1 mm press (tolerance 0.05 mm against twice
+/// 0.022 mm) carries no `depth_uncertain`, a 2.2 mm one (0.086 mm against twice 0.049 mm)
+/// does. The whole held-out error would have doubted the shallow press and trusted the
+/// deep one.
+#[test]
+fn a_depth_model_that_missed_its_deep_presses_flags_those_alone() {
+    let mut missed = Calibration::default_sim();
+    missed.depth.cv_rmse = 0.03;
+    missed.depth_error = Some(DepthError {
+        floor_mm: 0.004,
+        share: 0.022,
+    });
+    for (depth_mm, uncertain) in [(1.0, false), (2.2, true)] {
+        depth_uncertain_as(depth_mm, &[(&missed, uncertain)]);
+    }
+}
+
 /// A unit where a press the kit never pressed may read off by a share of the depth
 /// (`depth_place_spread`) cannot hold the tolerance's share at depths its floor no
 /// longer covers: with a spread of 2.2 %, a 1.8 mm press (over 0.02 mm / (4.4 % − 3 %) =
@@ -496,9 +515,10 @@ fn depth_uncertain_as(depth_mm: f32, cases: &[(&Calibration, bool)]) {
                 m.flags.contains(Flag::DepthUncertain),
                 want,
                 "{imp:?} {depth_mm} mm, depth model's held-out error {} mm, places {:?} \
-                 apart: {m:?}",
+                 apart, by depth {:?}: {m:?}",
                 calib.depth.cv_rmse,
-                calib.depth_place_spread
+                calib.depth_place_spread,
+                calib.depth_error
             );
         }
     }

@@ -424,6 +424,27 @@ pub struct SetRecord {
     pub frames: usize,
 }
 
+/// How far the depth model reads a press held out of its fit, as a standard deviation at
+/// depth `d`: `√(floor² + (share · d)²)`, mm. A unit whose phase gain varies across the
+/// view reads deep presses off by a share of their depth while its shallow presses hold
+/// their floor; one figure for every depth (the whole held-out RMSE) would lend the deep
+/// presses' error to the shallow ones and doubt them all. Fitted on the kit's presses, each
+/// read by the model fitted without its depth (`vistaf_calibrate::fit::error_by_depth`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct DepthError {
+    /// The error's part that does not grow with the depth, mm.
+    pub floor_mm: f64,
+    /// The error's part that grows with the depth, a share of it.
+    pub share: f64,
+}
+
+impl DepthError {
+    /// The error at `depth_mm` (a standard deviation), mm.
+    pub fn at_mm(&self, depth_mm: f64) -> f64 {
+        self.floor_mm.hypot(self.share * depth_mm)
+    }
+}
+
 /// A calibration file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Calibration {
@@ -445,6 +466,11 @@ pub struct Calibration {
     /// recorded.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub depth_place_spread: Option<f64>,
+    /// How far the depth model read the kit's presses held out of its fit, by depth
+    /// ([`DepthError`]). Absent in files written before it was recorded, where the depth
+    /// model's whole held-out error (`depth.cv_rmse`) stands for it at every depth.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub depth_error: Option<DepthError>,
     /// Measurement → force, if the kit had force labels.
     pub force: Option<Fitted<ForceModel>>,
     /// The calibrated indenter's contact area by depth (for the sharpness check).
@@ -760,7 +786,13 @@ mod tests {
         };
         type Edit<'a> = &'a dyn Fn(&mut serde_json::Value);
         let colour = |setpoints: serde_json::Value| serde_json::json!({"step": 2, "nodes": [4, 3], "setpoints": setpoints});
-        let cases: [(&str, Edit<'_>); 24] = [
+        let cases: [(&str, Edit<'_>); 26] = [
+            ("`depth_error`", &|v| {
+                v["depth_error"] = serde_json::json!({"floor_mm": -0.01, "share": 0.02})
+            }),
+            ("`depth_error`", &|v| {
+                v["depth_error"] = serde_json::json!({"floor_mm": 0.01, "share": 2.0})
+            }),
             ("`depth_place_spread`", &|v| {
                 v["depth_place_spread"] = serde_json::json!(-0.01)
             }),

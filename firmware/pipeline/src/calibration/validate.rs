@@ -78,6 +78,20 @@ pub fn check(c: &Calibration) -> Check {
             ));
         }
     }
+    if let Some(e) = c.depth_error {
+        let valid = |v: f64, max: f64| (0.0..=max).contains(&v);
+        if !(valid(e.floor_mm, MAX_DEPTH_MM) && valid(e.share, 1.0)) {
+            return Err(bad(
+                "depth_error",
+                format!(
+                    "floor_mm {}, share {}: must be 0…{MAX_DEPTH_MM} mm and a share of the \
+                     depth, 0…1",
+                    num(e.floor_mm),
+                    num(e.share)
+                ),
+            ));
+        }
+    }
     if let Some(f) = &c.force {
         check_range("force.range", f.range.as_ref())?;
         check_force(&f.model, f.range.as_ref())?;

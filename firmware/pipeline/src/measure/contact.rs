@@ -9,9 +9,9 @@ use super::features::slope_p98_exceeds;
 use super::profile::Shape;
 use super::window::upsample2;
 use super::{
-    depth_uncertain_above_mm, depth_uncertain_below_mm, Context, Grid, Unwrap, BAND_LOSS_FRACTION,
-    BAND_LOSS_MIN, BLUNTNESS_RATIO, DEPTH_RANGE_SLACK, DIPOLE_RATIO, LOAD_RATIO, MAX_RESIDUES,
-    SHARPNESS_RATIO, SLOPE_LIMIT, TILE_PX, UNWRAP_TRIGGER_RAD,
+    depth_error, depth_model_doubts, depth_uncertain_above_mm, Context, Grid, Unwrap,
+    BAND_LOSS_FRACTION, BAND_LOSS_MIN, BLUNTNESS_RATIO, DEPTH_RANGE_SLACK, DIPOLE_RATIO,
+    LOAD_RATIO, MAX_RESIDUES, SHARPNESS_RATIO, SLOPE_LIMIT, TILE_PX, UNWRAP_TRIGGER_RAD,
 };
 use crate::calibration::{ForceInputs, LoadSignature};
 use crate::ftp::band::BAND_HALF_WIDTH;
@@ -435,7 +435,7 @@ impl<P> Limits<'_, P> {
         // The calibration's depth model missed its own kit by more than this depth's
         // tolerance allows, or a press where its kit never pressed may read off by more.
         let calib = ctx.calib;
-        if f64::from(read.peak_mm) < depth_uncertain_below_mm(calib.depth.cv_rmse)
+        if depth_model_doubts(depth_error(calib), f64::from(read.peak_mm))
             || depth_uncertain_above_mm(calib.depth_place_spread)
                 .is_some_and(|above_mm| f64::from(read.peak_mm) > above_mm)
         {

@@ -35,7 +35,7 @@ use contact::{
 use profile::Shape;
 use register::Background;
 
-use crate::calibration::{Calibration, ForceInputs};
+use crate::calibration::{Calibration, DepthError, ForceInputs};
 use crate::fixed_point::UNITS_PER_RAD;
 use crate::ftp::carrier::Carrier;
 use crate::mask;
@@ -86,8 +86,8 @@ pub const DEPTH_TOLERANCE_SHARE: f32 = 0.03;
 /// …plus this much, µm.
 pub const DEPTH_TOLERANCE_UM: f32 = 20.0;
 /// A peak depth is flagged `depth_uncertain` where the tolerance is less than this many
-/// times the calibration's held-out depth error (its depth model's cross-validated RMSE,
-/// each kit depth read blind): two, so that about 19 readings in 20 of an error of that
+/// times the calibration's held-out depth error at that depth ([`depth_model_doubts`], each
+/// kit depth read blind): two, so that about 19 readings in 20 of an error of that
 /// spread fall within the tolerance. The calibration measured that error on this unit,
 /// with its light, noise and grating; nothing else in a frame says how well the depth
 /// model fits the unit.
@@ -152,13 +152,65 @@ pub fn depth_tolerance_um(depth_um: f32) -> f32 {
     DEPTH_TOLERANCE_SHARE * depth_um + DEPTH_TOLERANCE_UM
 }
 
-/// The peak depth under which a calibration whose depth model missed its held-out kit
-/// presses by `cv_rmse_mm` (RMSE, mm) flags `depth_uncertain`: where the depth tolerance
-/// is less than [`DEPTH_CONFIDENCE_SIGMAS`] times that error, mm; 0 where it nowhere is.
-pub fn depth_uncertain_below_mm(cv_rmse_mm: f64) -> f64 {
-    let floor_mm = f64::from(DEPTH_TOLERANCE_UM) / 1000.0;
-    // `max` also takes an error that is not a number to 0: nothing is flagged for it.
-    ((DEPTH_CONFIDENCE_SIGMAS * cv_rmse_mm - floor_mm) / f64::from(DEPTH_TOLERANCE_SHARE)).max(0.0)
+/// The depth model's held-out error by depth ([`Calibration::depth_error`]); a file
+/// written before it was recorded, its whole held-out error (`depth.cv_rmse`) at every
+/// depth.
+pub fn depth_error(calib: &Calibration) -> DepthError {
+    calib.depth_error.unwrap_or(DepthError {
+        floor_mm: calib.depth.cv_rmse,
+        share: 0.0,
+    })
+}
+
+/// Whether a peak read `peak_mm` deep flags `depth_uncertain` for the depth model's
+/// held-out `error`: where the depth tolerance is less than [`DEPTH_CONFIDENCE_SIGMAS`]
+/// times that error at that depth. An error that is not a number flags nothing.
+pub fn depth_model_doubts(error: DepthError, peak_mm: f64) -> bool {
+    let tolerance_mm = f64::from(depth_tolerance_um(1000.0 * peak_mm as f32)) / 1000.0;
+    DEPTH_CONFIDENCE_SIGMAS * error.at_mm(peak_mm) > tolerance_mm
+}
+
+/// The peak depths [`depth_model_doubts`] flags, mm: those under the first figure (0
+/// where none is, infinite where every depth is) and those over the second, if any. The
+/// tolerance `t + s·d` against `k·√(f² + (c·d)²)` squared: `(k²c² − s²)·d² − 2ts·d +
+/// k²f² − t²` is positive where a depth is flagged.
+pub fn depths_doubted_mm(error: DepthError) -> (f64, Option<f64>) {
+    let (t, s) = (
+        f64::from(DEPTH_TOLERANCE_UM) / 1000.0,
+        f64::from(DEPTH_TOLERANCE_SHARE),
+    );
+    let k2 = DEPTH_CONFIDENCE_SIGMAS * DEPTH_CONFIDENCE_SIGMAS;
+    let (a, b, c) = (
+        k2 * error.share * error.share - s * s,
+        -2.0 * t * s,
+        k2 * error.floor_mm * error.floor_mm - t * t,
+    );
+    if !(a.is_finite() && c.is_finite()) {
+        return (0.0, None);
+    }
+    if a.abs() < 1e-12 {
+        // Linear and falling: flagged under its root.
+        return ((c / -b).max(0.0), None);
+    }
+    let disc = b * b - 4.0 * a * c;
+    if disc < 0.0 {
+        // Never zero: flagged everywhere where the parabola opens up, nowhere otherwise.
+        return if a > 0.0 {
+            (f64::INFINITY, None)
+        } else {
+            (0.0, None)
+        };
+    }
+    let (r1, r2) = (
+        (-b - disc.sqrt()) / (2.0 * a),
+        (-b + disc.sqrt()) / (2.0 * a),
+    );
+    if a < 0.0 {
+        // Opening down, falling from zero: flagged under its larger root, if positive.
+        (r1.max(r2).max(0.0), None)
+    } else {
+        (r1.max(0.0), Some(r2.max(0.0)))
+    }
 }
 
 /// The peak depth over which a calibration where a press the kit never pressed may read
@@ -919,6 +971,33 @@ impl<M: PhaseMap> Found<'_, M> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The depths [`depths_doubted_mm`] names are those [`depth_model_doubts`] flags, depth
+    /// by depth: a floor alone doubts the shallow presses, a share alone the deep ones, both
+    /// can doubt either end, and a small error none.
+    #[test]
+    fn the_depths_named_doubted_are_the_depths_flagged() {
+        let at = |floor_mm: f64, share: f64| DepthError { floor_mm, share };
+        let cases = [
+            (at(0.03, 0.0), (true, false)),
+            (at(0.0, 0.025), (false, true)),
+            (at(0.012, 0.02), (true, true)),
+            (at(0.005, 0.005), (false, false)),
+            (at(0.05, 0.05), (true, true)),
+            (at(f64::NAN, 0.0), (false, false)),
+        ];
+        for (e, (shallow, deep)) in cases {
+            let (under_mm, over_mm) = depths_doubted_mm(e);
+            for k in 1..=600 {
+                // Off the roots themselves, where rounding may go either way.
+                let d = f64::from(k) * 0.01 + 0.0037;
+                let named = d < under_mm || over_mm.is_some_and(|o| d > o);
+                assert_eq!(depth_model_doubts(e, d), named, "{e:?} at {d} mm");
+            }
+            assert_eq!(depth_model_doubts(e, 0.05), shallow, "{e:?}");
+            assert_eq!(depth_model_doubts(e, 5.0), deep, "{e:?}");
+        }
+    }
 
     /// The temperature's reliability map cut from a contact's narrower one ([`within`]) is
     /// the map [`reliable_pixels`] builds on the background's margin: odd and even sizes and
