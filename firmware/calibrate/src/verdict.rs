@@ -208,24 +208,17 @@ mod tests {
     #[test]
     fn a_depth_error_by_depth_says_which_depths_it_cannot_hold() {
         let mut c = Calibration::default_sim();
-        c.depth_error = Some(DepthError {
-            floor_mm: 0.004,
-            share: 0.022,
-        });
-        let (text, _) = report(&verdicts(&c));
-        assert!(
-            text.contains("peak depths over 1.39 mm will carry depth_uncertain"),
-            "{text}"
-        );
-        c.depth_error = Some(DepthError {
-            floor_mm: 0.012,
-            share: 0.02,
-        });
-        let (text, _) = report(&verdicts(&c));
-        assert!(
-            text.contains("under 0.16 mm and over 1.55 mm will carry depth_uncertain"),
-            "{text}"
-        );
+        for ((floor_mm, share), said) in [
+            ((0.004, 0.022), "peak depths over 1.39 mm"),
+            ((0.012, 0.02), "peak depths under 0.16 mm and over 1.55 mm"),
+        ] {
+            c.depth_error = Some(DepthError { floor_mm, share });
+            let (text, _) = report(&verdicts(&c));
+            assert!(
+                text.contains(&format!("{said} will carry depth_uncertain")),
+                "{text}"
+            );
+        }
     }
 
     /// A press where the kit never pressed reading 2 % off: the tolerance's 3 % is

@@ -150,8 +150,8 @@ impl Samples<'_> {
     }
 
     /// The half-peak flood of a faint press standing among the samples (`ch` rows,
-    /// threshold `thr`), if one does: from a reliable sample, the samples joined to it above half its
-    /// phase. A flood covering `min_total` samples or more (a disc a period across) and at
+    /// threshold `thr`), if one does: from a reliable sample, the samples joined to it
+    /// above half its phase. A flood covering `min_total` samples or more (a disc a period across) and at
     /// most [`FAINT_PRESS_MAX_DISCS`] times that is press-sized: the band spreads a narrow
     /// press over its own width whatever its depth, so its flood is that wide even where
     /// few samples pass the threshold, while a speck of the image (a glare's edge under the
