@@ -151,12 +151,12 @@ impl Samples<'_> {
 
     /// The half-peak flood of a faint press standing among the samples (`ch` rows,
     /// threshold `thr`), if one does: from a reliable sample, the samples joined to it
-    /// above half its phase. A flood covering `min_total` samples or more (a disc a period across) and at
-    /// most [`FAINT_PRESS_MAX_DISCS`] times that is press-sized: the band spreads a narrow
-    /// press over its own width whatever its depth, so its flood is that wide even where
-    /// few samples pass the threshold, while a speck of the image (a glare's edge under the
-    /// grating) swings both ways within a period and floods a few samples, and a field near
-    /// the threshold floods far beyond a press's width.
+    /// above half its phase. A flood covering `min_total` samples or more (a disc a period
+    /// across) and at most [`FAINT_PRESS_MAX_DISCS`] times that is press-sized: the band
+    /// spreads a narrow press over its own width whatever its depth, so its flood is that
+    /// wide even where few samples pass the threshold, while a speck of the image (a
+    /// glare's edge under the grating) swings both ways within a period and floods a few
+    /// samples, and a field near the threshold floods far beyond a press's width.
     ///
     /// The band spreads the phase's noise to the same width, so the frame's noise makes
     /// press-sized floods of both signs: a faint press is the highest press-sized flood of
