@@ -11,7 +11,8 @@ use super::window::upsample2;
 use super::{
     depth_error, depth_model_doubts, depth_uncertain_above_mm, Context, Grid, Unwrap,
     BAND_LOSS_FRACTION, BAND_LOSS_MIN, BLUNTNESS_RATIO, DEPTH_RANGE_SLACK, DIPOLE_RATIO,
-    LOAD_RATIO, MAX_RESIDUES, SHARPNESS_RATIO, SLOPE_LIMIT, TILE_PX, UNWRAP_TRIGGER_RAD,
+    LOAD_RATIO, MAX_RESIDUES, RIM_DIPOLE_RATIO, SHARPNESS_RATIO, SLOPE_LIMIT, TILE_PX,
+    UNWRAP_TRIGGER_RAD,
 };
 use crate::calibration::{ForceInputs, LoadSignature};
 use crate::ftp::band::BAND_HALF_WIDTH;
@@ -229,6 +230,75 @@ impl Faint<'_> {
     }
 }
 
+/// Where the frame's fringe amplitude, against the reference's, changes by more than
+/// [`AMPLITUDE_EDGE_RATIO`] within a grating period: the rim of a heated object, where the
+/// pigment's colour and with it the stripes' contrast change over a few pixels. There the
+/// demodulator's kernel spans fringes of unequal amplitude (and a background that moves
+/// with them), and the phase it reads is pulled in proportion to the relative change, one
+/// way and the other across the rim, whatever the surface does. Such phase is evidence
+/// neither of a press nor of a dipole: a press inside a
+/// heated object's rim stands where the pigment is cleared evenly, while the rim's pull
+/// can outweigh it where only part of the rim lies in view. Amplitudes are compared only
+/// within `margin`, where the demodulator's kernel lies wholly in the image: nearer the
+/// edge the kernel averages padding, and the amplitudes fall there, the frame's and the
+/// reference's by different amounts, whatever the skin does.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct AmplitudeEdge<'a> {
+    /// The frame's fringe amplitude per coarse sample.
+    pub(super) amp: &'a [u32],
+    /// The reference's.
+    pub(super) amp_r: &'a [u32],
+    /// Coarse samples across and down.
+    pub(super) size: (usize, usize),
+    /// Half a grating period, coarse samples (at least one).
+    pub(super) reach: usize,
+    /// Where the kernel lies wholly in the image, working pixels.
+    pub(super) margin: &'a Margin,
+}
+
+/// The change of the frame's fringe amplitude against the reference's, across a grating
+/// period, beyond which the phase there is an amplitude edge's ([`AmplitudeEdge`]), as a
+/// ratio `numerator / denominator`. A press changes the stripes' brightness through its
+/// slope's shading by far less; a heated object's rim changes it several times over.
+pub const AMPLITUDE_EDGE_RATIO: (u64, u64) = (3, 2);
+
+impl AmplitudeEdge<'_> {
+    /// Whether the amplitude ratio changes steeply through working pixel `(x, y)`: across
+    /// the samples half a period either side of it (those within the margin), along
+    /// either axis.
+    pub(super) fn steep(&self, (x, y): (usize, usize)) -> bool {
+        let (cw, ch) = self.size;
+        let (cx, cy) = (x / GRID, y / GRID);
+        // The samples within `trusted` (working pixels) half a period either side of `c`.
+        let span = |c: usize, n: usize, trusted: &std::ops::Range<usize>| {
+            let lo = trusted.start.div_ceil(GRID);
+            let hi = trusted.end.saturating_sub(1) / GRID;
+            let hi = hi.min(n.saturating_sub(1));
+            (
+                c.saturating_sub(self.reach).max(lo),
+                (c + self.reach).min(hi),
+            )
+        };
+        let ((xa, xb), (ya, yb)) = (span(cx, cw, &self.margin.xs), span(cy, ch, &self.margin.ys));
+        let inside = (xa..=xb).contains(&cx) && (ya..=yb).contains(&cy);
+        inside
+            && (self.changes(cy * cw + xa, cy * cw + xb)
+                || self.changes(ya * cw + cx, yb * cw + cx))
+    }
+
+    /// Whether the amplitude ratio at sample `b` lies beyond [`AMPLITUDE_EDGE_RATIO`] of the
+    /// one at sample `a`, either way.
+    fn changes(&self, a: usize, b: usize) -> bool {
+        let at = |v: &[u32], i: usize| u128::from(v.get(i).copied().unwrap_or(0));
+        let (num, den) = AMPLITUDE_EDGE_RATIO;
+        // r_b / r_a with r = amp / amp_r, over the common denominator.
+        let rb = at(self.amp, b) * at(self.amp_r, a);
+        let ra = at(self.amp, a) * at(self.amp_r, b);
+        let (num, den) = (u128::from(num), u128::from(den));
+        den * rb > num * ra || den * ra > num * rb
+    }
+}
+
 impl DepthPass {
     /// Depth is reported (and counted in the volume) only above the depth of the contact
     /// threshold (`threshold`, units; `threshold_um`): the map carries deformation, not
@@ -285,7 +355,7 @@ impl DepthPass {
     /// moves it both ways around the spot (a dipole): when the opposite-signed phase
     /// carries a comparable share, there is no contact to report.
     pub(super) fn is_dipole(&self) -> bool {
-        dipole(self.positive, self.negative)
+        dipole(self.positive, self.negative, DIPOLE_RATIO)
     }
 
     /// Whether a region [`DepthPass::is_dipole`] calls a dipole is still one with the
@@ -295,38 +365,47 @@ impl DepthPass {
     /// region spanning the view it can outweigh a press standing clear of it. So where
     /// most of the indentation-signed phase stands out against its own fringes' noise,
     /// only what stands is weighed on either side; where most of it does not, the region's
-    /// indentation is itself mostly such noise, and the whole region's verdict holds. Read
-    /// only for a region the whole-region test rejects: one it accepts stays accepted.
+    /// indentation is itself mostly such noise, and the whole region's verdict holds. The
+    /// phase on an amplitude edge ([`AmplitudeEdge`]) is set aside too, but a region only
+    /// that clears must keep next to nothing of the other sign off the edges
+    /// ([`RIM_DIPOLE_RATIO`]): a heated press's opposite-signed phase lies on the rim, all of
+    /// it, while a rim set aside beside noise of both signs (a warm spot with no press
+    /// under it) leaves some of the noise's. Read only for a region the whole-region test
+    /// rejects: one it accepts stays accepted.
     pub(super) fn dipole_where_it_stands(
         &self,
         (up, region, reliable): (&[i32], &[bool], &[bool]),
-        faint: Faint<'_>,
+        (faint, edge): (Faint<'_>, AmplitudeEdge<'_>),
         (w, x0, y0, bw): (usize, usize, usize, usize),
         threshold: i32,
     ) -> bool {
-        let (mut pos, mut neg) = (0i64, 0i64);
+        // Indentation-signed and opposite-signed phase that stands, and of it what lies off
+        // the amplitude edges.
+        let (mut standing, mut off_edges) = ([0i64; 2], [0i64; 2]);
         let rows = up.chunks_exact(bw).zip(region.chunks_exact(bw));
         for (ly, (urow, orow)) in rows.enumerate() {
             let rrow = &reliable[(y0 + ly) * w + x0..(y0 + ly) * w + x0 + bw];
             for (lx, ((&v, &on), &ok)) in urow.iter().zip(orow).zip(rrow).enumerate() {
-                if on && ok && v.abs() > threshold && faint.stands(v, (x0 + lx, y0 + ly), threshold)
-                {
-                    if v > 0 {
-                        pos += i64::from(v);
-                    } else {
-                        neg -= i64::from(v);
+                let at = (x0 + lx, y0 + ly);
+                if on && ok && v.abs() > threshold && faint.stands(v, at, threshold) {
+                    let side = usize::from(v < 0);
+                    standing[side] += i64::from(v.unsigned_abs());
+                    if !edge.steep(at) {
+                        off_edges[side] += i64::from(v.unsigned_abs());
                     }
                 }
             }
         }
-        2 * pos < self.positive || dipole(pos, neg)
+        let holds =
+            |[pos, neg]: [i64; 2], ratio: f32| 2 * pos < self.positive || dipole(pos, neg, ratio);
+        holds(standing, DIPOLE_RATIO) && holds(off_edges, RIM_DIPOLE_RATIO)
     }
 }
 
-/// Whether the opposite-signed phase `neg` carries more than [`DIPOLE_RATIO`] of the
+/// Whether the opposite-signed phase `neg` carries more than `ratio` of the
 /// indentation-signed `pos` (units).
-fn dipole(pos: i64, neg: i64) -> bool {
-    (neg as f32) > DIPOLE_RATIO * pos as f32
+fn dipole(pos: i64, neg: i64, ratio: f32) -> bool {
+    (neg as f32) > ratio * pos as f32
 }
 
 /// What the region's samples say about the limits of the measurement: the phase slope
@@ -565,6 +644,34 @@ mod tests {
         );
     }
 
+    /// The whole region's dipole verdict and the verdict where it stands
+    /// ([`DepthPass::dipole_where_it_stands`]) for one row of pixels `up`, every one in the
+    /// region and reliable, read by `faint` and `edge` against the threshold `thr`.
+    fn row_verdicts(
+        up: &[i32],
+        (faint, edge): (Faint<'_>, AmplitudeEdge<'_>),
+        thr: i32,
+    ) -> (bool, bool) {
+        let side = |f: &dyn Fn(i32) -> bool| -> i64 {
+            up.iter()
+                .filter(|&&v| f(v))
+                .map(|&v| i64::from(v.unsigned_abs()))
+                .sum()
+        };
+        let pass = DepthPass {
+            depth_um: Vec::new(),
+            deformed: Vec::new(),
+            integrated_units: 0,
+            positive: side(&|v| v > thr),
+            negative: side(&|v| v < -thr),
+        };
+        let n = up.len();
+        let all = vec![true; n];
+        let stands =
+            pass.dipole_where_it_stands((up, &all, &all), (faint, edge), (n, 0, 0, n), thr);
+        (pass.is_dipole(), stands)
+    }
+
     /// A region whose opposite-signed phase lies where fringes are faint is no dipole when
     /// most of its indentation stands; when most of its indentation is faint itself, the
     /// whole region's verdict holds.
@@ -580,26 +687,107 @@ mod tests {
             cw: 2,
         };
         let thr = 10;
-        let verdicts = |up: [i32; 4]| {
-            let side =
-                |f: fn(&i32) -> bool| up.iter().filter(|v| f(v)).map(|v| v.abs()).sum::<i32>();
-            let pass = DepthPass {
-                depth_um: Vec::new(),
-                deformed: Vec::new(),
-                integrated_units: 0,
-                positive: i64::from(side(|v| *v > 10)),
-                negative: i64::from(side(|v| *v < -10)),
-            };
-            let window = (&up[..], &[true; 4][..], &[true; 4][..]);
-            let where_it_stands = pass.dipole_where_it_stands(window, faint, (4, 0, 0, 4), thr);
-            (pass.is_dipole(), where_it_stands)
+        // The amplitude ratio even across the row: no amplitude edge.
+        let even = [100, 100];
+        let whole = Margin::new(0, 4, 1);
+        let edge = AmplitudeEdge {
+            amp: &even,
+            amp_r: &even,
+            size: (2, 1),
+            reach: 1,
+            margin: &whole,
         };
+        let verdicts = |up: [i32; 4]| row_verdicts(&up, (faint, edge), thr);
         // A press in the bright fringes, noise of the other sign in the faint spot.
         assert_eq!(verdicts([40, 40, -30, -30]), (true, false));
         // Indentation only in the faint spot, the other sign in the bright fringes.
         assert_eq!(verdicts([-40, -40, 30, 30]), (true, true));
         // Both signs in the bright fringes.
         assert_eq!(verdicts([40, -30, 0, 0]), (true, true));
+    }
+
+    /// A region whose opposite-signed phase lies on an amplitude edge (a heated object's
+    /// rim) is no dipole when the press stands off the edge; when the indentation lies on
+    /// the edge itself, the whole region's verdict holds.
+    #[test]
+    fn an_amplitude_edges_phase_does_not_make_a_press_a_dipole() {
+        // One row of eight pixels over four coarse samples: the frame's fringes four times
+        // the reference's from the third sample on, steep at the second and third.
+        let (bright, ring) = ([100u32; 4], [100u32, 100, 400, 400]);
+        let faint = Faint {
+            amp: &bright,
+            amp_r: &bright,
+            medians: (100, 100),
+            cw: 4,
+        };
+        let whole = Margin::new(0, 8, 1);
+        let steep = AmplitudeEdge {
+            amp: &ring,
+            amp_r: &bright,
+            size: (4, 1),
+            reach: 1,
+            margin: &whole,
+        };
+        let verdicts = |up: [i32; 8], amp: &[u32]| {
+            row_verdicts(&up, (faint, AmplitudeEdge { amp, ..steep }), 10)
+        };
+        let (edge_steep, edge_even) = ([2, 3, 4, 5], [0, 1, 6, 7]);
+        for x in edge_steep {
+            assert!(steep.steep((x, 0)), "pixel {x}");
+        }
+        for x in edge_even {
+            assert!(!steep.steep((x, 0)), "pixel {x}");
+        }
+        // A press beyond the rim, the rim's pull of the other sign on it.
+        let press = [0, 0, -30, -30, -30, -30, 40, 40];
+        assert_eq!(verdicts(press, &ring), (true, false));
+        // Without the rim, the same phase is a dipole.
+        assert_eq!(verdicts(press, &bright), (true, true));
+        // Beside a little of the other sign off the rim, still a press; beside more, the
+        // rim is no longer all of the dipole, and the whole region's verdict holds.
+        let beside = |v| [v, 0, -30, -30, -30, -30, 80, 80];
+        assert_eq!(verdicts(beside(-12), &ring), (true, false));
+        assert_eq!(verdicts(beside(-20), &ring), (true, true));
+        // The indentation on the rim alone, the other sign beside it.
+        assert_eq!(
+            verdicts([-30, -30, 40, 40, 40, 40, 0, 0], &ring),
+            (true, true)
+        );
+    }
+
+    /// An amplitude edge across the rows is read as one across the columns, and only
+    /// between samples where the kernel lies wholly in the image.
+    #[test]
+    fn an_amplitude_edge_is_read_along_either_axis_within_the_margin() {
+        // A 3 × 3 coarse grid (6 × 6 working pixels) whose bottom row's fringes are twice
+        // the reference's.
+        let amp_r = [100u32; 9];
+        let amp = [100u32, 100, 100, 100, 100, 100, 200, 200, 200];
+        let whole = Margin::new(0, 6, 6);
+        let edge = AmplitudeEdge {
+            amp: &amp,
+            amp_r: &amp_r,
+            size: (3, 3),
+            reach: 1,
+            margin: &whole,
+        };
+        // The middle row's samples straddle the change; the top row's do not.
+        assert!(edge.steep((2, 2)));
+        assert!(!edge.steep((2, 0)));
+        // A change within the ratio is no edge.
+        let mild = [100u32, 100, 100, 100, 100, 100, 140, 140, 140];
+        assert!(!AmplitudeEdge { amp: &mild, ..edge }.steep((2, 2)));
+        // The bottom row lies where the kernel reaches past the image: its fall (as the
+        // padding's) is no edge, and the middle row has nothing within reach to compare.
+        let inner = Margin::new(2, 6, 6);
+        let fall = [100u32, 100, 100, 100, 100, 100, 30, 30, 30];
+        let at_border = AmplitudeEdge {
+            amp: &fall,
+            margin: &inner,
+            ..edge
+        };
+        assert!(!at_border.steep((2, 2)));
+        assert!(AmplitudeEdge { amp: &fall, ..edge }.steep((2, 2)));
     }
 
     /// A dome of 5 rad over a whole window, wrapped, with no sample outside the region:

@@ -30,7 +30,8 @@ pub use window::upsample2;
 
 use coarse::{median, read_coarse, Coarse, Margin, Samples, NOISE_STEP};
 use contact::{
-    indentation_phase, region_pixels, region_samples, upsampled, DepthPass, Faint, Limits, Window,
+    indentation_phase, region_pixels, region_samples, upsampled, AmplitudeEdge, DepthPass, Faint,
+    Limits, Window,
 };
 use profile::Shape;
 use register::Background;
@@ -103,6 +104,9 @@ pub const SLOPE_LIMIT: f32 = 0.6;
 /// A region whose opposite-signed phase exceeds this fraction of its indentation-signed
 /// phase is a thermal or shading dipole, not a contact.
 pub const DIPOLE_RATIO: f32 = 0.35;
+/// A region that is no dipole only with the rims of heated objects set aside keeps no more
+/// than this fraction of opposite-signed phase off them (`measure::contact::AmplitudeEdge`).
+pub const RIM_DIPOLE_RATIO: f32 = 0.1;
 /// Phase-slope flag: more than this fraction of the deformed pixels lost half their fringe
 /// amplitude.
 pub const BAND_LOSS_FRACTION: f32 = 0.01;
@@ -656,6 +660,19 @@ impl<M: PhaseMap> Found<'_, M> {
         }
     }
 
+    /// The coarse grid's amplitude ratios the dipole test reads the rims of heated objects
+    /// by, half a grating period either side of each sample.
+    fn amplitude_edge(&self, grid: &Grid, carrier: Carrier) -> AmplitudeEdge<'_> {
+        let reach = (carrier.period_px() / (2 * GRID) as f32).round() as usize;
+        AmplitudeEdge {
+            amp: &self.coarse.amp,
+            amp_r: &self.coarse.amp_r,
+            size: grid.coarse,
+            reach: reach.max(1),
+            margin: self.margin,
+        }
+    }
+
     /// What the force model reads of a contact: its features, the phase integrated over
     /// its deformed pixels and its reciprocal load `load_mm2`, working pixels `px_mm` wide.
     fn force_inputs(feats: &Features, pass: &DepthPass, load_mm2: f32, px_mm: f32) -> ForceInputs {
@@ -862,7 +879,10 @@ impl<M: PhaseMap> Found<'_, M> {
             && pass.is_dipole()
             && pass.dipole_where_it_stands(
                 (&up, &on, reliable),
-                self.faint(grid.coarse.0),
+                (
+                    self.faint(grid.coarse.0),
+                    self.amplitude_edge(&grid, carrier),
+                ),
                 (grid.w, x0, y0, bw),
                 self.bg.threshold,
             )
