@@ -236,12 +236,12 @@ impl Faint<'_> {
 /// demodulator's kernel spans fringes of unequal amplitude (and a background that moves
 /// with them), and the phase it reads is pulled in proportion to the relative change, one
 /// way and the other across the rim, whatever the surface does. Such phase is evidence
-/// neither of a press nor of a dipole: a press inside a
-/// heated object's rim stands where the pigment is cleared evenly, while the rim's pull
-/// can outweigh it where only part of the rim lies in view. Amplitudes are compared only
-/// within `margin`, where the demodulator's kernel lies wholly in the image: nearer the
-/// edge the kernel averages padding, and the amplitudes fall there, the frame's and the
-/// reference's by different amounts, whatever the skin does.
+/// neither of a press nor of a dipole: a press inside a heated object's rim stands where
+/// the pigment is cleared evenly, while the rim's pull can outweigh it where only part of
+/// the rim lies in view. Amplitudes are compared only within `margin`, where the
+/// demodulator's kernel lies wholly in the image: nearer the edge the kernel averages
+/// padding, and the amplitudes fall there, the frame's and the reference's by different
+/// amounts, whatever the skin does.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct AmplitudeEdge<'a> {
     /// The frame's fringe amplitude per coarse sample.
