@@ -470,15 +470,8 @@ fn scenes(unit: &SensorUnit, rng: &mut Rng) -> Vec<(Kind, SkinState)> {
     for _ in 0..3 {
         let d = rng.range(0.3, 2.0) as f32;
         let mut s = pressed(unit, rng, cal.clone(), d);
-        let c = s.contacts[0].center_mm;
-        s.temperature.sources.push(HeatSource::Spot {
-            center_mm: c,
-            footprint: Footprint::Disc {
-                r_mm: (SPHERE_R_MM * d).sqrt(),
-            },
-            temp_c: rng.range(30.0, 45.0) as f32,
-            spread_mm: 2.0,
-        });
+        let heat = HeatSource::under(&s.contacts[0], rng.range(30.0, 45.0) as f32, 2.0);
+        s.temperature.sources.push(heat);
         v.push((Kind::Heated, s));
     }
     for _ in 0..2 {

@@ -353,19 +353,15 @@ fn an_oblique_light_across_a_contact_does_not_read_as_heat() {
 /// A sphere pressed `depth_mm` at `c` (mm), the skin under it at `hot_c`.
 fn heated_press(c: (f32, f32), depth_mm: f32, hot_c: f32) -> SkinState {
     let mut s = SkinState::idle(ROOM_C);
-    s.contacts.push(Contact {
+    let press = Contact {
         indenter: Indenter::Sphere { r_mm: SPHERE_R_MM },
         center_mm: c,
         depth_mm,
-    });
-    s.temperature.sources.push(HeatSource::Spot {
-        center_mm: c,
-        footprint: Footprint::Disc {
-            r_mm: (SPHERE_R_MM * depth_mm).sqrt(),
-        },
-        temp_c: hot_c,
-        spread_mm: 2.0,
-    });
+    };
+    s.temperature
+        .sources
+        .push(HeatSource::under(&press, hot_c, 2.0));
+    s.contacts.push(press);
     s
 }
 

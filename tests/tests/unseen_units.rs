@@ -13,7 +13,7 @@ use vistaf_hardware::frameset::FrameSet;
 use vistaf_pipeline::calibration::Calibration;
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation};
 use vistaf_protocol::Flag;
-use vistaf_sim::contact::{Contact, Footprint, Indenter};
+use vistaf_sim::contact::{Contact, Indenter};
 use vistaf_sim::scene::{center_mm, ROOM_C, SPHERE_R_MM};
 use vistaf_sim::sets::{kit_states, write_states, SetOptions};
 use vistaf_sim::thermal::HeatSource;
@@ -164,14 +164,8 @@ fn check_unit(seed: u64) {
         report.push(format!("{t}: {:+.3}", m - t));
     }
     let mut s = press(1.0);
-    s.temperature.sources.push(HeatSource::Spot {
-        center_mm: at,
-        footprint: Footprint::Disc {
-            r_mm: SPHERE_R_MM.sqrt(),
-        },
-        temp_c: 38.0,
-        spread_mm: 2.0,
-    });
+    let heat = HeatSource::under(&s.contacts[0], 38.0, 2.0);
+    s.temperature.sources.push(heat);
     let (img, truth) = r.render(&s, 3100);
     let got = a
         .analyze(&img)

@@ -7,7 +7,7 @@
 
 use vistaf_pipeline::calibration::Calibration;
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation, Measurement};
-use vistaf_sim::contact::{Contact, Footprint, Indenter};
+use vistaf_sim::contact::{Contact, Indenter};
 use vistaf_sim::scene::ROOM_C;
 use vistaf_sim::thermal::HeatSource;
 use vistaf_sim::{Renderer, SensorUnit, SkinState};
@@ -21,25 +21,25 @@ const SPREAD_MM: f32 = 2.0;
 /// The press's depth, mm: shallow enough for the rim's pull to outweigh it.
 const PRESS_MM: f32 = 0.32;
 
-/// The sphere at `temp_c` pressed `depth_mm` at `at_mm`, or (`depth_mm` 0) the heat of a
-/// `PRESS_MM` press alone.
-fn heated(at_mm: (f32, f32), depth_mm: f32, temp_c: f32) -> SkinState {
-    let mut s = SkinState::idle(ROOM_C);
-    if depth_mm > 0.0 {
-        s.contacts.push(Contact {
-            indenter: Indenter::Sphere { r_mm: SPHERE_R_MM },
-            center_mm: at_mm,
-            depth_mm,
-        });
-    }
-    s.temperature.sources.push(HeatSource::Spot {
+/// The calibrated sphere pressed `depth_mm` at `at_mm`.
+fn sphere(at_mm: (f32, f32), depth_mm: f32) -> Contact {
+    Contact {
+        indenter: Indenter::Sphere { r_mm: SPHERE_R_MM },
         center_mm: at_mm,
-        footprint: Footprint::Disc {
-            r_mm: (SPHERE_R_MM * depth_mm.max(PRESS_MM)).sqrt(),
-        },
-        temp_c,
-        spread_mm: SPREAD_MM,
-    });
+        depth_mm,
+    }
+}
+
+/// The skin under `press` by a body at `temp_c`: the heat it conducts, and the press
+/// itself where `pressed` (without it, the heat of an object resting on the skin).
+fn heated(press: Contact, temp_c: f32, pressed: bool) -> SkinState {
+    let mut s = SkinState::idle(ROOM_C);
+    s.temperature
+        .sources
+        .push(HeatSource::under(&press, temp_c, SPREAD_MM));
+    if pressed {
+        s.contacts.push(press);
+    }
     s
 }
 
@@ -63,8 +63,7 @@ fn rig(u: &SensorUnit) -> (Renderer, Vec<Analyzer>) {
 /// The place `from_edges_mm` in from the right (or left, negative) and the top (or
 /// bottom, negative) edge of `u`'s view, mm.
 fn inset_mm(u: &SensorUnit, (from_x, from_y): (f32, f32)) -> (f32, f32) {
-    let mmpp = u.mm_per_px();
-    let (w_mm, h_mm) = (u.width_px as f32 * mmpp, u.height_px as f32 * mmpp);
+    let (w_mm, h_mm) = u.view_mm();
     let x = if from_x > 0.0 { w_mm - from_x } else { -from_x };
     let y = if from_y > 0.0 { from_y } else { h_mm + from_y };
     (x, y)
@@ -86,9 +85,10 @@ fn a_press_inside_a_heated_rim_cut_by_the_edge_is_reported() {
     let (r, analyzers) = rig(&u);
     for from_edges in [(3.0, 3.0), (4.5, 4.5), (4.5, -4.5), (6.0, -6.0)] {
         let at_mm = inset_mm(&u, from_edges);
-        let (frame, truth) = r.render(&heated(at_mm, PRESS_MM, HOT_C), 7);
+        let press = sphere(at_mm, PRESS_MM);
+        let (frame, truth) = r.render(&heated(press.clone(), HOT_C, true), 7);
         let truth_px = truth.contact_px.unwrap();
-        let (heat_only, _) = r.render(&heated(at_mm, 0.0, HOT_C), 7);
+        let (heat_only, _) = r.render(&heated(press, HOT_C, false), 7);
         for a in &analyzers {
             let m = a.analyze(&frame).unwrap();
             let off = off_mm(&u, &m, truth_px);
@@ -131,7 +131,10 @@ fn heated_presses_at_the_corners() {
                     let at_mm = inset_mm(&u, (sx * inset, sy * inset));
                     let at_px = (at_mm.0 / u.mm_per_px(), at_mm.1 / u.mm_per_px());
                     for depth_mm in [0.0, PRESS_MM, 0.6] {
-                        let (frame, truth) = r.render(&heated(at_mm, depth_mm, temp_c), 7);
+                        // At 0, the heat of the shallow press alone.
+                        let press = sphere(at_mm, depth_mm.max(PRESS_MM));
+                        let state = heated(press, temp_c, depth_mm > 0.0);
+                        let (frame, truth) = r.render(&state, 7);
                         for a in &analyzers {
                             let m = a.analyze(&frame).unwrap();
                             let off_mm = off_mm(&u, &m, truth.contact_px.unwrap_or(at_px));

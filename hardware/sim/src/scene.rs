@@ -76,18 +76,10 @@ fn sphere_at(c: (f32, f32), depth_mm: f32) -> Contact {
 }
 
 fn heated(state: &mut SkinState, c: &Contact, temp_c: f32) {
-    let footprint = match &c.indenter {
-        Indenter::Sphere { r_mm } => Footprint::Disc {
-            r_mm: (r_mm * c.depth_mm.max(0.0)).sqrt(),
-        },
-        Indenter::Punch(fp) => fp.clone(),
-    };
-    state.temperature.sources.push(HeatSource::Spot {
-        center_mm: c.center_mm,
-        footprint,
-        temp_c,
-        spread_mm: 1.5,
-    });
+    state
+        .temperature
+        .sources
+        .push(HeatSource::under(c, temp_c, 1.5));
 }
 
 /// The skin states of scene `name` over `frames` frames, or `None` for an unknown name.

@@ -4,6 +4,7 @@
 //! exponential fall-off of length `spread_mm` (steady-state lateral conduction in a thin
 //! layer over a cooler base decays as `e^{−d/λ}`). A heated bar is a linear gradient.
 
+use crate::contact::{Contact, Indenter};
 use crate::footprint::{Footprint, Mm};
 
 /// A temperature source on the skin.
@@ -30,6 +31,26 @@ pub enum HeatSource {
         /// Temperature at `to_mm`, °C.
         hot_c: f32,
     },
+}
+
+impl HeatSource {
+    /// The heat a body at `temp_c` conducts into the skin through contact `c`: a spot over
+    /// its contact footprint (a sphere's disc of radius `√(R·d)`, a punch's own shape),
+    /// falling off `spread_mm` beyond it.
+    pub fn under(c: &Contact, temp_c: f32, spread_mm: f32) -> HeatSource {
+        let footprint = match &c.indenter {
+            Indenter::Sphere { r_mm } => Footprint::Disc {
+                r_mm: (r_mm * c.depth_mm.max(0.0)).sqrt(),
+            },
+            Indenter::Punch(fp) => fp.clone(),
+        };
+        HeatSource::Spot {
+            center_mm: c.center_mm,
+            footprint,
+            temp_c,
+            spread_mm,
+        }
+    }
 }
 
 /// The skin's temperature: a uniform base plus heat sources (the hottest one wins).

@@ -10,8 +10,7 @@ use vistaf_pipeline::calibration::Calibration;
 use vistaf_pipeline::ftp::band::BandWindow;
 use vistaf_pipeline::measure::Unwrap;
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation};
-use vistaf_sim::contact::Footprint;
-use vistaf_sim::scene::{center_mm, ROOM_C, SPHERE_R_MM};
+use vistaf_sim::scene::{ROOM_C, SPHERE_R_MM};
 use vistaf_sim::thermal::HeatSource;
 use vistaf_sim::{Renderer, SensorUnit, SkinState};
 
@@ -129,14 +128,8 @@ fn bench_set(unit: &SensorUnit) -> Vec<(SkinState, Case)> {
         v.push((SkinState::idle(t), Case::Uniform(t)));
     }
     let mut s = press(unit, SPHERE_R_MM, 1.0);
-    s.temperature.sources.push(HeatSource::Spot {
-        center_mm: center_mm(unit),
-        footprint: Footprint::Disc {
-            r_mm: SPHERE_R_MM.sqrt(),
-        },
-        temp_c: 38.0,
-        spread_mm: 2.0,
-    });
+    let heat = HeatSource::under(&s.contacts[0], 38.0, 2.0);
+    s.temperature.sources.push(heat);
     v.push((s, Case::Heated));
     v
 }

@@ -10,9 +10,9 @@ use super::profile::Shape;
 use super::window::upsample2;
 use super::{
     depth_error, depth_model_doubts, depth_uncertain_above_mm, Context, Grid, Unwrap,
-    BAND_LOSS_FRACTION, BAND_LOSS_MIN, BLUNTNESS_RATIO, DEPTH_RANGE_SLACK, DIPOLE_RATIO,
-    LOAD_RATIO, MAX_RESIDUES, RIM_DIPOLE_RATIO, SHARPNESS_RATIO, SLOPE_LIMIT, TILE_PX,
-    UNWRAP_TRIGGER_RAD,
+    AMPLITUDE_EDGE_RATIO, BAND_LOSS_FRACTION, BAND_LOSS_MIN, BLUNTNESS_RATIO, DEPTH_RANGE_SLACK,
+    DIPOLE_RATIO, LOAD_RATIO, MAX_RESIDUES, RIM_DIPOLE_RATIO, SHARPNESS_RATIO, SLOPE_LIMIT,
+    TILE_PX, UNWRAP_TRIGGER_RAD,
 };
 use crate::calibration::{ForceInputs, LoadSignature};
 use crate::ftp::band::BAND_HALF_WIDTH;
@@ -245,42 +245,53 @@ impl Faint<'_> {
 #[derive(Debug, Clone, Copy)]
 pub(super) struct AmplitudeEdge<'a> {
     /// The frame's fringe amplitude per coarse sample.
-    pub(super) amp: &'a [u32],
+    amp: &'a [u32],
     /// The reference's.
-    pub(super) amp_r: &'a [u32],
-    /// Coarse samples across and down.
-    pub(super) size: (usize, usize),
+    amp_r: &'a [u32],
+    /// Coarse samples across.
+    cw: usize,
     /// Half a grating period, coarse samples (at least one).
-    pub(super) reach: usize,
-    /// Where the kernel lies wholly in the image, working pixels.
-    pub(super) margin: &'a Margin,
+    reach: usize,
+    /// The first and last coarse column, and row, within the margin.
+    trusted: [(usize, usize); 2],
 }
 
-/// The change of the frame's fringe amplitude against the reference's, across a grating
-/// period, beyond which the phase there is an amplitude edge's ([`AmplitudeEdge`]), as a
-/// ratio `numerator / denominator`. A press changes the stripes' brightness through its
-/// slope's shading by far less; a heated object's rim changes it several times over.
-pub const AMPLITUDE_EDGE_RATIO: (u64, u64) = (3, 2);
+impl<'a> AmplitudeEdge<'a> {
+    /// The edges of amplitudes `amp` (the frame's) and `amp_r` (the reference's) on a
+    /// coarse grid `cw × ch`, compared `reach` samples either side within `margin`
+    /// (working pixels).
+    pub(super) fn new(
+        (amp, amp_r): (&'a [u32], &'a [u32]),
+        (cw, ch): (usize, usize),
+        reach: usize,
+        margin: &Margin,
+    ) -> AmplitudeEdge<'a> {
+        let samples = |px: &std::ops::Range<usize>, n: usize| {
+            let last = (px.end.saturating_sub(1) / GRID).min(n.saturating_sub(1));
+            (px.start.div_ceil(GRID), last)
+        };
+        AmplitudeEdge {
+            amp,
+            amp_r,
+            cw,
+            reach: reach.max(1),
+            trusted: [samples(&margin.xs, cw), samples(&margin.ys, ch)],
+        }
+    }
 
-impl AmplitudeEdge<'_> {
     /// Whether the amplitude ratio changes steeply through working pixel `(x, y)`: across
-    /// the samples half a period either side of it (those within the margin), along
-    /// either axis.
+    /// the trusted samples half a period either side of it, along either axis.
     pub(super) fn steep(&self, (x, y): (usize, usize)) -> bool {
-        let (cw, ch) = self.size;
         let (cx, cy) = (x / GRID, y / GRID);
-        // The samples within `trusted` (working pixels) half a period either side of `c`.
-        let span = |c: usize, n: usize, trusted: &std::ops::Range<usize>| {
-            let lo = trusted.start.div_ceil(GRID);
-            let hi = trusted.end.saturating_sub(1) / GRID;
-            let hi = hi.min(n.saturating_sub(1));
+        let span = |c: usize, (first, last): (usize, usize)| {
             (
-                c.saturating_sub(self.reach).max(lo),
-                (c + self.reach).min(hi),
+                c.saturating_sub(self.reach).max(first),
+                (c + self.reach).min(last),
             )
         };
-        let ((xa, xb), (ya, yb)) = (span(cx, cw, &self.margin.xs), span(cy, ch, &self.margin.ys));
+        let ((xa, xb), (ya, yb)) = (span(cx, self.trusted[0]), span(cy, self.trusted[1]));
         let inside = (xa..=xb).contains(&cx) && (ya..=yb).contains(&cy);
+        let cw = self.cw;
         inside
             && (self.changes(cy * cw + xa, cy * cw + xb)
                 || self.changes(ya * cw + cx, yb * cw + cx))
@@ -689,14 +700,7 @@ mod tests {
         let thr = 10;
         // The amplitude ratio even across the row: no amplitude edge.
         let even = [100, 100];
-        let whole = Margin::new(0, 4, 1);
-        let edge = AmplitudeEdge {
-            amp: &even,
-            amp_r: &even,
-            size: (2, 1),
-            reach: 1,
-            margin: &whole,
-        };
+        let edge = AmplitudeEdge::new((&even, &even), (2, 1), 1, &Margin::new(0, 4, 1));
         let verdicts = |up: [i32; 4]| row_verdicts(&up, (faint, edge), thr);
         // A press in the bright fringes, noise of the other sign in the faint spot.
         assert_eq!(verdicts([40, 40, -30, -30]), (true, false));
@@ -721,16 +725,12 @@ mod tests {
             cw: 4,
         };
         let whole = Margin::new(0, 8, 1);
-        let steep = AmplitudeEdge {
-            amp: &ring,
-            amp_r: &bright,
-            size: (4, 1),
-            reach: 1,
-            margin: &whole,
-        };
-        let verdicts = |up: [i32; 8], amp: &[u32]| {
-            row_verdicts(&up, (faint, AmplitudeEdge { amp, ..steep }), 10)
-        };
+        fn edge<'a>(amp: &'a [u32], amp_r: &'a [u32], margin: &Margin) -> AmplitudeEdge<'a> {
+            AmplitudeEdge::new((amp, amp_r), (4, 1), 1, margin)
+        }
+        let steep = edge(&ring, &bright, &whole);
+        let verdicts =
+            |up: [i32; 8], amp: &[u32]| row_verdicts(&up, (faint, edge(amp, &bright, &whole)), 10);
         let (edge_steep, edge_even) = ([2, 3, 4, 5], [0, 1, 6, 7]);
         for x in edge_steep {
             assert!(steep.steep((x, 0)), "pixel {x}");
@@ -763,31 +763,19 @@ mod tests {
         // the reference's.
         let amp_r = [100u32; 9];
         let amp = [100u32, 100, 100, 100, 100, 100, 200, 200, 200];
-        let whole = Margin::new(0, 6, 6);
-        let edge = AmplitudeEdge {
-            amp: &amp,
-            amp_r: &amp_r,
-            size: (3, 3),
-            reach: 1,
-            margin: &whole,
-        };
+        let (whole, inner) = (Margin::new(0, 6, 6), Margin::new(2, 6, 6));
+        let edge = |amp, margin| AmplitudeEdge::new((amp, &amp_r), (3, 3), 1, margin);
         // The middle row's samples straddle the change; the top row's do not.
-        assert!(edge.steep((2, 2)));
-        assert!(!edge.steep((2, 0)));
+        assert!(edge(&amp, &whole).steep((2, 2)));
+        assert!(!edge(&amp, &whole).steep((2, 0)));
         // A change within the ratio is no edge.
         let mild = [100u32, 100, 100, 100, 100, 100, 140, 140, 140];
-        assert!(!AmplitudeEdge { amp: &mild, ..edge }.steep((2, 2)));
+        assert!(!edge(&mild, &whole).steep((2, 2)));
         // The bottom row lies where the kernel reaches past the image: its fall (as the
         // padding's) is no edge, and the middle row has nothing within reach to compare.
-        let inner = Margin::new(2, 6, 6);
         let fall = [100u32, 100, 100, 100, 100, 100, 30, 30, 30];
-        let at_border = AmplitudeEdge {
-            amp: &fall,
-            margin: &inner,
-            ..edge
-        };
-        assert!(!at_border.steep((2, 2)));
-        assert!(AmplitudeEdge { amp: &fall, ..edge }.steep((2, 2)));
+        assert!(!edge(&fall, &inner).steep((2, 2)));
+        assert!(edge(&fall, &whole).steep((2, 2)));
     }
 
     /// A dome of 5 rad over a whole window, wrapped, with no sample outside the region:

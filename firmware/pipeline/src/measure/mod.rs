@@ -107,6 +107,12 @@ pub const DIPOLE_RATIO: f32 = 0.35;
 /// A region that is no dipole only with the rims of heated objects set aside keeps no more
 /// than this fraction of opposite-signed phase off them (`measure::contact::AmplitudeEdge`).
 pub const RIM_DIPOLE_RATIO: f32 = 0.1;
+/// The change of the frame's fringe amplitude against the reference's, across a grating
+/// period, beyond which the phase there is a heated object's rim's
+/// (`measure::contact::AmplitudeEdge`), as a ratio `numerator / denominator`. A press
+/// changes the stripes' brightness through its slope's shading by far less; the rim
+/// changes it several times over.
+pub const AMPLITUDE_EDGE_RATIO: (u64, u64) = (3, 2);
 /// Phase-slope flag: more than this fraction of the deformed pixels lost half their fringe
 /// amplitude.
 pub const BAND_LOSS_FRACTION: f32 = 0.01;
@@ -664,13 +670,8 @@ impl<M: PhaseMap> Found<'_, M> {
     /// by, half a grating period either side of each sample.
     fn amplitude_edge(&self, grid: &Grid, carrier: Carrier) -> AmplitudeEdge<'_> {
         let reach = (carrier.period_px() / (2 * GRID) as f32).round() as usize;
-        AmplitudeEdge {
-            amp: &self.coarse.amp,
-            amp_r: &self.coarse.amp_r,
-            size: grid.coarse,
-            reach: reach.max(1),
-            margin: self.margin,
-        }
+        let amps = (&self.coarse.amp[..], &self.coarse.amp_r[..]);
+        AmplitudeEdge::new(amps, grid.coarse, reach, self.margin)
     }
 
     /// What the force model reads of a contact: its features, the phase integrated over
