@@ -2,16 +2,17 @@
 //! kit (the 10 mm sphere, uniform temperatures) and measured blind on scenes the kit never
 //! showed: the calibration sphere anywhere in view, other spheres, flat cylinders, letter
 //! punches, heated presses, presses at other skin temperatures, presses whose contact
-//! reaches the edge of the view or runs past it (as objects meet a palm's edge) and uniform
-//! skins, with exposure and white balance drifting from frame to frame.
+//! reaches the edge of the view or runs past it (as objects meet a palm's edge), uniform
+//! skins, and the heat a warm object leaves with nothing pressed, with exposure and white
+//! balance drifting from frame to frame.
 //!
 //! Every frame is scored against its truth. A quantity beyond its tolerance is a *failure*;
 //! a failure without any flag is a *silent failure*, the one a robot cannot guard against.
 //! Tolerances: peak depth 3 % + 0.02 mm; contact centre 1.5 mm; force 8 % + 0.3 N for the
 //! calibration sphere wholly in view and 25 % + 0.3 N for other indenters and for presses
-//! at the edge; temperature 1 °C (contact and skin mean), and a skin's hottest and coldest
-//! places (`temp_max_c`, `temp_min_c`) within 1.5 °C of the truth's hottest and coldest
-//! points. A press of 0.2 mm or more reported as no contact is *missed*; a contact reported
+//! at the edge (0.3 N for a contact reported where nothing is pressed); temperature 1 °C
+//! (contact and skin mean), and a skin's hottest and coldest places (`temp_max_c`,
+//! `temp_min_c`) within 1.5 °C of the truth's hottest and coldest points. A press of 0.2 mm or more reported as no contact is *missed*; a contact reported
 //! more than 3 mm from any press (or on an untouched skin) is a *phantom*.
 
 use std::path::Path;
@@ -49,6 +50,9 @@ pub enum Kind {
     AtEdge,
     /// No contact, a uniform skin.
     Uniform,
+    /// No contact, the heat a warm object leaves where it pressed (lifted off, or resting
+    /// without weight): the pigment clears as under a heated press, and nothing is pressed.
+    HeatPrint,
 }
 
 impl Kind {
@@ -63,6 +67,7 @@ impl Kind {
             Kind::SkinWarm => "sphere at skin temperature",
             Kind::AtEdge => "press at the edge",
             Kind::Uniform => "uniform skin",
+            Kind::HeatPrint => "heat without a press",
         }
     }
 }
@@ -128,7 +133,7 @@ pub struct Scored {
     pub depth_err_mm: Option<f32>,
     /// Centre error, mm.
     pub centre_err_mm: Option<f32>,
-    /// Force error, N, and the true force.
+    /// Force error, N, and the true force (0 for a contact reported where nothing is pressed).
     pub force_err_n: Option<(f32, f32)>,
     /// Contact temperature error, °C.
     pub contact_temp_err_c: Option<f32>,
@@ -497,7 +502,20 @@ fn scenes(unit: &SensorUnit, rng: &mut Rng) -> Vec<(Kind, SkinState)> {
     };
     let d = rng.range(0.2, 1.0) as f32;
     v.push((Kind::AtEdge, at_edge(unit, rng, other, d)));
+    v.push((Kind::HeatPrint, heat_print(unit, rng)));
     v
+}
+
+/// The heat a warm sphere leaves where it pressed 0.3–2 mm, at a random place wholly in
+/// view, with no press: what the skin shows just after the object is lifted off.
+fn heat_print(unit: &SensorUnit, rng: &mut Rng) -> SkinState {
+    let d = rng.range(0.3, 2.0) as f32;
+    let r_mm = [5.0f32, 10.0, 20.0][(rng.next_u64() % 3) as usize];
+    let mut s = pressed(unit, rng, Indenter::Sphere { r_mm }, d);
+    let lifted = s.contacts.remove(0);
+    let heat = HeatSource::under(&lifted, rng.range(33.0, 45.0) as f32, 2.0);
+    s.temperature.sources.push(heat);
+    s
 }
 
 /// The radius within which the skin touches the indenter, mm: Hertz's for a sphere, the
@@ -624,6 +642,12 @@ fn score(
             0.25
         };
         if (m.force_n - f).abs() > rel * f + 0.3 {
+            s.failures.push(failure::FORCE);
+        }
+    } else if m.contact {
+        // Nothing pressed: a contact's force is all error, within the tolerance's floor.
+        s.force_err_n = Some((m.force_n, 0.0));
+        if m.force_n.abs() > 0.3 {
             s.failures.push(failure::FORCE);
         }
     }
@@ -923,7 +947,8 @@ pub fn report(results: &[UnitResult]) -> String {
             fmt(
                 spread(
                     of.iter()
-                        .filter_map(|f| f.force_err_n.map(|(e, t)| 100.0 * e / t.max(0.1)))
+                        .filter_map(|f| f.force_err_n.filter(|&(_, t)| t > 0.0))
+                        .map(|(e, t)| 100.0 * e / t.max(0.1))
                 ),
                 1
             ),

@@ -2,7 +2,8 @@
 //! writes `docs/accuracy.md`). What must already hold on every unit: it calibrates on its own
 //! kit (one of the three has a grating fine enough that its deepest kit presses are flagged,
 //! and the phase sign must not hang on them), no press of 0.2 mm or more goes unreported,
-//! and no press of the calibration sphere is reported elsewhere without a flag. (Silent
+//! no press of the calibration sphere is reported elsewhere without a flag, and no heat
+//! without a press reads a contact whose place or force is unflagged. (Silent
 //! depth, force and temperature errors remain on such units: the battery's report lists
 //! them.)
 #![allow(clippy::unwrap_used)] // tests unwrap: a failure is the test failing
@@ -11,6 +12,7 @@ use vistaf_calibrate::{calibrate, Quiet};
 use vistaf_hardware::decode::Decoded;
 use vistaf_hardware::frameset::FrameSet;
 use vistaf_pipeline::{Analyzer, AnalyzerOptions, Implementation};
+use vistaf_protocol::Reading;
 use vistaf_sim::sets::write_calibration_kit;
 use vistaf_sim::SensorUnit;
 use vistaf_tests::accuracy::{failure, kit_options, run_units, write_scenes, Camera, Kind, Scored};
@@ -21,6 +23,13 @@ fn wide_units_calibrate_and_report_every_press_where_it_is() {
         assert!(!f.missed, "unit {}: {:?} missed", f.unit, f);
         if f.kind == Kind::CalibrationSphere && f.flags.is_empty() {
             assert!(!f.phantom, "unit {}: {:?}", f.unit, f);
+        }
+        // A warm object's heat with nothing pressed may read as a contact where its colour
+        // pulls the phase as a shallow press does; never with its place or force unflagged.
+        if f.kind == Kind::HeatPrint {
+            for r in [Reading::Contact, Reading::Force] {
+                assert!(!f.silent_in(r), "unit {}: {:?}", f.unit, f);
+            }
         }
     }
 }

@@ -228,6 +228,43 @@ impl Faint<'_> {
             .min(mf * mr);
         u128::from(v.unsigned_abs()) * share > u128::from(threshold.unsigned_abs()) * mf * mr
     }
+
+    /// Whether the frame's fringe amplitude against the reference's at working pixel
+    /// `(x, y)` departs from the view's (their medians') by more than
+    /// [`AMPLITUDE_EDGE_RATIO`] either way: the pigment's colour, and with it the stripes'
+    /// contrast, changed there and not over the view (a heated object's print).
+    pub(super) fn recoloured(&self, (x, y): (usize, usize)) -> bool {
+        let i = (y / GRID) * self.cw + (x / GRID).min(self.cw.saturating_sub(1));
+        let at = |v: &[u32]| u128::from(v.get(i).copied().unwrap_or(0));
+        let (mf, mr) = (u128::from(self.medians.0), u128::from(self.medians.1));
+        let (num, den) = AMPLITUDE_EDGE_RATIO;
+        let (num, den) = (u128::from(num), u128::from(den));
+        // (a_f / a_r) against (m_f / m_r), over the common denominator a_r·m_r.
+        let (here, view) = (at(self.amp) * mr, mf * at(self.amp_r));
+        den * here > num * view || den * view > num * here
+    }
+}
+
+/// Whether more of the depth `depth_um` over `samples` (indices into a window `bw` pixels
+/// wide whose origin is working pixel `(x0, y0)`) lies where the pigment's colour changed
+/// against the reference ([`Faint::recoloured`], or on the rim of such a change,
+/// [`AmplitudeEdge::steep`]) than elsewhere.
+pub(super) fn mostly_recoloured(
+    (depth_um, samples): (&[i32], &[usize]),
+    (faint, edge): (Faint<'_>, AmplitudeEdge<'_>),
+    (x0, y0, bw): (usize, usize, usize),
+) -> bool {
+    let (mut on, mut off) = (0i64, 0i64);
+    for &i in samples {
+        let d = i64::from(depth_um.get(i).map_or(0, |&d| d.max(0)));
+        let at = (x0 + i % bw, y0 + i / bw);
+        if faint.recoloured(at) || edge.steep(at) {
+            on += d;
+        } else {
+            off += d;
+        }
+    }
+    on > off
 }
 
 /// Where the frame's fringe amplitude, against the reference's, changes by more than

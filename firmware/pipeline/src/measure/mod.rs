@@ -30,8 +30,8 @@ pub use window::upsample2;
 
 use coarse::{median, read_coarse, Coarse, Margin, Samples, NOISE_STEP};
 use contact::{
-    indentation_phase, region_pixels, region_samples, upsampled, AmplitudeEdge, DepthPass, Faint,
-    Limits, Window,
+    indentation_phase, mostly_recoloured, region_pixels, region_samples, upsampled, AmplitudeEdge,
+    DepthPass, Faint, Limits, Window,
 };
 use profile::Shape;
 use register::Background;
@@ -113,6 +113,12 @@ pub const RIM_DIPOLE_RATIO: f32 = 0.1;
 /// changes the stripes' brightness through its slope's shading by far less; the rim
 /// changes it several times over.
 pub const AMPLITUDE_EDGE_RATIO: (u64, u64) = (3, 2);
+/// A contact whose peak stands under this many contact thresholds above the background,
+/// with more of its depth where the pigment's colour changed against the reference than
+/// elsewhere (`measure::contact::mostly_recoloured`), may be a heated object's print
+/// alone: the colour's change pulls the phase as far as a shallow press does
+/// (`faint_contact`).
+pub const RECOLOURED_CONTACT_THRESHOLDS: i32 = 3;
 /// Phase-slope flag: more than this fraction of the deformed pixels lost half their fringe
 /// amplitude.
 pub const BAND_LOSS_FRACTION: f32 = 0.01;
@@ -964,6 +970,20 @@ impl<M: PhaseMap> Found<'_, M> {
         let mut flags = limits.flags(&inputs, carrier, ctx);
         if punch_open || shape.level_open {
             flags.insert(Flag::DepthUncertain);
+        }
+        // A shallow contact standing mostly where the pigment's colour changed may be that
+        // change's pull alone, with nothing pressed.
+        if map_peak_um < RECOLOURED_CONTACT_THRESHOLDS * threshold_um
+            && mostly_recoloured(
+                (&pass.depth_um, &contact),
+                (
+                    self.faint(grid.coarse.0),
+                    self.amplitude_edge(&grid, carrier),
+                ),
+                (x0, y0, bw),
+            )
+        {
+            flags.insert(Flag::FaintContact);
         }
         // Half the contact's depth reaching where the kernel averages padding: the contact
         // may run on past the image, and nothing beyond it is seen.
