@@ -12,8 +12,9 @@
 //! calibration sphere wholly in view and 25 % + 0.3 N for other indenters and for presses
 //! at the edge (0.3 N for a contact reported where nothing is pressed); temperature 1 °C
 //! (contact and skin mean), and a skin's hottest and coldest places (`temp_max_c`,
-//! `temp_min_c`) within 1.5 °C of the truth's hottest and coldest points. A press of 0.2 mm or more reported as no contact is *missed*; a contact reported
-//! more than 3 mm from any press (or on an untouched skin) is a *phantom*.
+//! `temp_min_c`) within 1.5 °C of the truth's hottest and coldest points. A press of 0.2 mm
+//! or more reported as no contact is *missed*; a contact reported more than 3 mm from any
+//! press (or on an untouched skin) is a *phantom*.
 
 use std::path::Path;
 
@@ -133,7 +134,8 @@ pub struct Scored {
     pub depth_err_mm: Option<f32>,
     /// Centre error, mm.
     pub centre_err_mm: Option<f32>,
-    /// Force error, N, and the true force (0 for a contact reported where nothing is pressed).
+    /// Force error, N, and the true force (0 for a contact reported where nothing is
+    /// pressed).
     pub force_err_n: Option<(f32, f32)>,
     /// Contact temperature error, °C.
     pub contact_temp_err_c: Option<f32>,

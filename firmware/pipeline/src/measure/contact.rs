@@ -218,8 +218,8 @@ pub(super) struct Faint<'a> {
 impl Faint<'_> {
     /// Whether phase `v` (units) at working pixel `(x, y)` stands beyond `threshold` with
     /// the threshold raised as the fringes there are fainter than their median.
-    pub(super) fn stands(&self, v: i32, (x, y): (usize, usize), threshold: i32) -> bool {
-        let i = (y / GRID) * self.cw + (x / GRID).min(self.cw.saturating_sub(1));
+    pub(super) fn stands(&self, v: i32, at: (usize, usize), threshold: i32) -> bool {
+        let i = self.sample(at);
         let (mf, mr) = (u128::from(self.medians.0), u128::from(self.medians.1));
         let a = |amp: &[u32], median: u128| amp.get(i).map_or(median, |&a| u128::from(a));
         // min(a_f/m_f, a_r/m_r, 1), over the common denominator m_f·m_r.
@@ -233,15 +233,17 @@ impl Faint<'_> {
     /// `(x, y)` departs from the view's (their medians') by more than
     /// [`AMPLITUDE_EDGE_RATIO`] either way: the pigment's colour, and with it the stripes'
     /// contrast, changed there and not over the view (a heated object's print).
-    pub(super) fn recoloured(&self, (x, y): (usize, usize)) -> bool {
-        let i = (y / GRID) * self.cw + (x / GRID).min(self.cw.saturating_sub(1));
-        let at = |v: &[u32]| u128::from(v.get(i).copied().unwrap_or(0));
+    pub(super) fn recoloured(&self, at: (usize, usize)) -> bool {
+        let i = self.sample(at);
+        let amp = |v: &[u32]| u128::from(v.get(i).copied().unwrap_or(0));
         let (mf, mr) = (u128::from(self.medians.0), u128::from(self.medians.1));
-        let (num, den) = AMPLITUDE_EDGE_RATIO;
-        let (num, den) = (u128::from(num), u128::from(den));
         // (a_f / a_r) against (m_f / m_r), over the common denominator a_r·m_r.
-        let (here, view) = (at(self.amp) * mr, mf * at(self.amp_r));
-        den * here > num * view || den * view > num * here
+        ratios_apart(amp(self.amp) * mr, mf * amp(self.amp_r))
+    }
+
+    /// The coarse sample holding working pixel `(x, y)`.
+    fn sample(&self, (x, y): (usize, usize)) -> usize {
+        (y / GRID) * self.cw + (x / GRID).min(self.cw.saturating_sub(1))
     }
 }
 
@@ -338,13 +340,20 @@ impl<'a> AmplitudeEdge<'a> {
     /// one at sample `a`, either way.
     fn changes(&self, a: usize, b: usize) -> bool {
         let at = |v: &[u32], i: usize| u128::from(v.get(i).copied().unwrap_or(0));
-        let (num, den) = AMPLITUDE_EDGE_RATIO;
         // r_b / r_a with r = amp / amp_r, over the common denominator.
-        let rb = at(self.amp, b) * at(self.amp_r, a);
-        let ra = at(self.amp, a) * at(self.amp_r, b);
-        let (num, den) = (u128::from(num), u128::from(den));
-        den * rb > num * ra || den * ra > num * rb
+        ratios_apart(
+            at(self.amp, b) * at(self.amp_r, a),
+            at(self.amp, a) * at(self.amp_r, b),
+        )
     }
+}
+
+/// Whether two amplitude ratios, given as `p` and `q` over a common denominator, lie
+/// beyond [`AMPLITUDE_EDGE_RATIO`] of each other, either way.
+fn ratios_apart(p: u128, q: u128) -> bool {
+    let (num, den) = AMPLITUDE_EDGE_RATIO;
+    let (num, den) = (u128::from(num), u128::from(den));
+    den * p > num * q || den * q > num * p
 }
 
 impl DepthPass {

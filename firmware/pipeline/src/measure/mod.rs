@@ -879,6 +879,14 @@ impl<M: PhaseMap> Found<'_, M> {
             (grid.w, x0, y0, bw),
             (self.bg.threshold, threshold_um),
         );
+        // Where the fringes' amplitude says the pigment's colour changed, which moves the
+        // phase whatever the surface does.
+        let amplitudes = || {
+            (
+                self.faint(grid.coarse.0),
+                self.amplitude_edge(&grid, carrier),
+            )
+        };
         // The sign of the phase is trusted only where the unwrapping reached: a wrapped
         // core left over reads as the other sign, and a press is never dropped for it (it
         // is measured, and flagged as an unwrapping failure).
@@ -886,10 +894,7 @@ impl<M: PhaseMap> Found<'_, M> {
             && pass.is_dipole()
             && pass.dipole_where_it_stands(
                 (&up, &on, reliable),
-                (
-                    self.faint(grid.coarse.0),
-                    self.amplitude_edge(&grid, carrier),
-                ),
+                amplitudes(),
                 (grid.w, x0, y0, bw),
                 self.bg.threshold,
             )
@@ -974,14 +979,7 @@ impl<M: PhaseMap> Found<'_, M> {
         // A shallow contact standing mostly where the pigment's colour changed may be that
         // change's pull alone, with nothing pressed.
         if map_peak_um < RECOLOURED_CONTACT_THRESHOLDS * threshold_um
-            && mostly_recoloured(
-                (&pass.depth_um, &contact),
-                (
-                    self.faint(grid.coarse.0),
-                    self.amplitude_edge(&grid, carrier),
-                ),
-                (x0, y0, bw),
-            )
+            && mostly_recoloured((&pass.depth_um, &contact), amplitudes(), (x0, y0, bw))
         {
             flags.insert(Flag::FaintContact);
         }
