@@ -95,9 +95,11 @@ pub enum Flag {
     /// is narrower). So faint a contact may be none; its depth reads low by what the band
     /// spread, its force integrates only what stands above the threshold, and its place
     /// and temperature rest on samples near the noise: every reading of it is doubted.
-    /// Raised too for a contact standing under three times the threshold mostly where the
-    /// pigment's colour changed against the reference (a warm object's print, pressed or
-    /// not): the colour's change pulls the phase there as far as such a press does.
+    /// Raised too for a contact standing under three times the threshold, or under what the
+    /// rim of a change of the pigment's colour can pull there, mostly where (or just
+    /// beside where) that colour changed against the reference (a warm object's print,
+    /// pressed or not): the colour's change pulls the phase there as far as such a press
+    /// does.
     FaintContact = 13,
 }
 

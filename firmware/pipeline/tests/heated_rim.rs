@@ -165,7 +165,7 @@ fn heated_presses_at_the_corners() {
 #[test]
 fn the_heat_alone_reads_no_contact_unflagged() {
     let mut on_heat = 0;
-    for seed in [900_014, 900_029] {
+    for seed in [900_014, 900_029, 900_034, 900_150] {
         let u = SensorUnit::wide(seed);
         let (r, analyzers) = rig(&u);
         let (w_mm, h_mm) = u.view_mm();

@@ -241,6 +241,16 @@ impl Faint<'_> {
         ratios_apart(amp(self.amp) * mr, mf * amp(self.amp_r))
     }
 
+    /// Whether the pigment's colour changed ([`Faint::recoloured`]) within `reach` coarse
+    /// samples of working pixel `(x, y)`, across or down: the demodulator's kernel reaches
+    /// that far, and a print's change pulls the phase on its rim's outer side too.
+    pub(super) fn recoloured_near(&self, (x, y): (usize, usize), reach: usize) -> bool {
+        let d = reach * GRID;
+        let across = (x.saturating_sub(d)..=x + d).step_by(GRID).map(|x| (x, y));
+        let down = (y.saturating_sub(d)..=y + d).step_by(GRID).map(|y| (x, y));
+        across.chain(down).any(|at| self.recoloured(at))
+    }
+
     /// The coarse sample holding working pixel `(x, y)`.
     fn sample(&self, (x, y): (usize, usize)) -> usize {
         (y / GRID) * self.cw + (x / GRID).min(self.cw.saturating_sub(1))
@@ -249,8 +259,9 @@ impl Faint<'_> {
 
 /// Whether more of the depth `depth_um` over `samples` (indices into a window `bw` pixels
 /// wide whose origin is working pixel `(x0, y0)`) lies where the pigment's colour changed
-/// against the reference ([`Faint::recoloured`], or on the rim of such a change,
-/// [`AmplitudeEdge::steep`]) than elsewhere.
+/// against the reference, or within half a grating period of such a change
+/// ([`Faint::recoloured_near`]), or on the rim of one ([`AmplitudeEdge::steep`]), than
+/// elsewhere.
 pub(super) fn mostly_recoloured(
     (depth_um, samples): (&[i32], &[usize]),
     (faint, edge): (Faint<'_>, AmplitudeEdge<'_>),
@@ -260,7 +271,7 @@ pub(super) fn mostly_recoloured(
     for &i in samples {
         let d = i64::from(depth_um.get(i).map_or(0, |&d| d.max(0)));
         let at = (x0 + i % bw, y0 + i / bw);
-        if faint.recoloured(at) || edge.steep(at) {
+        if faint.recoloured_near(at, edge.reach) || edge.steep(at) {
             on += d;
         } else {
             off += d;
@@ -334,6 +345,37 @@ impl<'a> AmplitudeEdge<'a> {
         inside
             && (self.changes(cy * cw + xa, cy * cw + xb)
                 || self.changes(ya * cw + cx, yb * cw + cx))
+    }
+
+    /// How far the amplitude ratio (the frame's against the reference's) spreads over the
+    /// trusted samples within a grating period of working pixel `(x, y)`, across and down:
+    /// the natural log of the largest over the smallest (0 where none is trusted). A rim's
+    /// pull on the phase grows with it ([`RIM_PULL_RAD`](super::RIM_PULL_RAD)).
+    pub(super) fn log_span(&self, (x, y): (usize, usize)) -> f32 {
+        let (cx, cy) = (x / GRID, y / GRID);
+        let [(x_first, x_last), (y_first, y_last)] = self.trusted;
+        let span = |c: usize, first: usize, last: usize| {
+            c.saturating_sub(2 * self.reach).max(first)..=(c + 2 * self.reach).min(last)
+        };
+        let x_ok = (x_first..=x_last).contains(&cx);
+        let y_ok = (y_first..=y_last).contains(&cy);
+        let across = span(cx, x_first, x_last)
+            .filter(|_| y_ok)
+            .map(|c| cy * self.cw + c);
+        let down = span(cy, y_first, y_last)
+            .filter(|_| x_ok)
+            .map(|r| r * self.cw + cx);
+        let ratio = |i: usize| {
+            let (&a, &r) = (self.amp.get(i)?, self.amp_r.get(i)?);
+            (a > 0 && r > 0).then(|| a as f32 / r as f32)
+        };
+        let (lo, hi) = (across.chain(down).filter_map(ratio))
+            .fold((f32::MAX, 0.0f32), |(lo, hi), r| (lo.min(r), hi.max(r)));
+        if hi > 0.0 {
+            (hi / lo).ln()
+        } else {
+            0.0
+        }
     }
 
     /// Whether the amplitude ratio at sample `b` lies beyond [`AMPLITUDE_EDGE_RATIO`] of the
@@ -822,6 +864,39 @@ mod tests {
         let fall = [100u32, 100, 100, 100, 100, 100, 30, 30, 30];
         assert!(!edge(&fall, &inner).steep((2, 2)));
         assert!(edge(&fall, &whole).steep((2, 2)));
+    }
+
+    /// The amplitude ratio's spread about a pixel is read a grating period (two `reach`)
+    /// across and down, within the margin only; the recoloured ground is found within
+    /// `reach` of a pixel, not beyond.
+    #[test]
+    fn a_rims_spread_and_its_ground_are_read_within_their_reach() {
+        // A 5 × 5 coarse grid (10 × 10 working pixels) whose last column's fringes are
+        // twice the reference's and whose first column's are half.
+        let amp_r = [100u32; 25];
+        let mut amp = [100u32; 25];
+        for row in amp.chunks_exact_mut(5) {
+            (row[0], row[4]) = (50, 200);
+        }
+        let whole = Margin::new(0, 10, 10);
+        let edge = |amp, reach, margin| AmplitudeEdge::new((amp, &amp_r), (5, 5), reach, margin);
+        let ln = |r: f32| r.ln();
+        assert!((edge(&amp, 1, &whole).log_span((6, 4)) - ln(2.0)).abs() < 1e-6);
+        assert!((edge(&amp, 2, &whole).log_span((4, 4)) - ln(4.0)).abs() < 1e-6);
+        assert_eq!(edge(&amp_r, 2, &whole).log_span((4, 4)), 0.0);
+        // Outside the margin nothing is trusted, and within it only what lies inside.
+        let (narrow, inner) = (Margin::new(4, 10, 10), Margin::new(2, 10, 10));
+        assert_eq!(edge(&amp, 2, &narrow).log_span((0, 0)), 0.0);
+        assert!((edge(&amp, 2, &inner).log_span((4, 4))).abs() < 1e-6);
+        let faint = Faint {
+            amp: &amp,
+            amp_r: &amp_r,
+            medians: (100, 100),
+            cw: 5,
+        };
+        assert!(faint.recoloured((8, 4)) && !faint.recoloured((6, 4)));
+        assert!(faint.recoloured_near((6, 4), 1) && !faint.recoloured_near((4, 4), 1));
+        assert!(faint.recoloured_near((4, 4), 2));
     }
 
     /// A dome of 5 rad over a whole window, wrapped, with no sample outside the region:

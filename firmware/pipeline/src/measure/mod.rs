@@ -119,6 +119,15 @@ pub const AMPLITUDE_EDGE_RATIO: (u64, u64) = (3, 2);
 /// alone: the colour's change pulls the phase as far as a shallow press does
 /// (`faint_contact`).
 pub const RECOLOURED_CONTACT_THRESHOLDS: i32 = 3;
+/// The most phase (rad) the rim of a change of the pigment's colour pulls, per unit of the
+/// natural log of the fringe-amplitude ratio's spread across it
+/// (`measure::contact::AmplitudeEdge::log_span`): where the stripes' contrast and
+/// brightness step within the demodulator's kernel, part of the step passes the band and
+/// moves the phase, one way on one side of the print and the other way on the other. A
+/// contact on recoloured ground standing no deeper than that may be the rim's pull alone
+/// (`faint_contact`). Twice the most that the battery's heat prints showed
+/// (`docs/pipeline.md`).
+pub const RIM_PULL_RAD: f32 = 0.5;
 /// Phase-slope flag: more than this fraction of the deformed pixels lost half their fringe
 /// amplitude.
 pub const BAND_LOSS_FRACTION: f32 = 0.01;
@@ -672,6 +681,16 @@ impl<M: PhaseMap> Found<'_, M> {
         }
     }
 
+    /// The depth (µm) under which a contact on recoloured ground may be the colour's pull
+    /// alone: [`RECOLOURED_CONTACT_THRESHOLDS`] contact thresholds (`threshold_um`), or
+    /// what a rim can pull where the amplitude ratio spreads by `span` (its log, about the
+    /// apex: [`RIM_PULL_RAD`]), whichever is deeper.
+    fn recoloured_limit_um(&self, threshold_um: i32, span: f32) -> i32 {
+        let pull = (RIM_PULL_RAD * span * UNITS_PER_RAD).round() as i32;
+        let rim_um = self.map.depth_um(<M::P as PhaseNum>::from_units(pull));
+        (RECOLOURED_CONTACT_THRESHOLDS * threshold_um).max(rim_um)
+    }
+
     /// The coarse grid's amplitude ratios the dipole test reads the rims of heated objects
     /// by, half a grating period either side of each sample.
     fn amplitude_edge(&self, grid: &Grid, carrier: Carrier) -> AmplitudeEdge<'_> {
@@ -959,6 +978,7 @@ impl<M: PhaseMap> Found<'_, M> {
         let px_mm = ctx.mm_per_px * self.factor as f32;
         let load_mm2 = load::footprint_load_mm2(&pass.depth_um, bw, &contact, px_mm);
         let inputs = Self::force_inputs(&feats, &pass, load_mm2, px_mm);
+        let apex_px = (x0 + apex.at % bw, y0 + apex.at / bw);
         let limits = Limits {
             coarse: self.coarse,
             margin: self.margin,
@@ -970,7 +990,7 @@ impl<M: PhaseMap> Found<'_, M> {
             resolved,
             shape: shape.shape,
             skirt_free: self.bg.skirt_free(threshold_um, 1000.0 * feats.peak_mm),
-            apex_px: (x0 + apex.at % bw, y0 + apex.at / bw),
+            apex_px,
         };
         let mut flags = limits.flags(&inputs, carrier, ctx);
         if punch_open || shape.level_open {
@@ -978,8 +998,9 @@ impl<M: PhaseMap> Found<'_, M> {
         }
         // A shallow contact standing mostly where the pigment's colour changed may be that
         // change's pull alone, with nothing pressed.
-        if map_peak_um < RECOLOURED_CONTACT_THRESHOLDS * threshold_um
-            && mostly_recoloured((&pass.depth_um, &contact), amplitudes(), (x0, y0, bw))
+        let (faint, edge) = amplitudes();
+        if map_peak_um < self.recoloured_limit_um(threshold_um, edge.log_span(apex_px))
+            && mostly_recoloured((&pass.depth_um, &contact), (faint, edge), (x0, y0, bw))
         {
             flags.insert(Flag::FaintContact);
         }
