@@ -30,7 +30,7 @@
 //! sphere's of its radius. A flat punch's depth is its plateau's level: the mean of the
 //! rings that lie wholly inside its fitted rim by the kernel's reach, where the blur has
 //! left the plateau as it is and a rim's overshoot does not reach (or, for a plateau too
-//! narrow for such a core, the fit's depth, left open where the dome's fit reads it beyond
+//! narrow for such a core of two rings, the fit's depth, left open where the dome's fit reads it beyond
 //! the depth tolerance: [`ShapeFit::level_open`]). A plateau is spared the tests of an
 //! unknown shape unless its skirt may have sunk the frame's registration
 //! (`docs/pipeline.md` gives the measured trade).
@@ -74,6 +74,10 @@ pub const NARROW_SPHERE_CLEAR_RATIO: f64 = 4.5;
 /// `√6 σ` (a two-box triangle of length `l` has `σ² = (l² − 1)/6`), and the fitted radius
 /// is a ladder's step from the true one.
 pub const CORE_MARGIN_SIGMAS: f64 = 3.0;
+/// A plateau's core is read only over at least this many rings: the centre's ring alone
+/// is where a band-limited disc's ringing from its whole rim meets, and it reads the
+/// level high or low by a share of it as the radius falls against the band.
+pub const CORE_RINGS: usize = 2;
 /// Successive template radii grow by this factor.
 const RADIUS_STEP: f64 = 1.03;
 /// Templates run up to contacts of this radius, mm (beyond any indenter a palm's skin
@@ -116,9 +120,9 @@ pub struct ShapeFit {
     pub depth: f64,
     /// The chosen family's contact radius, pixels (for [`Shape::Unknown`], 0).
     pub radius_px: f64,
-    /// A plateau too narrow for any ring to lie wholly [`CORE_MARGIN_SIGMAS`] inside its rim,
-    /// whose level is then its template's, where the dome's best fit reads a depth beyond
-    /// the depth tolerance from it: a dome whose apex reads low (its phase gain varying
+    /// A plateau too narrow for [`CORE_RINGS`] rings to lie wholly [`CORE_MARGIN_SIGMAS`]
+    /// inside its rim, whose level is then its template's, where the dome's best fit reads
+    /// a depth beyond the depth tolerance from it: a dome whose apex reads low (its phase gain varying
     /// across the view) has such a blurred top too, and nothing in the map says which.
     pub level_open: bool,
 }
@@ -250,7 +254,7 @@ impl Shapes {
 
     /// The plateau's level where the blur has left it untouched: the mean of the rings lying
     /// wholly within [`CORE_MARGIN_SIGMAS`] kernel σ inside the fitted radius `a_px` (none
-    /// for a plateau too narrow). There the map is the plateau itself, whatever the
+    /// for a plateau too narrow for [`CORE_RINGS`] of them). There the map is the plateau itself, whatever the
     /// templates' approximation of the kernel and the ladder's step in radius.
     fn plateau_core(&self, profile: &[(f64, f64)], a_px: f64) -> Option<f64> {
         let inside = a_px - CORE_MARGIN_SIGMAS * self.sigma_px;
@@ -258,8 +262,10 @@ impl Shapes {
             .iter()
             .enumerate()
             .take_while(|&(k, _)| (k + 1) as f64 <= inside);
-        let (sum, n) = core.fold((0.0, 0.0), |(s, c), (_, &(p, n))| (s + p * n, c + n));
-        (n > 0.0).then(|| sum / n)
+        let (sum, n, rings) = core.fold((0.0, 0.0, 0), |(s, c, r), (_, &(p, n))| {
+            (s + p * n, c + n, r + 1)
+        });
+        (rings >= CORE_RINGS && n > 0.0).then(|| sum / n)
     }
 
     /// The family's template that fits `profile` best.
@@ -485,16 +491,19 @@ mod tests {
     }
 
     /// A plateau just wide enough to be told (3.3 kernel σ in radius) has no ring wholly
-    /// inside its rim by the kernel's reach, and a dome reads it deeper than the tolerance:
-    /// its level is open. A wide one's core gives its level.
+    /// inside its rim by the kernel's reach, and one a ring and a half wider has only the
+    /// centre's: a dome reads either deeper than the tolerance, and its level is open. A
+    /// wide one's core gives its level.
     #[test]
     fn a_plateau_too_narrow_for_a_core_leaves_its_level_open() {
         let decay = LAYER_DECAY_MM / f64::from(PX_MM);
         let sigma = shapes().sigma_px;
-        let narrow = blurred_map(161, 0, |r| 800.0 * punch(r, 3.3 * sigma, decay));
-        let fit = shapes().fit(&narrow);
-        assert_eq!(fit.shape, Shape::Flat, "{fit:?}");
-        assert!(fit.level_open, "{fit:?}");
+        for a_px in [3.3 * sigma, 3.0 * sigma + 1.5] {
+            let narrow = blurred_map(161, 0, |r| 800.0 * punch(r, a_px, decay));
+            let fit = shapes().fit(&narrow);
+            assert_eq!(fit.shape, Shape::Flat, "{a_px} px: {fit:?}");
+            assert!(fit.level_open, "{a_px} px: {fit:?}");
+        }
         let wide = blurred_map(161, 0, |r| 800.0 * punch(r, 6.0 / f64::from(PX_MM), decay));
         let fit = shapes().fit(&wide);
         assert!(fit.shape == Shape::Flat && !fit.level_open, "{fit:?}");
