@@ -30,9 +30,9 @@
 //! sphere's of its radius. A flat punch's depth is its plateau's level: the mean of the
 //! rings that lie wholly inside its fitted rim by the kernel's reach, where the blur has
 //! left the plateau as it is and a rim's overshoot does not reach (or, for a plateau too
-//! narrow for such a core of two rings, the fit's depth, left open where the dome's fit reads it beyond
-//! the depth tolerance: [`ShapeFit::level_open`]). A plateau is spared the tests of an
-//! unknown shape unless its skirt may have sunk the frame's registration
+//! narrow for such a core of two rings, the fit's depth, left open where the dome's fit
+//! reads it beyond the depth tolerance: [`ShapeFit::level_open`]). A plateau is spared the
+//! tests of an unknown shape unless its skirt may have sunk the frame's registration
 //! (`docs/pipeline.md` gives the measured trade).
 
 use super::apex::{hertz, punch, LAYER_DECAY_MM, RESOLVED_SIGMAS};
@@ -122,8 +122,9 @@ pub struct ShapeFit {
     pub radius_px: f64,
     /// A plateau too narrow for [`CORE_RINGS`] rings to lie wholly [`CORE_MARGIN_SIGMAS`]
     /// inside its rim, whose level is then its template's, where the dome's best fit reads
-    /// a depth beyond the depth tolerance from it: a dome whose apex reads low (its phase gain varying
-    /// across the view) has such a blurred top too, and nothing in the map says which.
+    /// a depth beyond the depth tolerance from it: a dome whose apex reads low (its phase
+    /// gain varying across the view) has such a blurred top too, and nothing in the map
+    /// says which.
     pub level_open: bool,
 }
 
@@ -254,8 +255,9 @@ impl Shapes {
 
     /// The plateau's level where the blur has left it untouched: the mean of the rings lying
     /// wholly within [`CORE_MARGIN_SIGMAS`] kernel σ inside the fitted radius `a_px` (none
-    /// for a plateau too narrow for [`CORE_RINGS`] of them). There the map is the plateau itself, whatever the
-    /// templates' approximation of the kernel and the ladder's step in radius.
+    /// for a plateau too narrow for [`CORE_RINGS`] of them). There the map is the plateau
+    /// itself, whatever the templates' approximation of the kernel and the ladder's step in
+    /// radius.
     fn plateau_core(&self, profile: &[(f64, f64)], a_px: f64) -> Option<f64> {
         let inside = a_px - CORE_MARGIN_SIGMAS * self.sigma_px;
         let core = profile
