@@ -150,6 +150,9 @@ impl Label {
     }
 }
 
+/// The stage that fits phase → depth, as its left-out frames name it.
+const DEPTH_STAGE: &str = "phase → depth";
+
 struct Run<'a, O: Observer> {
     sets: &'a [FrameSet],
     imp: Implementation,
@@ -246,6 +249,41 @@ impl<'a, O: Observer> Run<'a, O> {
             self.left.clear();
         }
         taken
+    }
+
+    /// Why phase → depth found too few depths: the depths its trusted `samples` hold, and
+    /// the flag most of the frames it left out carried, with what that flag asks of the
+    /// kit where one thing does.
+    fn too_few_depths(&self, samples: &[Sample]) -> String {
+        let mut depths: Vec<f64> = samples.iter().map(|s| s.y).collect();
+        depths.sort_by(f64::total_cmp);
+        depths.dedup_by(|a, b| setpoint(*a) == setpoint(*b));
+        let trusted = match depths.as_slice() {
+            [] => "no press read and trusted".to_string(),
+            d => {
+                let d: Vec<String> = d.iter().map(|v| format!("{v}")).collect();
+                format!("presses read and trusted only at {} mm", d.join(", "))
+            }
+        };
+        let out: Vec<&LeftOut> = (self.left.iter())
+            .filter(|l| l.stages.iter().any(|s| s == DEPTH_STAGE))
+            .collect();
+        let carrying = |r: &String| out.iter().filter(|l| l.reasons.contains(r)).count();
+        let commonest = (out.iter().flat_map(|l| &l.reasons)).max_by_key(|r| carrying(r));
+        let why = commonest.map_or(String::new(), |name| {
+            let n = carrying(name);
+            let ask = if name.as_str() == Flag::PhaseSlope.name() {
+                ": the stripes bend beyond the demodulator's band, too steep for this \
+                 grating (press the kit shallower, or use a coarser grating)"
+            } else {
+                ""
+            };
+            format!(
+                "; {n} of the {} frames left out carry {name}{ask}",
+                out.len()
+            )
+        });
+        format!("phase → depth needs trusted frames at three or more depths, {trusted}{why}")
     }
 
     /// Notes each frame left out of a fit, once: the stages that left it out and why.
@@ -1002,7 +1040,7 @@ fn depth_model<O: Observer>(
     run: &mut Run<'_, O>,
     calib: &Calibration,
 ) -> Result<DepthFit, CalibrateError> {
-    let depth_frames = run.analyze(calib, Label::Depth, "phase → depth", &|_| true)?;
+    let depth_frames = run.analyze(calib, Label::Depth, DEPTH_STAGE, &|_| true)?;
     let samples: Vec<Sample> = depth_frames
         .iter()
         .filter(|(_, d)| d.contact)
@@ -1012,11 +1050,8 @@ fn depth_model<O: Observer>(
             group: setpoint(*y),
         })
         .collect();
-    let (model, chosen, candidates) = fit_depth(&samples, |_, _| {}).ok_or_else(|| {
-        CalibrateError::NotEnough(
-            "phase → depth needs trusted frames at three or more depths".into(),
-        )
-    })?;
+    let (model, chosen, candidates) = fit_depth(&samples, |_, _| {})
+        .ok_or_else(|| CalibrateError::NotEnough(run.too_few_depths(&samples)))?;
     let share_outweighs_floor_mm = f64::from(DEPTH_TOLERANCE_UM / DEPTH_TOLERANCE_SHARE) / 1000.0;
     let spread = place_spread(&samples, |u| model.depth_mm(u), share_outweighs_floor_mm);
     let error = held_out_depths(&samples, &chosen.name).and_then(|p| error_by_depth(&p));
@@ -1160,6 +1195,45 @@ mod tests {
                  (phase_slope, depth_out_of_range)",
                 "depth: f2.png left out of phase → depth (low_contrast)",
             ]
+        );
+    }
+
+    /// A refusal for too few depths names the depths trusted and the flag most frames left
+    /// out of phase → depth carried, with what a phase slope asks of the kit; frames left
+    /// out of other stages only are not counted.
+    #[test]
+    fn too_few_depths_names_the_depths_trusted_and_the_commonest_flag() {
+        let mut notes = Notes::default();
+        let mut run = Run::new(&[], Implementation::Fixed, &mut notes, 1);
+        let why = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        for (k, reasons) in [
+            &["phase_slope"][..],
+            &["phase_slope", "unwrap_failure"],
+            &["low_contrast"],
+            &["phase_slope"],
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            run.left_out(format!("depth: f{k}.png"), DEPTH_STAGE, why(reasons));
+        }
+        run.left_out("depth: f9.png".into(), "phase sign", why(&["low_contrast"]));
+        let at = |y: f64| Sample {
+            u: y,
+            y,
+            group: setpoint(y),
+        };
+        let said = run.too_few_depths(&[at(0.1), at(0.2), at(0.1)]);
+        assert!(said.contains("trusted only at 0.1, 0.2 mm"), "{said}");
+        assert!(
+            said.contains("3 of the 4 frames left out carry phase_slope"),
+            "{said}"
+        );
+        assert!(said.contains("coarser grating"), "{said}");
+        let none = Run::new(&[], Implementation::Fixed, &mut notes, 1).too_few_depths(&[]);
+        assert!(
+            none.ends_with("depths, no press read and trusted"),
+            "{none}"
         );
     }
 
