@@ -125,7 +125,7 @@ pub const RECOLOURED_CONTACT_THRESHOLDS: i32 = 3;
 /// brightness step within the demodulator's kernel, part of the step passes the band and
 /// moves the phase, one way on one side of the print and the other way on the other. A
 /// contact on recoloured ground standing no deeper than that may be the rim's pull alone
-/// (`faint_contact`). Twice the most that the battery's heat prints showed
+/// (`faint_contact`). About twice the most that the battery's heat prints showed
 /// (`docs/pipeline.md`).
 pub const RIM_PULL_RAD: f32 = 0.5;
 /// Phase-slope flag: more than this fraction of the deformed pixels lost half their fringe
