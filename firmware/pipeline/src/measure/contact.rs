@@ -306,6 +306,13 @@ pub(super) struct AmplitudeEdge<'a> {
     trusted: [(usize, usize); 2],
 }
 
+/// Trusted coarse columns and rows about a sample, and the sample ([`AmplitudeEdge::spans`]).
+type Spans = (
+    std::ops::RangeInclusive<usize>,
+    std::ops::RangeInclusive<usize>,
+    (usize, usize),
+);
+
 impl<'a> AmplitudeEdge<'a> {
     /// The edges of amplitudes `amp` (the frame's) and `amp_r` (the reference's) on a
     /// coarse grid `cw × ch`, compared `reach` samples either side within `margin`
@@ -332,19 +339,12 @@ impl<'a> AmplitudeEdge<'a> {
     /// Whether the amplitude ratio changes steeply through working pixel `(x, y)`: across
     /// the trusted samples half a period either side of it, along either axis.
     pub(super) fn steep(&self, (x, y): (usize, usize)) -> bool {
-        let (cx, cy) = (x / GRID, y / GRID);
-        let span = |c: usize, (first, last): (usize, usize)| {
-            (
-                c.saturating_sub(self.reach).max(first),
-                (c + self.reach).min(last),
-            )
+        let Some((xs, ys, (cx, cy))) = self.spans((x, y), self.reach) else {
+            return false;
         };
-        let ((xa, xb), (ya, yb)) = (span(cx, self.trusted[0]), span(cy, self.trusted[1]));
-        let inside = (xa..=xb).contains(&cx) && (ya..=yb).contains(&cy);
         let cw = self.cw;
-        inside
-            && (self.changes(cy * cw + xa, cy * cw + xb)
-                || self.changes(ya * cw + cx, yb * cw + cx))
+        self.changes(cy * cw + xs.start(), cy * cw + xs.end())
+            || self.changes(ys.start() * cw + cx, ys.end() * cw + cx)
     }
 
     /// How far the amplitude ratio (the frame's against the reference's) spreads over the
@@ -352,19 +352,11 @@ impl<'a> AmplitudeEdge<'a> {
     /// the natural log of the largest over the smallest (0 where none is trusted). A rim's
     /// pull on the phase grows with it ([`RIM_PULL_RAD`](super::RIM_PULL_RAD)).
     pub(super) fn log_span(&self, (x, y): (usize, usize)) -> f32 {
-        let (cx, cy) = (x / GRID, y / GRID);
-        let [(x_first, x_last), (y_first, y_last)] = self.trusted;
-        let span = |c: usize, first: usize, last: usize| {
-            c.saturating_sub(2 * self.reach).max(first)..=(c + 2 * self.reach).min(last)
+        let Some((xs, ys, (cx, cy))) = self.spans((x, y), 2 * self.reach) else {
+            return 0.0;
         };
-        let x_ok = (x_first..=x_last).contains(&cx);
-        let y_ok = (y_first..=y_last).contains(&cy);
-        let across = span(cx, x_first, x_last)
-            .filter(|_| y_ok)
-            .map(|c| cy * self.cw + c);
-        let down = span(cy, y_first, y_last)
-            .filter(|_| x_ok)
-            .map(|r| r * self.cw + cx);
+        let across = xs.map(|c| cy * self.cw + c);
+        let down = ys.map(|r| r * self.cw + cx);
         let ratio = |i: usize| {
             let (&a, &r) = (self.amp.get(i)?, self.amp_r.get(i)?);
             (a > 0 && r > 0).then(|| a as f32 / r as f32)
@@ -376,6 +368,17 @@ impl<'a> AmplitudeEdge<'a> {
         } else {
             0.0
         }
+    }
+
+    /// The trusted coarse columns and rows within `reach` samples of working pixel
+    /// `(x, y)`'s sample, and that sample; `None` where the sample itself is not trusted.
+    fn spans(&self, (x, y): (usize, usize), reach: usize) -> Option<Spans> {
+        let (cx, cy) = (x / GRID, y / GRID);
+        let span = |c: usize, (first, last): (usize, usize)| {
+            c.saturating_sub(reach).max(first)..=(c + reach).min(last)
+        };
+        let (xs, ys) = (span(cx, self.trusted[0]), span(cy, self.trusted[1]));
+        (xs.contains(&cx) && ys.contains(&cy)).then_some((xs, ys, (cx, cy)))
     }
 
     /// Whether the amplitude ratio at sample `b` lies beyond [`AMPLITUDE_EDGE_RATIO`] of the

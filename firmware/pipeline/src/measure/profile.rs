@@ -260,13 +260,10 @@ impl Shapes {
     /// radius.
     fn plateau_core(&self, profile: &[(f64, f64)], a_px: f64) -> Option<f64> {
         let inside = a_px - CORE_MARGIN_SIGMAS * self.sigma_px;
-        let core = profile
-            .iter()
-            .enumerate()
-            .take_while(|&(k, _)| (k + 1) as f64 <= inside);
-        let (sum, n, rings) = core.fold((0.0, 0.0, 0), |(s, c, r), (_, &(p, n))| {
-            (s + p * n, c + n, r + 1)
-        });
+        // Ring k spans radii k to k + 1: as many lie wholly inside as whole pixels do.
+        let rings = (inside.max(0.0).floor() as usize).min(profile.len());
+        let (sum, n) =
+            (profile[..rings].iter()).fold((0.0, 0.0), |(s, c), &(p, n)| (s + p * n, c + n));
         (rings >= CORE_RINGS && n > 0.0).then(|| sum / n)
     }
 
