@@ -53,6 +53,17 @@ pub const MIN_CONTACT_RAD: f32 = 0.02;
 /// noise makes up a share of the region and of both blurred readings at the apex, and a
 /// press too narrow for the band can pass for a resolved one of a fraction of its depth.
 pub const RESOLVED_THRESHOLDS: i32 = 2;
+/// A contact region with no peak where the demodulator's kernel lies wholly in the image
+/// (a period from every edge) is a press centred nearer the edge than that, and is read up
+/// to the edge, when its peak read there (the blur taken out, as any apex's) stands this
+/// many contact thresholds above the background…
+pub const EDGE_PEAK_THRESHOLDS: i32 = 4;
+/// …and lies at least this deep, µm. Where the kernel averages padding, a skin at rest whose
+/// fringes changed against the reference's (another temperature, another exposure) reads
+/// up to about a tenth of a millimetre, systematically, however clean the frame's noise:
+/// the threshold alone cannot keep it out. A press the product must report (0.2 mm) reads
+/// deeper there.
+pub const EDGE_PEAK_MIN_UM: i32 = 150;
 /// Side of a contact tile at the working resolution, pixels.
 pub const TILE_PX: usize = 8;
 /// Coarse samples above threshold a tile needs to count as contact (of the 16 a tile has).
@@ -927,38 +938,47 @@ impl<M: PhaseMap> Found<'_, M> {
         // The apex is looked for only where the demodulator's kernel lies wholly in the
         // image, a period from every edge: nearer, the kernel averages padding, and a press
         // reaching there can show a spurious peak deeper than its own, which would take the
-        // apex, and with it the centre, millimetres away. A region lying wholly that near
-        // the edge is no contact. The component, the depth map, area, volume and integrated
-        // phase keep the edge's pixels: their values are mostly sound, and without them the
-        // centre of a press near the edge moves inward and its force reads short.
+        // apex, and with it the centre, millimetres away. The component, the depth map,
+        // area, volume and integrated phase keep the edge's pixels: their values are mostly
+        // sound, and without them the centre of a press near the edge moves inward and its
+        // force reads short. A region with no peak inside that band is a press centred
+        // nearer the edge than the kernel reaches when it stands well above the background
+        // ([`EDGE_PEAK_THRESHOLDS`], [`EDGE_PEAK_MIN_UM`]) off recoloured ground, and is read
+        // up to the edge (`contact_at_edge`, below); otherwise it is no contact.
         let whole_kernel = self.margin;
         let kernel_inside = |&i: &usize| whole_kernel.contains(x0 + i % bw, y0 + i / bw);
-        let mut region = dominant_component(&pass.depth_um, bw, threshold_um);
+        let region = dominant_component(&pass.depth_um, bw, threshold_um);
         let window_inside =
             whole_kernel.contains(x0, y0) && whole_kernel.contains(x0 + bw - 1, y0 + bh - 1);
-        if !window_inside {
-            region.retain(kernel_inside);
-        }
-        // The apex is read on the window's phase as read, surround and noise included: the
-        // blur acts on the phase, and the correction compares blurs of the whole surface.
-        let apex = apex::apex(&up, bw, &region, ctx.blur_loss)?;
-        let map_peak_um = pass.depth_um[apex.at];
-        let peak = (map_peak_um, threshold_um);
-        let contact = peak_component(&pass.depth_um, bw, apex.at, threshold_um);
-        let mut feats = summarize(
-            &pass.depth_um,
-            &contact,
-            bw,
-            (x0, y0),
-            self.factor,
-            ctx.mm_per_px,
-            peak,
-        );
-        if feats.peak_mm == 0.0 {
-            return None;
-        }
-        feats.peak_mm =
-            self.map.depth_um(<M::P as PhaseNum>::from_units(apex.peak)) as f32 / 1000.0;
+        let maps = (&up[..], &pass.depth_um[..], bw);
+        let scale = ((x0, y0), (self.factor, ctx.mm_per_px));
+        let peak_of = |r: &[usize]| contact_peak(maps, r, scale, threshold_um, ctx);
+        let depth_um_of = |units| self.map.depth_um(<M::P as PhaseNum>::from_units(units));
+        let read = if window_inside {
+            peak_of(&region)
+        } else {
+            let inside: Vec<usize> = region.iter().copied().filter(kernel_inside).collect();
+            peak_of(&inside).or_else(|| {
+                // Where the pigment's colour changed (a warm print's rim, a skin at another
+                // temperature), its pull on the phase reads in the band as such a peak, and
+                // nothing there tells it from a press.
+                let (faint, edge) = amplitudes();
+                let recoloured = (&pass.depth_um[..], &region[..]);
+                if mostly_recoloured(recoloured, (faint, edge), (x0, y0, bw)) {
+                    return None;
+                }
+                let read = peak_of(&region)?;
+                let least_um = (EDGE_PEAK_THRESHOLDS * threshold_um).max(EDGE_PEAK_MIN_UM);
+                (depth_um_of(read.apex.peak) >= least_um).then_some(read)
+            })
+        };
+        let ContactPeak {
+            apex,
+            map_peak_um,
+            contact,
+            mut feats,
+        } = read?;
+        feats.peak_mm = depth_um_of(apex.peak) as f32 / 1000.0;
         // The rings about the centre serve the profile's shape fit; the load reads the
         // half-depth component itself.
         let centre = self.window_centre(&feats, (x0, y0));
@@ -1026,6 +1046,39 @@ impl<M: PhaseMap> Found<'_, M> {
             size: (bw, bh),
         })
     }
+}
+
+/// A contact's apex, its map's value there, its half-depth component and features.
+struct ContactPeak {
+    apex: apex::Apex,
+    map_peak_um: i32,
+    contact: Vec<usize>,
+    feats: Features,
+}
+
+/// The contact of `region` (indices into the window, `w` pixels wide; its corner `origin`
+/// in working pixels, `factor` and `mm_per_px` its scale): the apex of the phase as read
+/// (`up`, surround and noise included: the blur acts on the phase, and the correction
+/// compares blurs of the whole surface), the depth map's (`depth_um`) value there and the
+/// half-depth component around it. `None` without a peak above `threshold_um`.
+fn contact_peak(
+    (up, depth_um, w): (&[i32], &[i32], usize),
+    region: &[usize],
+    (origin, (factor, mm_per_px)): ((usize, usize), (usize, f32)),
+    threshold_um: i32,
+    ctx: &Context<'_>,
+) -> Option<ContactPeak> {
+    let apex = apex::apex(up, w, region, ctx.blur_loss)?;
+    let map_peak_um = depth_um[apex.at];
+    let contact = peak_component(depth_um, w, apex.at, threshold_um);
+    let peak = (map_peak_um, threshold_um);
+    let feats = summarize(depth_um, &contact, w, origin, factor, mm_per_px, peak);
+    (feats.peak_mm > 0.0).then_some(ContactPeak {
+        apex,
+        map_peak_um,
+        contact,
+        feats,
+    })
 }
 
 #[cfg(test)]
