@@ -61,8 +61,9 @@ pub const EDGE_PEAK_THRESHOLDS: i32 = 4;
 /// …and lies at least this deep, µm. Where the kernel averages padding, a skin at rest whose
 /// fringes changed against the reference's (another temperature, another exposure) reads
 /// up to about a tenth of a millimetre, systematically, however clean the frame's noise:
-/// the threshold alone cannot keep it out. A press the product must report (0.2 mm) reads
-/// deeper there.
+/// the threshold alone cannot keep it out. The floor lies near what the shallowest press
+/// the product must report (0.2 mm) reads there, where the band's apex reads a press low:
+/// shallower presses centred in the band stay unreported, as before.
 pub const EDGE_PEAK_MIN_UM: i32 = 150;
 /// Side of a contact tile at the working resolution, pixels.
 pub const TILE_PX: usize = 8;
