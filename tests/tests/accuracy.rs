@@ -260,11 +260,11 @@ fn a_press_beside_faint_fringes_noise_is_reported_at_its_place() {
 /// On unit 900253 (a grating of 25 pixels) a 5 mm sphere pressed 0.42 mm at the edge of
 /// the view is centred half a period from it, where the demodulator's kernel averages
 /// padding: its peak lies there, and a period in only the band's ringing around it stands
-/// above the threshold, with no peak of its own. Read only a period in, it was no contact,
-/// with no flag. A region with no peak a period in, standing well above the background off
-/// recoloured ground, is read up to the edge: every press of the unit is reported, and the
-/// presses at the edge say so. On unit 900204 a warm print's rim crosses the edge, and read
-/// there it stood as deep as such a press: it stays no contact.
+/// above the threshold, with no peak of its own. Read only a period in, it would be no
+/// contact, with no flag. A region with no peak a period in, standing well above the
+/// background off recoloured ground, is read up to the edge: every press of the unit is
+/// reported, and the presses at the edge say so. On unit 900204 a warm print's rim crosses
+/// the edge, and read there it would stand as deep as such a press: it stays no contact.
 #[test]
 fn a_press_centred_nearer_the_edge_than_the_kernel_reaches_is_reported() {
     let frames = units_frames(&[900_253, 900_204], "edge-peak");

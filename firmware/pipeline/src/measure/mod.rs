@@ -59,11 +59,11 @@ pub const RESOLVED_THRESHOLDS: i32 = 2;
 /// many contact thresholds above the background…
 pub const EDGE_PEAK_THRESHOLDS: i32 = 4;
 /// …and lies at least this deep, µm. Where the kernel averages padding, a skin at rest whose
-/// fringes changed against the reference's (another temperature, another exposure) reads
-/// up to about a tenth of a millimetre, systematically, however clean the frame's noise:
-/// the threshold alone cannot keep it out. The floor lies near what the shallowest press
-/// the product must report (0.2 mm) reads there, where the band's apex reads a press low:
-/// shallower presses centred in the band stay unreported, as before.
+/// fringes changed against the reference's (another temperature, another exposure) reads a
+/// systematic depth there however clean the frame's noise, so the threshold alone cannot
+/// keep it out (`docs/pipeline.md` gives its size). The floor lies near what the shallowest
+/// press the product must report (0.2 mm) reads there, where the band's apex reads a press
+/// low: a shallower press centred in the band is not reported.
 pub const EDGE_PEAK_MIN_UM: i32 = 150;
 /// Side of a contact tile at the working resolution, pixels.
 pub const TILE_PX: usize = 8;
@@ -699,8 +699,47 @@ impl<M: PhaseMap> Found<'_, M> {
     /// apex: [`RIM_PULL_RAD`]), whichever is deeper.
     fn recoloured_limit_um(&self, threshold_um: i32, span: f32) -> i32 {
         let pull = (RIM_PULL_RAD * span * UNITS_PER_RAD).round() as i32;
-        let rim_um = self.map.depth_um(<M::P as PhaseNum>::from_units(pull));
+        let rim_um = self.depth_um(pull);
         (RECOLOURED_CONTACT_THRESHOLDS * threshold_um).max(rim_um)
+    }
+
+    /// The depth (µm) of a phase of `units` through the map's calibration.
+    fn depth_um(&self, units: i32) -> i32 {
+        self.map.depth_um(<M::P as PhaseNum>::from_units(units))
+    }
+
+    /// The contact of `region` (indices into the window whose phase as read is `up` and
+    /// whose depth map is `depth_um`, `w` pixels wide, its corner working pixel `(x0, y0)`):
+    /// the apex of the phase as read (surround and noise included: the blur acts on the
+    /// phase, and the correction compares blurs of the whole surface), the map's value
+    /// there and the half-depth component around it. `None` without a peak above
+    /// `threshold_um`.
+    fn contact_peak(
+        &self,
+        (up, depth_um): (&[i32], &[i32]),
+        (x0, y0, w): (usize, usize, usize),
+        region: &[usize],
+        threshold_um: i32,
+        ctx: &Context<'_>,
+    ) -> Option<ContactPeak> {
+        let apex = apex::apex(up, w, region, ctx.blur_loss)?;
+        let map_peak_um = depth_um[apex.at];
+        let contact = peak_component(depth_um, w, apex.at, threshold_um);
+        let peak = (map_peak_um, threshold_um);
+        let (origin, factor) = ((x0, y0), self.factor);
+        let mut feats = summarize(depth_um, &contact, w, origin, factor, ctx.mm_per_px, peak);
+        if feats.peak_mm == 0.0 {
+            return None;
+        }
+        let peak_um = self.depth_um(apex.peak);
+        feats.peak_mm = peak_um as f32 / 1000.0;
+        Some(ContactPeak {
+            apex,
+            map_peak_um,
+            peak_um,
+            contact,
+            feats,
+        })
     }
 
     /// The coarse grid's amplitude ratios the dipole test reads the rims of heated objects
@@ -891,9 +930,7 @@ impl<M: PhaseMap> Found<'_, M> {
         );
         let up = upsampled(&signed, &win);
         let ((x0, y0), (bw, bh)) = win.pixels();
-        let threshold_um = self
-            .map
-            .depth_um(<M::P as PhaseNum>::from_units(self.bg.threshold));
+        let threshold_um = self.depth_um(self.bg.threshold);
         // The phase as read, back in the wrapped difference's terms.
         let off_units = self.bg.offset.units();
         let raw: Vec<i32> = up
@@ -951,10 +988,8 @@ impl<M: PhaseMap> Found<'_, M> {
         let region = dominant_component(&pass.depth_um, bw, threshold_um);
         let window_inside =
             whole_kernel.contains(x0, y0) && whole_kernel.contains(x0 + bw - 1, y0 + bh - 1);
-        let maps = (&up[..], &pass.depth_um[..], bw);
-        let scale = ((x0, y0), (self.factor, ctx.mm_per_px));
-        let peak_of = |r: &[usize]| contact_peak(maps, r, scale, threshold_um, ctx);
-        let depth_um_of = |units| self.map.depth_um(<M::P as PhaseNum>::from_units(units));
+        let maps = (&up[..], &pass.depth_um[..]);
+        let peak_of = |r: &[usize]| self.contact_peak(maps, (x0, y0, bw), r, threshold_um, ctx);
         let read = if window_inside {
             peak_of(&region)
         } else {
@@ -970,7 +1005,7 @@ impl<M: PhaseMap> Found<'_, M> {
                 }
                 let read = peak_of(&region)?;
                 let least_um = (EDGE_PEAK_THRESHOLDS * threshold_um).max(EDGE_PEAK_MIN_UM);
-                (depth_um_of(read.apex.peak) >= least_um).then_some(read)
+                (read.peak_um >= least_um).then_some(read)
             })
         };
         let ContactPeak {
@@ -978,8 +1013,8 @@ impl<M: PhaseMap> Found<'_, M> {
             map_peak_um,
             contact,
             mut feats,
+            ..
         } = read?;
-        feats.peak_mm = depth_um_of(apex.peak) as f32 / 1000.0;
         // The rings about the centre serve the profile's shape fit; the load reads the
         // half-depth component itself.
         let centre = self.window_centre(&feats, (x0, y0));
@@ -1049,37 +1084,14 @@ impl<M: PhaseMap> Found<'_, M> {
     }
 }
 
-/// A contact's apex, its map's value there, its half-depth component and features.
+/// A contact's apex, its map's value there, its peak as reported (the blur taken out), its
+/// half-depth component and features (their `peak_mm` the reported peak).
 struct ContactPeak {
     apex: apex::Apex,
     map_peak_um: i32,
+    peak_um: i32,
     contact: Vec<usize>,
     feats: Features,
-}
-
-/// The contact of `region` (indices into the window, `w` pixels wide; its corner `origin`
-/// in working pixels, `factor` and `mm_per_px` its scale): the apex of the phase as read
-/// (`up`, surround and noise included: the blur acts on the phase, and the correction
-/// compares blurs of the whole surface), the depth map's (`depth_um`) value there and the
-/// half-depth component around it. `None` without a peak above `threshold_um`.
-fn contact_peak(
-    (up, depth_um, w): (&[i32], &[i32], usize),
-    region: &[usize],
-    (origin, (factor, mm_per_px)): ((usize, usize), (usize, f32)),
-    threshold_um: i32,
-    ctx: &Context<'_>,
-) -> Option<ContactPeak> {
-    let apex = apex::apex(up, w, region, ctx.blur_loss)?;
-    let map_peak_um = depth_um[apex.at];
-    let contact = peak_component(depth_um, w, apex.at, threshold_um);
-    let peak = (map_peak_um, threshold_um);
-    let feats = summarize(depth_um, &contact, w, origin, factor, mm_per_px, peak);
-    (feats.peak_mm > 0.0).then_some(ContactPeak {
-        apex,
-        map_peak_um,
-        contact,
-        feats,
-    })
 }
 
 #[cfg(test)]
