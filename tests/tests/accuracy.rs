@@ -283,6 +283,18 @@ fn a_press_centred_nearer_the_edge_than_the_kernel_reaches_is_reported() {
     }
 }
 
+/// On units 900137 and 900140 the depth model's held-out misses lie in its floor, with no
+/// share of the depth, while the kit's presses of one depth read about 2 % apart from place
+/// to place. Neither alone is twice a mid-depth press's tolerance, both together are: a
+/// calibration sphere's press read off by 6 % where the kit never pressed would be silent
+/// on either alone. No depth of either unit is off unflagged.
+#[test]
+fn a_depth_off_where_the_kit_never_pressed_is_flagged_on_a_unit_whose_places_read_apart() {
+    for f in units_frames(&[900_137, 900_140], "places-apart") {
+        assert!(!f.silent_in(Reading::PeakDepth), "{f:?}");
+    }
+}
+
 /// The battery's frames of unit `seed`, calibrated on its own kit.
 fn unit_frames(seed: u64, name: &str) -> Vec<Scored> {
     units_frames(&[seed], name)

@@ -9,8 +9,8 @@
 
 use vistaf_pipeline::calibration::{Calibration, DepthError};
 use vistaf_pipeline::measure::{
-    depth_error, depth_uncertain_above_mm, depths_doubted_mm, DEPTH_CONFIDENCE_SIGMAS,
-    DEPTH_TOLERANCE_SHARE, DEPTH_TOLERANCE_UM,
+    depth_error, depths_doubted_mm, DEPTH_CONFIDENCE_SIGMAS, DEPTH_TOLERANCE_SHARE,
+    DEPTH_TOLERANCE_UM,
 };
 
 /// Depth target, mm.
@@ -111,35 +111,36 @@ pub fn report(verdicts: &[Verdict]) -> (String, bool) {
             v.error, v.target
         ));
         if let Some(e) = v.depth_error {
-            text.push_str(&depth_error_lines(e));
-        }
-        if let (Some(spread), Some(above_mm)) =
-            (v.place_spread, depth_uncertain_above_mm(v.place_spread))
-        {
-            text.push_str(&format!(
-                "  {:<24} peak depths over {above_mm:.2} mm will carry depth_uncertain: a press \
-                 where the kit never pressed may read {:.1} % off (standard deviation, from \
-                 how far the kit's places read apart), and the tolerance's share ({} %) is \
-                 less than {DEPTH_CONFIDENCE_SIGMAS} times that\n",
-                "",
-                100.0 * spread,
-                100.0 * DEPTH_TOLERANCE_SHARE,
-            ));
+            text.push_str(&depth_error_lines(e, v.place_spread));
         }
     }
     (text, verdicts.iter().all(Verdict::pass))
 }
 
-/// The depth model's held-out error by depth, and the depths it flags, as lines.
-fn depth_error_lines(e: DepthError) -> String {
+/// The depth model's held-out error by depth, how far the kit's places read apart where
+/// that changes which depths are flagged, and the depths the two flag, as lines (the error
+/// [`vistaf_pipeline::measure::reading_error`] expects of a reading).
+fn depth_error_lines(held_out: DepthError, place_spread: Option<f64>) -> String {
     let mut text = format!(
         "  {:<24} held-out error by depth √({:.4}² + ({:.2} % · depth)²) mm\n",
         "",
-        e.floor_mm,
-        100.0 * e.share
+        held_out.floor_mm,
+        100.0 * held_out.share
     );
-    let (under_mm, over_mm) = depths_doubted_mm(e);
-    let range = match (under_mm, over_mm) {
+    let expected = held_out.with_place_spread(place_spread);
+    let doubted = depths_doubted_mm(expected);
+    if doubted != depths_doubted_mm(held_out) {
+        text.push_str(&format!(
+            "  {:<24} a press where the kit never pressed may read {:.1} % off (standard \
+             deviation, from how far the kit's places read apart): a reading's error takes \
+             that share of its depth, √({:.4}² + ({:.1} % · depth)²) mm\n",
+            "",
+            100.0 * expected.share,
+            expected.floor_mm,
+            100.0 * expected.share,
+        ));
+    }
+    let range = match doubted {
         (u, _) if u.is_infinite() => Some("every peak depth".to_string()),
         (u, Some(o)) if u > 0.0 => Some(format!("peak depths under {u:.2} mm and over {o:.2} mm")),
         (u, None) if u > 0.0 => Some(format!("peak depths under {u:.2} mm")),
@@ -192,7 +193,7 @@ mod tests {
         let mut c = Calibration::default_sim();
         let (text, _) = report(&verdicts(&c));
         assert!(!text.contains("depth_uncertain"), "{text}");
-        c.depth_error = None;
+        (c.depth_error, c.depth_place_spread) = (None, None);
         c.depth.cv_rmse = 0.03;
         let (text, pass) = report(&verdicts(&c));
         assert!(
@@ -221,20 +222,37 @@ mod tests {
         }
     }
 
-    /// A press where the kit never pressed reading 2 % off: the tolerance's 3 % is
-    /// under twice that beyond 0.02 mm / (4 % − 3 %), and the report says so; at 1 % off no
-    /// depth is flagged.
+    /// A press where the kit never pressed reading 2 % off, on the reference unit's depth
+    /// model (a held-out floor of 0.002 mm): `2·√(0.002² + (0.02·d)²)` passes
+    /// `0.02 + 0.03·d` at 1.99 mm, and the report says so; at 1 % off no depth is flagged.
+    /// A held-out floor of 0.012 mm alone flags presses under 0.13 mm; with the places 2 %
+    /// apart, those under 0.16 mm and over 1.55 mm.
     #[test]
     fn places_reading_apart_say_from_which_depth_up_readings_are_flagged() {
         let mut c = Calibration::default_sim();
         c.depth_place_spread = Some(0.02);
         let (text, _) = report(&verdicts(&c));
         assert!(
-            text.contains("over 2.00 mm will carry depth_uncertain") && text.contains("2.0 % off"),
+            text.contains("over 1.99 mm will carry depth_uncertain") && text.contains("2.0 % off"),
             "{text}"
         );
         c.depth_place_spread = Some(0.01);
         let (text, _) = report(&verdicts(&c));
         assert!(!text.contains("depth_uncertain"), "{text}");
+        c.depth_error = Some(DepthError {
+            floor_mm: 0.012,
+            share: 0.0,
+        });
+        for (spread, said) in [
+            (None, "peak depths under 0.13 mm will"),
+            (
+                Some(0.02),
+                "peak depths under 0.16 mm and over 1.55 mm will",
+            ),
+        ] {
+            c.depth_place_spread = spread;
+            let (text, _) = report(&verdicts(&c));
+            assert!(text.contains(said), "{spread:?}: {text}");
+        }
     }
 }

@@ -498,6 +498,37 @@ fn presses_that_read_apart_from_place_to_place_flag_the_deep_presses() {
     }
 }
 
+/// A depth model whose held-out misses all lie in its floor (0.012 mm, no share) on a unit
+/// whose presses of one depth read 2 % apart from place to place: a reading's error is
+/// both, and a 1.8 mm press, whose tolerance (0.074 mm) is more than twice either alone
+/// (0.024 and 0.036 mm) but less than twice `√(0.012² + 0.036²)`, is flagged
+/// `depth_uncertain`; a 1 mm press, within it, is not.
+#[test]
+fn a_held_out_floor_and_places_reading_apart_flag_together_what_neither_flags_alone() {
+    let held = Calibration::default_sim();
+    let floor = Calibration {
+        depth_error: Some(DepthError {
+            floor_mm: 0.012,
+            share: 0.0,
+        }),
+        ..held.clone()
+    };
+    let apart = Calibration {
+        depth_place_spread: Some(0.02),
+        ..held.clone()
+    };
+    let both = Calibration {
+        depth_place_spread: Some(0.02),
+        ..floor.clone()
+    };
+    for (depth_mm, uncertain) in [(1.0, false), (1.8, true)] {
+        depth_uncertain_as(
+            depth_mm,
+            &[(&floor, false), (&apart, false), (&both, uncertain)],
+        );
+    }
+}
+
 /// Asserts on both paths that a press of the calibrated sphere `depth_mm` deep is read, and
 /// carries `depth_uncertain` under each calibration of `cases` as its flag says.
 fn depth_uncertain_as(depth_mm: f32, cases: &[(&Calibration, bool)]) {

@@ -443,6 +443,16 @@ impl DepthError {
     pub fn at_mm(&self, depth_mm: f64) -> f64 {
         self.floor_mm.hypot(self.share * depth_mm)
     }
+
+    /// This error with its share of the depth raised to how far presses of one depth read
+    /// apart from place to place ([`Calibration::depth_place_spread`]) where that is larger:
+    /// the error a reading at a place the kit never pressed may carry.
+    pub fn with_place_spread(self, place_spread: Option<f64>) -> DepthError {
+        DepthError {
+            share: place_spread.map_or(self.share, |p| self.share.max(p)),
+            ..self
+        }
+    }
 }
 
 /// A calibration file.

@@ -9,10 +9,10 @@ use super::features::slope_p98_exceeds;
 use super::profile::Shape;
 use super::window::upsample2;
 use super::{
-    depth_error, depth_model_doubts, depth_uncertain_above_mm, Context, Grid, Unwrap,
-    AMPLITUDE_EDGE_RATIO, BAND_LOSS_FRACTION, BAND_LOSS_MIN, BLUNTNESS_RATIO, DEPTH_RANGE_SLACK,
-    DIPOLE_RATIO, LOAD_RATIO, MAX_RESIDUES, RIM_DIPOLE_RATIO, SHARPNESS_RATIO, SLOPE_LIMIT,
-    TILE_PX, UNWRAP_TRIGGER_RAD,
+    depth_model_doubts, reading_error, Context, Grid, Unwrap, AMPLITUDE_EDGE_RATIO,
+    BAND_LOSS_FRACTION, BAND_LOSS_MIN, BLUNTNESS_RATIO, DEPTH_RANGE_SLACK, DIPOLE_RATIO,
+    LOAD_RATIO, MAX_RESIDUES, RIM_DIPOLE_RATIO, SHARPNESS_RATIO, SLOPE_LIMIT, TILE_PX,
+    UNWRAP_TRIGGER_RAD,
 };
 use crate::calibration::{ForceInputs, LoadSignature};
 use crate::ftp::band::BAND_HALF_WIDTH;
@@ -613,13 +613,10 @@ impl<P> Limits<'_, P> {
         if beyond {
             flags.insert(Flag::DepthOutOfRange);
         }
-        // The calibration's depth model missed its own kit by more than this depth's
-        // tolerance allows, or a press where its kit never pressed may read off by more.
-        let calib = ctx.calib;
-        if depth_model_doubts(depth_error(calib), f64::from(read.peak_mm))
-            || depth_uncertain_above_mm(calib.depth_place_spread)
-                .is_some_and(|above_mm| f64::from(read.peak_mm) > above_mm)
-        {
+        // The calibration expects a reading at this depth to miss by more than its
+        // tolerance allows: its depth model missed its own kit by that much, or its presses
+        // of one depth read that far apart from place to place.
+        if depth_model_doubts(reading_error(ctx.calib), f64::from(read.peak_mm)) {
             flags.insert(Flag::DepthUncertain);
         }
         if !self.resolved {

@@ -99,8 +99,8 @@ pub const DEPTH_TOLERANCE_SHARE: f32 = 0.03;
 /// …plus this much, µm.
 pub const DEPTH_TOLERANCE_UM: f32 = 20.0;
 /// A peak depth is flagged `depth_uncertain` where the tolerance is less than this many
-/// times the calibration's held-out depth error at that depth ([`depth_model_doubts`], each
-/// kit depth read blind): two, so that about 19 readings in 20 of an error of that
+/// times the error the calibration expects of a reading at that depth ([`reading_error`],
+/// [`depth_model_doubts`]): two, so that about 19 readings in 20 of an error of that
 /// spread fall within the tolerance. The calibration measured that error on this unit,
 /// with its light, noise and grating; nothing else in a frame says how well the depth
 /// model fits the unit.
@@ -199,9 +199,24 @@ pub fn depth_error(calib: &Calibration) -> DepthError {
     })
 }
 
-/// Whether a peak read `peak_mm` deep flags `depth_uncertain` for the depth model's
-/// held-out `error`: where the depth tolerance is less than [`DEPTH_CONFIDENCE_SIGMAS`]
-/// times that error at that depth. An error that is not a number flags nothing.
+/// The error a peak depth read anywhere in the view may carry, by depth (a standard
+/// deviation): the depth model's held-out error ([`depth_error`]), its share of the depth
+/// raised to how far the kit's presses of one depth read apart from place to place
+/// ([`Calibration::depth_place_spread`]) where that is larger. The held-out error is a
+/// floor and a share fitted over all the kit's depths; where the shallow presses' misses
+/// outweigh the deep ones' it puts the whole error in the floor and no share, and so
+/// under-states a deep press's error at a place the kit never pressed. The spread between
+/// places measures that share directly, with each depth's bias taken out; the floor stays
+/// the held-out one, which already holds the kit's own places' scatter at the depths it
+/// pressed.
+pub fn reading_error(calib: &Calibration) -> DepthError {
+    depth_error(calib).with_place_spread(calib.depth_place_spread)
+}
+
+/// Whether a peak read `peak_mm` deep flags `depth_uncertain` for the expected `error`
+/// ([`reading_error`]): where the depth tolerance is less than
+/// [`DEPTH_CONFIDENCE_SIGMAS`] times that error at that depth. An error that is not a
+/// number flags nothing.
 pub fn depth_model_doubts(error: DepthError, peak_mm: f64) -> bool {
     let tolerance_mm = f64::from(depth_tolerance_um(1000.0 * peak_mm as f32)) / 1000.0;
     DEPTH_CONFIDENCE_SIGMAS * error.at_mm(peak_mm) > tolerance_mm
@@ -248,19 +263,6 @@ pub fn depths_doubted_mm(error: DepthError) -> (f64, Option<f64>) {
     } else {
         (r1.max(0.0), Some(r2.max(0.0)))
     }
-}
-
-/// The peak depth over which a calibration where a press the kit never pressed may read
-/// off by `place_spread` (a share of the depth, a standard deviation:
-/// [`Calibration::depth_place_spread`]) flags `depth_uncertain`: where the depth tolerance
-/// is less than [`DEPTH_CONFIDENCE_SIGMAS`] times that share of the depth, mm; `None`
-/// where it nowhere is (a spread within half the tolerance's share, or none recorded). A
-/// unit whose phase gain varies across the view reads deep presses wrong by a share of
-/// their depth at places its kit never pressed, which the depth model's held-out error,
-/// averaged with the shallow presses', does not show.
-pub fn depth_uncertain_above_mm(place_spread: Option<f64>) -> Option<f64> {
-    let share = DEPTH_CONFIDENCE_SIGMAS * place_spread? - f64::from(DEPTH_TOLERANCE_SHARE);
-    (share > 0.0).then(|| f64::from(DEPTH_TOLERANCE_UM) / 1000.0 / share)
 }
 
 /// Whether a peak read `peak_mm` deep through the sphere's blur correction would lie
