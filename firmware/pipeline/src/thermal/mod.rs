@@ -83,6 +83,7 @@ pub struct Temperature {
     /// near a reading this frame reports (the skin's mean, coldest and hottest places,
     /// the contact), or its kit's reading moved by as much there with another reference:
     /// the reading may be off by as much ([`TemperatureModel::held_out_error_c`],
+    /// [`TemperatureModel::held_out_miss_read_near_c`],
     /// [`TemperatureModel::reference_shift_c`]).
     pub calibration_misses: bool,
     /// The mean lies further than [`MEAN_APART_LIMIT_C`] outside the span from the
@@ -126,6 +127,13 @@ pub const CONTACT_SIGMA_LIMIT_C: f32 = 1.0;
 /// twice the miss (one draw of the error there), as a depth is held
 /// (`measure::DEPTH_CONFIDENCE_SIGMAS`).
 pub const HELD_OUT_MISS_LIMIT_C: f32 = CONTACT_SIGMA_LIMIT_C / 2.0;
+
+/// A setpoint the calibration's held-out test read further off than this, °C (the
+/// tolerance), is one the models could not tell from where it read: a reading within
+/// [`HELD_OUT_MISS_LIMIT_C`] of there carries `Flag::TemperatureUncertain`
+/// ([`TemperatureModel::held_out_miss_read_near_c`]). A miss within the tolerance is judged
+/// at its setpoint alone.
+pub const HELD_OUT_FAILED_C: f32 = CONTACT_SIGMA_LIMIT_C;
 
 /// Furthest the mean may lie outside the span from the coldest place to the hottest
 /// without `Flag::TemperatureUncertain`, °C: the held-out miss's limit, for its reason
@@ -417,15 +425,17 @@ impl Thermometer {
 
 /// Whether the calibration's held-out test missed by more than [`HELD_OUT_MISS_LIMIT_C`]
 /// near any of the finite `readings` (°C), or its kit's mean moved by as much there when
-/// another uniform frame served as the reference ([`TemperatureModel::reference_shift_c`]).
-/// The readings the table of the skin's mean moved are judged here too: the blocks' test
-/// says where the models could not follow the colours, which no table of the kit's means
-/// mends between its setpoints.
+/// another uniform frame served as the reference ([`TemperatureModel::reference_shift_c`]),
+/// or the test read a setpoint within that limit of the reading more than
+/// [`HELD_OUT_FAILED_C`] off. The readings the table of the skin's mean moved are judged
+/// here too: the blocks' test says where the models could not follow the colours, which no
+/// table of the kit's means mends between its setpoints.
 fn misses_near(model: &TemperatureModel, readings: &[f32]) -> bool {
+    let limit_c = f64::from(HELD_OUT_MISS_LIMIT_C);
     readings.iter().filter(|t| t.is_finite()).any(|&t| {
         let t = f64::from(t);
         let miss = model.held_out_error_c(t).max(model.reference_shift_c(t));
-        miss > f64::from(HELD_OUT_MISS_LIMIT_C)
+        miss > limit_c || model.held_out_miss_read_near_c(t, limit_c) > f64::from(HELD_OUT_FAILED_C)
     })
 }
 
@@ -513,6 +523,35 @@ mod tests {
         assert!(misses_near(&m, &[f32::NAN, 25.0, 22.5]));
         assert!(!misses_near(&m, &[23.5, 25.0, 26.0, 30.0]));
         assert!(!misses_near(&m, &[f32::NAN]));
+    }
+
+    /// A skin whose held-out reading the models carried 2.2 °C away, from 29 °C to 31.2 °C,
+    /// doubts a reading of 31.6 °C, within half the tolerance of where it read, though the
+    /// setpoints either side of 31.6 °C were read within 0.2 °C; a reading of 31.8 °C, further
+    /// from it, is not doubted. A setpoint read within the tolerance (36 °C read 0.8 °C
+    /// cold) doubts readings near its own temperature alone, not 35.2 °C where it read.
+    #[test]
+    fn a_reading_near_where_a_failed_setpoint_read_is_doubted() {
+        let mut m = crate::calibration::Calibration::default_sim()
+            .temperature
+            .unwrap_or_else(|| unreachable!("the default calibration has a temperature model"));
+        let at = |t: f64, e: f64| model::SetpointError {
+            setpoint_c: t,
+            estimate_c: t + e,
+        };
+        m.held_out = vec![
+            at(28.0, 0.1),
+            at(29.0, 2.2),
+            at(30.0, 0.2),
+            at(32.0, 0.0),
+            at(34.0, 0.0),
+            at(36.0, -0.8),
+        ];
+        m.reference_shift.clear();
+        assert!(misses_near(&m, &[31.6]));
+        assert!(!misses_near(&m, &[31.8]));
+        assert!(!misses_near(&m, &[35.2]));
+        assert!(misses_near(&m, &[35.8]));
     }
 
     /// A reading near setpoints where the kit's mean moved by more than half the tolerance

@@ -777,6 +777,19 @@ impl TemperatureModel {
         along_setpoints(&self.held_out, miss, t).unwrap_or(0.0)
     }
 
+    /// The most the held-out test missed a setpoint by among those it read within
+    /// `window_c` of `reading_c` (°C); 0 where it read none there. [`Self::held_out_error_c`]
+    /// looks a miss up by the skin's temperature, which a reading stands for only where
+    /// the reading is right: a colour path the models compress carries skins of several
+    /// degrees to one reading, away from their own setpoints. A reading near where a
+    /// missed setpoint read may be that skin's (`thermal::HELD_OUT_FAILED_C`).
+    pub fn held_out_miss_read_near_c(&self, reading_c: f64, window_c: f64) -> f64 {
+        (self.held_out.iter())
+            .filter(|e| (e.estimate_c - reading_c).abs() <= window_c)
+            .map(|e| (e.estimate_c - e.setpoint_c).abs())
+            .fold(0.0, f64::max)
+    }
+
     /// How far the skin's mean moved near `t` (°C) when the kit's frames were read against
     /// another of its uniform frames as the reference ([`TemperatureModel::reference_shift`],
     /// linear between setpoints and the end setpoint's beyond them); 0 without any. The
