@@ -506,19 +506,27 @@ fn drop_partial(blocks: &mut [Sums]) {
 mod tests {
     use super::*;
 
+    /// The reference unit's temperature model with its held-out test replaced: each pair a
+    /// setpoint and how far the test read it off, °C.
+    fn held_out_as(misses: &[(f64, f64)]) -> TemperatureModel {
+        let mut m = crate::calibration::Calibration::default_sim()
+            .temperature
+            .unwrap_or_else(|| unreachable!("the default calibration has a temperature model"));
+        m.held_out = (misses.iter())
+            .map(|&(setpoint_c, e)| model::SetpointError {
+                setpoint_c,
+                estimate_c: setpoint_c + e,
+            })
+            .collect();
+        m
+    }
+
     /// A reading where the calibration's held-out test missed by more than half the
     /// tolerance is doubted, one where it missed by less is not; readings that are not a
     /// number are not judged.
     #[test]
     fn a_reading_where_the_held_out_test_missed_by_half_the_tolerance_is_doubted() {
-        let mut m = crate::calibration::Calibration::default_sim()
-            .temperature
-            .unwrap_or_else(|| unreachable!("the default calibration has a temperature model"));
-        let at = |t: f64, e: f64| model::SetpointError {
-            setpoint_c: t,
-            estimate_c: t + e,
-        };
-        m.held_out = vec![at(22.0, 0.7), at(24.0, 0.1), at(26.0, -0.4)];
+        let m = held_out_as(&[(22.0, 0.7), (24.0, 0.1), (26.0, -0.4)]);
         assert!(misses_near(&m, &[22.0]));
         assert!(misses_near(&m, &[f32::NAN, 25.0, 22.5]));
         assert!(!misses_near(&m, &[23.5, 25.0, 26.0, 30.0]));
@@ -532,21 +540,14 @@ mod tests {
     /// cold) doubts readings near its own temperature alone, not 35.2 °C where it read.
     #[test]
     fn a_reading_near_where_a_failed_setpoint_read_is_doubted() {
-        let mut m = crate::calibration::Calibration::default_sim()
-            .temperature
-            .unwrap_or_else(|| unreachable!("the default calibration has a temperature model"));
-        let at = |t: f64, e: f64| model::SetpointError {
-            setpoint_c: t,
-            estimate_c: t + e,
-        };
-        m.held_out = vec![
-            at(28.0, 0.1),
-            at(29.0, 2.2),
-            at(30.0, 0.2),
-            at(32.0, 0.0),
-            at(34.0, 0.0),
-            at(36.0, -0.8),
-        ];
+        let mut m = held_out_as(&[
+            (28.0, 0.1),
+            (29.0, 2.2),
+            (30.0, 0.2),
+            (32.0, 0.0),
+            (34.0, 0.0),
+            (36.0, -0.8),
+        ]);
         m.reference_shift.clear();
         assert!(misses_near(&m, &[31.6]));
         assert!(!misses_near(&m, &[31.8]));
@@ -559,10 +560,7 @@ mod tests {
     /// held-out test says.
     #[test]
     fn a_reading_that_follows_the_reference_by_half_the_tolerance_is_doubted() {
-        let mut m = crate::calibration::Calibration::default_sim()
-            .temperature
-            .unwrap_or_else(|| unreachable!("the default calibration has a temperature model"));
-        m.held_out.clear();
+        let mut m = held_out_as(&[]);
         let at = |setpoint_c: f64, shift_c: f64| model::ReferenceShift {
             setpoint_c,
             shift_c,
