@@ -257,14 +257,15 @@ fn a_press_beside_faint_fringes_noise_is_reported_at_its_place() {
     }
 }
 
-/// On unit 900253 (a grating of 25 pixels) a 5 mm sphere pressed 0.42 mm at the edge of
-/// the view is centred half a period from it, where the demodulator's kernel averages
-/// padding: its peak lies there, and a period in only the band's ringing around it stands
-/// above the threshold, with no peak of its own. Read only a period in, it would be no
-/// contact, with no flag. A region with no peak a period in, standing well above the
-/// background off recoloured ground, is read up to the edge: every press of the unit is
-/// reported, and the presses at the edge say so. On unit 900204 a warm print's rim crosses
-/// the edge, and read there it would stand as deep as such a press: it stays no contact.
+/// On the first unit (a coarse grating) a small sphere pressed at the edge of the view is
+/// centred half a period from it, where the demodulator's kernel averages padding: its peak
+/// lies there, and a period in only the band's ringing around it stands above the
+/// threshold, with no peak of its own. Read only a period in, it would be no contact, with
+/// no flag. A region with no peak a period in, standing well above the background off
+/// recoloured ground, is read up to the edge: every press of the unit is reported, and the
+/// presses at the edge say so. On the second unit a warm print's rim crosses the edge, and
+/// read there it would stand as deep as such a press: it stays no contact (`docs/pipeline.md`,
+/// *A press centred nearer the edge than the kernel reaches*).
 #[test]
 fn a_press_centred_nearer_the_edge_than_the_kernel_reaches_is_reported() {
     let frames = units_frames(&[900_253, 900_204], "edge-peak");
@@ -283,11 +284,12 @@ fn a_press_centred_nearer_the_edge_than_the_kernel_reaches_is_reported() {
     }
 }
 
-/// On units 900137 and 900140 the depth model's held-out misses lie in its floor, with no
-/// share of the depth, while the kit's presses of one depth read about 2 % apart from place
-/// to place. Neither alone is twice a mid-depth press's tolerance, both together are: a
-/// calibration sphere's press read off by 6 % where the kit never pressed would be silent
-/// on either alone. No depth of either unit is off unflagged.
+/// On these units the depth model's held-out misses lie in its floor, with no share of the
+/// depth, while the kit's presses of one depth read apart from place to place by a share of
+/// it. Neither alone is twice a mid-depth press's tolerance, both together are: a
+/// calibration sphere's press read off where the kit never pressed would be silent on
+/// either alone (`docs/pipeline.md`, *The floor and the places together*). No depth of
+/// either unit is off unflagged.
 #[test]
 fn a_depth_off_where_the_kit_never_pressed_is_flagged_on_a_unit_whose_places_read_apart() {
     for f in units_frames(&[900_137, 900_140], "places-apart") {
@@ -295,11 +297,12 @@ fn a_depth_off_where_the_kit_never_pressed_is_flagged_on_a_unit_whose_places_rea
     }
 }
 
-/// Unit 900121's colour models compress 28–33 °C: its held-out test read skins at 28, 29
-/// and 30 °C as 30.8, 31.2 and 31.5 °C, while its test at 31–33 °C missed by under half the
-/// tolerance. A uniform skin at 32.9 °C reads about 31.9 °C, where the test missed little
-/// by the skin's temperature, but near where it read 30 °C 1.5 °C off: that reading may be
-/// such a skin's, and is doubted. No temperature of the unit is off unflagged.
+/// This unit's colour models compress the span above the coloured transition: its
+/// held-out test read three setpoints there more than the tolerance warm, near where a
+/// warmer uniform skin reads, while looked up by the skin's temperature the test missed
+/// little there (`docs/temperature.md`, *A reading where the calibration read a setpoint
+/// wrong*). Such a reading may be a skin of those setpoints', and is doubted: no
+/// temperature of the unit is off unflagged.
 #[test]
 fn a_reading_near_where_the_calibration_read_a_setpoint_wrong_is_doubted() {
     for f in unit_frames(900_121, "failed-setpoint") {

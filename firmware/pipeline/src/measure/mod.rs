@@ -733,12 +733,10 @@ impl<M: PhaseMap> Found<'_, M> {
         if feats.peak_mm == 0.0 {
             return None;
         }
-        let peak_um = self.depth_um(apex.peak);
-        feats.peak_mm = peak_um as f32 / 1000.0;
+        feats.peak_mm = self.depth_um(apex.peak) as f32 / 1000.0;
         Some(ContactPeak {
             apex,
             map_peak_um,
-            peak_um,
             contact,
             feats,
         })
@@ -1007,7 +1005,7 @@ impl<M: PhaseMap> Found<'_, M> {
                 }
                 let read = peak_of(&region)?;
                 let least_um = (EDGE_PEAK_THRESHOLDS * threshold_um).max(EDGE_PEAK_MIN_UM);
-                (read.peak_um >= least_um).then_some(read)
+                (read.feats.peak_mm >= least_um as f32 / 1000.0).then_some(read)
             })
         };
         let ContactPeak {
@@ -1015,7 +1013,6 @@ impl<M: PhaseMap> Found<'_, M> {
             map_peak_um,
             contact,
             mut feats,
-            ..
         } = read?;
         // The rings about the centre serve the profile's shape fit; the load reads the
         // half-depth component itself.
@@ -1086,12 +1083,11 @@ impl<M: PhaseMap> Found<'_, M> {
     }
 }
 
-/// A contact's apex, its map's value there, its peak as reported (the blur taken out), its
-/// half-depth component and features (their `peak_mm` the reported peak).
+/// A contact's apex, its map's value there, its half-depth component and features (their
+/// `peak_mm` the peak as reported, the blur taken out).
 struct ContactPeak {
     apex: apex::Apex,
     map_peak_um: i32,
-    peak_um: i32,
     contact: Vec<usize>,
     feats: Features,
 }
