@@ -67,7 +67,8 @@ pub struct Temperature {
     pub max_c: f32,
     /// Centre of the hottest place, input pixels (`None` where no place stands out).
     pub hottest_px: Option<(f32, f32)>,
-    /// The hottest place is the contact's own reading (warmer than every neighbourhood):
+    /// The hottest place is the contact's own reading (warmer than every neighbourhood, or
+    /// standing for the hottest neighbourhood, centred on the contact):
     /// whatever doubts the contact's temperature doubts `max_c`.
     pub max_at_contact: bool,
     /// Temperature over the contact region, °C, when there is contact.
@@ -362,10 +363,20 @@ impl Thermometer {
                     ext.stand_out_sigmas,
                 )
         };
-        let warmest =
-            contact.filter(|r| r.trusted && (max_c.is_nan() || (r.t_c > max_c && above_skin(r))));
+        // The hottest neighbourhood centred on the contact reads blocks of skin the press
+        // tilts, which the contact's own reading takes out (both populations read at one
+        // point): the contact's reading stands for it, warmer or not.
+        let hottest_on_contact = ext.hottest.is_some_and(|b| {
+            let (x, y) = g.block_center_px(b);
+            let f = g.factor as f32;
+            let at = ((x / f) as usize, (y / f) as usize);
+            regions.as_ref().is_some_and(|r| r.contains(at))
+        });
+        let hottest_contact = contact.filter(|r| {
+            r.trusted && (max_c.is_nan() || hottest_on_contact || (r.t_c > max_c && above_skin(r)))
+        });
         // The region's centre is found only for such a contact.
-        let at = warmest.and_then(|r| Some((r.t_c, regions.as_ref()?.centre()?)));
+        let at = hottest_contact.and_then(|r| Some((r.t_c, regions.as_ref()?.centre()?)));
         if let Some((t_c, (x, y))) = at {
             let f = g.factor as f32;
             (max_c, hottest_px) = (t_c, Some((x * f, y * f)));

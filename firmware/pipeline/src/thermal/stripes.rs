@@ -187,6 +187,14 @@ impl<'a> Regions<'a> {
         (n > 0).then(|| (sx / n as f32 + 0.5, sy / n as f32 + 0.5))
     }
 
+    /// Whether working pixel (`x`, `y`) lies in the region (core included).
+    pub fn contains(&self, (x, y): (usize, usize)) -> bool {
+        let (x0, codes) = self.row(y);
+        x.checked_sub(x0)
+            .and_then(|i| codes.get(i))
+            .is_some_and(|&c| c != region::NONE)
+    }
+
     /// Working row `y`'s codes and the column of the first; empty outside the box.
     fn row(&self, y: usize) -> (usize, &'a [u8]) {
         let w = self.w;
@@ -992,6 +1000,20 @@ pub fn pool(blocks: &[Sums], bw: usize, bh: usize, r: usize) -> Vec<Sums> {
 mod tests {
     use super::*;
     use image::RgbImage;
+
+    /// A region's box holds its codes from its origin: a pixel is in it where its code is
+    /// not `NONE`, and nothing outside the box is.
+    #[test]
+    fn a_region_contains_its_coded_pixels_only() {
+        let (c, k, o) = (region::CONTACT, region::CORE, region::NONE);
+        let codes = [o, c, c, c, k, c];
+        let r = Regions::new(&codes, 10, 20, 3);
+        assert!(r.contains((11, 20)) && r.contains((11, 21)) && r.contains((12, 21)));
+        assert!(!r.contains((10, 20)), "a NONE code inside the box");
+        for outside in [(9, 20), (13, 20), (11, 19), (11, 22)] {
+            assert!(!r.contains(outside), "{outside:?}");
+        }
+    }
 
     #[test]
     fn geometry_tiles_the_working_image_with_stripe_pair_blocks() {
