@@ -366,9 +366,8 @@ impl Thermometer {
         // The hottest neighbourhood centred on the contact reads blocks of skin the press
         // tilts, which the contact's own reading takes out (both populations read at one
         // point): the contact's reading stands for it, warmer or not.
-        let hottest_on_contact = ext.hottest.is_some_and(|b| {
-            let (x, y) = g.block_center_px(b);
-            let f = g.factor as f32;
+        let f = g.factor as f32;
+        let hottest_on_contact = hottest_px.is_some_and(|(x, y)| {
             let at = ((x / f) as usize, (y / f) as usize);
             regions.as_ref().is_some_and(|r| r.contains(at))
         });
@@ -378,7 +377,6 @@ impl Thermometer {
         // The region's centre is found only for such a contact.
         let at = hottest_contact.and_then(|r| Some((r.t_c, regions.as_ref()?.centre()?)));
         if let Some((t_c, (x, y))) = at {
-            let f = g.factor as f32;
             (max_c, hottest_px) = (t_c, Some((x * f, y * f)));
         }
         // Where no place stands out, an extreme is the skin's median (exactly; one that
