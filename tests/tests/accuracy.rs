@@ -284,6 +284,35 @@ fn a_press_centred_nearer_the_edge_than_the_kernel_reaches_is_reported() {
     }
 }
 
+/// On both units a skin away from the reference's temperature pulls the phase at a lamp's
+/// reflection as far as a shallow press moves it, and weighed whole the two made a dipole.
+/// On the first the colour's field was taken out and missed the reflection's pull; on the
+/// second no field was, and the reflection stands where the stripes' contrast changed
+/// against the reference. The part standing clear of both is the press
+/// (`docs/pipeline.md`, *A press beside a reflection the colour pulls*): every press of
+/// either unit is reported, none away from its place.
+#[test]
+fn a_press_beside_a_reflection_the_colour_pulls_is_reported() {
+    let frames = units_frames(&[900_324, 900_391], "reflection-pull");
+    for f in &frames {
+        assert!(!f.missed, "{f:?}");
+        if f.depth_mm > 0.0 {
+            assert!(!f.phantom, "{f:?}");
+        }
+    }
+    let at_skin: Vec<&Scored> = (frames.iter())
+        .filter(|f| f.kind == Kind::SkinWarm && f.depth_mm < 0.6)
+        .collect();
+    assert_eq!(
+        at_skin.len(),
+        2,
+        "one shallow press at skin temperature per unit"
+    );
+    for f in at_skin {
+        assert!(f.centre_err_mm.is_some_and(|e| e <= 1.5), "{f:?}");
+    }
+}
+
 /// On these units the depth model's held-out misses lie in its floor, with no share of the
 /// depth, while the kit's presses of one depth read apart from place to place by a share of
 /// it. Neither alone is twice a mid-depth press's tolerance, both together are: a

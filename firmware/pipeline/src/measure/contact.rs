@@ -270,14 +270,24 @@ pub(super) fn mostly_recoloured(
     let (mut on, mut off) = (0i64, 0i64);
     for &i in samples {
         let d = i64::from(depth_um.get(i).map_or(0, |&d| d.max(0)));
-        let at = (x0 + i % bw, y0 + i / bw);
-        if faint.recoloured_near(at, edge.reach) || edge.steep(at) {
+        if recoloured_at((faint, edge), (x0 + i % bw, y0 + i / bw)) {
             on += d;
         } else {
             off += d;
         }
     }
     on > off
+}
+
+/// Whether the pigment's colour changed against the reference at working pixel `at`, or
+/// within half a grating period of it ([`Faint::recoloured_near`]), or `at` lies on the
+/// rim of such a change ([`AmplitudeEdge::steep`]): the phase there may be the change's
+/// pull.
+pub(super) fn recoloured_at(
+    (faint, edge): (Faint<'_>, AmplitudeEdge<'_>),
+    at: (usize, usize),
+) -> bool {
+    faint.recoloured_near(at, edge.reach) || edge.steep(at)
 }
 
 /// Where the frame's fringe amplitude, against the reference's, changes by more than

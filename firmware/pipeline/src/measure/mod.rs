@@ -440,6 +440,7 @@ pub fn measure<M: PhaseMap>(
         tiles_on,
         amp_medians,
         low_contrast: frame.flags.contains(Flag::LowContrast),
+        colour_field: colour.as_deref(),
     };
     let contact_reliable = reliable_pixels(&coarse.rel_contact, &grid, &contact_margin);
     let mut c = found.measure(carrier, ctx, &contact_reliable, &mut wrapped);
@@ -460,6 +461,21 @@ pub fn measure<M: PhaseMap>(
         }
         None => (frame.without_contact(reliable), wrapped),
     }
+}
+
+/// The working pixel at the centre of tile `t`, within the image.
+fn tile_centre(t: usize, grid: &Grid) -> (usize, usize) {
+    let c = |i: usize, n: usize| (i * TILE_PX + TILE_PX / 2).min(n.saturating_sub(1));
+    (c(t % grid.tiles.0, grid.w), c(t / grid.tiles.0, grid.h))
+}
+
+/// The deepest of the tiles `part` by their `peaks` (the first of equals): its peak and
+/// the tile.
+fn deepest_tile(part: &[bool], peaks: &[i32]) -> Option<(i32, usize)> {
+    (peaks.iter().enumerate())
+        .filter(|&(t, _)| part.get(t) == Some(&true))
+        .max_by_key(|&(t, &p)| (p, std::cmp::Reverse(t)))
+        .map(|(t, &p)| (p, t))
 }
 
 /// Whether contact `c`, read once the colour's `field` (units per coarse sample, `cw`
@@ -672,6 +688,8 @@ struct Found<'a, M: PhaseMap> {
     amp_medians: (u32, u32),
     /// Whether the frame carries `low_contrast`.
     low_contrast: bool,
+    /// The colour's field taken out of the phase, units per coarse sample, if one was.
+    colour_field: Option<&'a [i32]>,
 }
 
 impl<M: PhaseMap> Found<'_, M> {
@@ -763,18 +781,25 @@ impl<M: PhaseMap> Found<'_, M> {
     }
 
     /// The contact of a region the dipole test rejected as a whole, read from the one part
-    /// of it that makes a contact by itself (`None` when no part does, or when more than
-    /// one does). The tiles join whatever stands above the noise floor anywhere in the
-    /// view, so a press's region may take in groups far from it (faint fringes' noise, a
-    /// glare's edge) whose opposite-signed phase outweighs it; a dipole's two lobes lie
-    /// side by side and stay one part, which the test still rejects. Where several parts
-    /// stand by the indentation's sign, the view's phase departs both ways in many places
-    /// (a skin far from the reference's temperature moves it against a fixed term in the
-    /// band) and none of them can be told for a press: the whole region's verdict holds.
-    /// It holds too where the colour's field was taken out of the frame (what the field
-    /// misses by a little is left in parts of both signs, one of which may stand alone) and
-    /// where the frame's fringes are faint (`low_contrast`: noise raises parts anywhere).
-    /// So it does for a part whose contact reaches the edge of the view
+    /// of it that makes a contact by itself (`None` when no part does). The tiles join
+    /// whatever stands above the noise floor anywhere in the view, so a press's region may
+    /// take in groups far from it (faint fringes' noise, a glare's edge) whose
+    /// opposite-signed phase outweighs it; a dipole's two lobes lie side by side and stay
+    /// one part, which the test still rejects. Where several parts stand by the
+    /// indentation's sign, the view's phase departs both ways in many places (a skin far
+    /// from the reference's temperature moves it against a fixed term in the band): only a
+    /// part standing far beyond every other is told for a press
+    /// ([`Self::press_standing_out`]), otherwise the whole region's verdict holds.
+    ///
+    /// Where the colour's field was taken out of the frame, what the field misses by a
+    /// little is left wherever the field acts, in parts of both signs, one of which may
+    /// stand alone: a candidate part stands neither where the field acts
+    /// ([`Self::field_at_peak`]) nor within the colour's reach ([`Self::clear_of_colour`]),
+    /// and the candidates are judged as on any frame (a press beside a lamp's reflection
+    /// the field under-corrected). Where no part stands out by its depth, the one part
+    /// clear of the colour is the press ([`Self::only_clear_of_colour`]). The verdict
+    /// holds where the frame's fringes are faint (`low_contrast`: noise raises parts
+    /// anywhere), and for a part whose contact reaches the edge of the view
     /// (`contact_at_edge`): there the kernel averages padding, the noise floor's own groups
     /// gather, and nothing tells such a part from them.
     fn part_that_stands(
@@ -785,8 +810,8 @@ impl<M: PhaseMap> Found<'_, M> {
         wrapped: &mut WrappedPhase,
     ) -> Option<ContactResult> {
         let grid = Grid::of(self.map.size());
-        let parts = mask::parts(self.tiles_on, grid.tiles.0, grid.tiles.1);
-        if parts.len() < 2 || wrapped.colour_field || self.low_contrast {
+        let mut parts = mask::parts(self.tiles_on, grid.tiles.0, grid.tiles.1);
+        if parts.len() < 2 || self.low_contrast {
             return None;
         }
         let sign = ctx.indentation_sign();
@@ -794,6 +819,11 @@ impl<M: PhaseMap> Found<'_, M> {
         let signed: Vec<i32> = (self.coarse.phase.iter())
             .map(|p| sign * p.minus(offset).units())
             .collect();
+        let peaks = self.tile_peaks(&signed, &grid);
+        if let Some(field) = self.colour_field {
+            let clear = self.clear_of_colour(&peaks, &grid, carrier);
+            parts.retain(|part| !self.field_at_peak(part, &peaks, field, &grid) && clear(part));
+        }
         let min_total = register::min_contact_samples(carrier);
         let standing: Vec<&Vec<bool>> = (parts.iter())
             .filter(|part| self.stands_alone(part, &signed, &grid, min_total))
@@ -801,10 +831,13 @@ impl<M: PhaseMap> Found<'_, M> {
         let core;
         let part = match standing[..] {
             [part] => part,
-            [_, _, ..] => {
-                core = self.press_standing_out(&standing, &signed, &grid, carrier)?;
-                &core
-            }
+            [_, _, ..] => match self.press_standing_out(&standing, &peaks, &grid, carrier) {
+                Some(c) => {
+                    core = c;
+                    &core
+                }
+                None => self.only_clear_of_colour(&standing, &peaks, &grid, carrier)?,
+            },
             [] => return None,
         };
         let whole = wrapped.local.take();
@@ -821,6 +854,20 @@ impl<M: PhaseMap> Found<'_, M> {
         c
     }
 
+    /// Whether the colour's `field` (units per coarse sample) stands beyond the contact
+    /// threshold at a reliable sample of the tile where `part` is deepest (`peaks`, per
+    /// tile): where the field moves the phase by that much, what stands there may be what
+    /// it missed. A part takes in tiles a period around what stands, so its far tiles may
+    /// reach a lamp's reflection beside a press; its deepest tile is where it stands.
+    fn field_at_peak(&self, part: &[bool], peaks: &[i32], field: &[i32], grid: &Grid) -> bool {
+        let Some((_, tile)) = deepest_tile(part, peaks) else {
+            return false;
+        };
+        let threshold = self.bg.threshold;
+        (field.iter().zip(&self.coarse.rel_contact).enumerate())
+            .any(|(k, (&f, &rel))| rel && f.abs() > threshold && grid.tile_of(k) == tile)
+    }
+
     /// Of several `parts` that stand alone, the press in the one whose deepest
     /// indentation-signed sample (`signed`, reliable samples only) lies [`STANDS_OUT_RATIO`]
     /// times or more beyond every other's: a press amid the phase that a skin away from the
@@ -832,17 +879,14 @@ impl<M: PhaseMap> Found<'_, M> {
     fn press_standing_out(
         &self,
         parts: &[&Vec<bool>],
-        signed: &[i32],
+        peaks: &[i32],
         grid: &Grid,
         carrier: Carrier,
     ) -> Option<Vec<bool>> {
-        let peaks = self.tile_peaks(signed, grid);
         // Each part's deepest tile (the first of equals): its peak, the tile, the part.
         let mut ranked: Vec<(i32, usize, &Vec<bool>)> = (parts.iter())
             .filter_map(|&part| {
-                let (seed, &peak) = (peaks.iter().enumerate())
-                    .filter(|&(t, _)| part[t])
-                    .max_by_key(|&(t, &p)| (p, std::cmp::Reverse(t)))?;
+                let (peak, seed) = deepest_tile(part, peaks)?;
                 Some((peak, seed, part))
             })
             .collect();
@@ -868,6 +912,52 @@ impl<M: PhaseMap> Found<'_, M> {
             }
         }
         Some(core)
+    }
+
+    /// Of several `parts` that stand alone, none standing out by its depth, the one clear
+    /// of the colour's pull ([`Self::clear_of_colour`]) when every other is not: a skin
+    /// away from the reference's temperature moves the phase where its light or its
+    /// pigment changes the stripes' contrast unevenly (a lamp's reflection, a print's rim),
+    /// and a press moves it where the contrast holds. `None` where no part or more than one
+    /// is clear.
+    fn only_clear_of_colour<'p>(
+        &self,
+        parts: &[&'p Vec<bool>],
+        peaks: &[i32],
+        grid: &Grid,
+        carrier: Carrier,
+    ) -> Option<&'p Vec<bool>> {
+        let clear = self.clear_of_colour(peaks, grid, carrier);
+        let mut clear = parts.iter().filter(|part| clear(part));
+        let one = clear.next()?;
+        clear.next().is_none().then_some(*one)
+    }
+
+    /// Whether a part's deepest tile (by `peaks`) is clear of what the pigment's colour
+    /// can do to the phase: the fringes kept the reference's contrast at its centre (no
+    /// change of colour there, nor a change's rim, [`contact::recoloured_at`]), and it
+    /// stands beyond what the colour can pull there, [`RECOLOURED_CONTACT_THRESHOLDS`]
+    /// contact thresholds or a rim's pull where the amplitude ratio spreads about it
+    /// ([`RIM_PULL_RAD`]), whichever is more (a warm print's flank reaches past where its
+    /// contrast changed, and stands there as a press no deeper than that would).
+    fn clear_of_colour<'s>(
+        &'s self,
+        peaks: &'s [i32],
+        grid: &'s Grid,
+        carrier: Carrier,
+    ) -> impl Fn(&[bool]) -> bool + 's {
+        let (faint, edge) = (
+            self.faint(grid.coarse.0),
+            self.amplitude_edge(grid, carrier),
+        );
+        let least = RECOLOURED_CONTACT_THRESHOLDS * self.bg.threshold;
+        move |part: &[bool]| {
+            deepest_tile(part, peaks).is_some_and(|(peak, t)| {
+                let at = tile_centre(t, grid);
+                let pull = (RIM_PULL_RAD * edge.log_span(at) * UNITS_PER_RAD).round() as i32;
+                !contact::recoloured_at((faint, edge), at) && peak > least.max(pull)
+            })
+        }
     }
 
     /// Per tile, the deepest of `signed` over its reliable coarse samples (`i32::MIN` where
