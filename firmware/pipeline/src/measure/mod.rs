@@ -821,8 +821,10 @@ impl<M: PhaseMap> Found<'_, M> {
             .collect();
         let peaks = self.tile_peaks(&signed, &grid);
         if let Some(field) = self.colour_field {
+            let size: Vec<i32> = field.iter().map(|f| f.abs()).collect();
+            let field_peaks = self.tile_peaks(&size, &grid);
             let clear = self.clear_of_colour(&peaks, &grid, carrier);
-            parts.retain(|part| !self.field_at_peak(part, &peaks, field, &grid) && clear(part));
+            parts.retain(|part| !self.field_at_peak(part, &peaks, &field_peaks) && clear(part));
         }
         let min_total = register::min_contact_samples(carrier);
         let standing: Vec<&Vec<bool>> = (parts.iter())
@@ -854,23 +856,21 @@ impl<M: PhaseMap> Found<'_, M> {
         c
     }
 
-    /// Whether the colour's `field` (units per coarse sample) stands beyond the contact
-    /// threshold at a reliable sample of the tile where `part` is deepest (`peaks`, per
-    /// tile): where the field moves the phase by that much, what stands there may be what
-    /// it missed. A part takes in tiles a period around what stands, so its far tiles may
-    /// reach a lamp's reflection beside a press; its deepest tile is where it stands.
-    fn field_at_peak(&self, part: &[bool], peaks: &[i32], field: &[i32], grid: &Grid) -> bool {
-        let Some((_, tile)) = deepest_tile(part, peaks) else {
-            return false;
-        };
-        let threshold = self.bg.threshold;
-        (field.iter().zip(&self.coarse.rel_contact).enumerate())
-            .any(|(k, (&f, &rel))| rel && f.abs() > threshold && grid.tile_of(k) == tile)
+    /// Whether the colour's field stands beyond the contact threshold in the tile where
+    /// `part` is deepest (`peaks`; `field_peaks`: the field's largest size over each
+    /// tile's reliable samples): where the field moves the phase by that much, what stands
+    /// there may be what it missed. A part takes in tiles a period around what stands, so
+    /// its far tiles may reach a lamp's reflection beside a press; its deepest tile is
+    /// where it stands.
+    fn field_at_peak(&self, part: &[bool], peaks: &[i32], field_peaks: &[i32]) -> bool {
+        deepest_tile(part, peaks)
+            .and_then(|(_, t)| field_peaks.get(t))
+            .is_some_and(|&f| f > self.bg.threshold)
     }
 
     /// Of several `parts` that stand alone, the press in the one whose deepest
-    /// indentation-signed sample (`signed`, reliable samples only) lies [`STANDS_OUT_RATIO`]
-    /// times or more beyond every other's: a press amid the phase that a skin away from the
+    /// indentation-signed sample (`peaks`: each tile's, reliable samples only) lies
+    /// [`STANDS_OUT_RATIO`] times or more beyond every other's: a press amid the phase that a skin away from the
     /// reference's temperature moves in many places, all near the threshold. Such a part
     /// takes in that phase around the press too, so the press is its tiles reaching
     /// beyond every other part's deepest sample, joined to the deepest tile, and a grating
@@ -960,12 +960,12 @@ impl<M: PhaseMap> Found<'_, M> {
         }
     }
 
-    /// Per tile, the deepest of `signed` over its reliable coarse samples (`i32::MIN` where
-    /// none is reliable).
-    fn tile_peaks(&self, signed: &[i32], grid: &Grid) -> Vec<i32> {
+    /// Per tile, the largest of `values` (one per coarse sample: the indentation-signed
+    /// phase, say) over its reliable samples (`i32::MIN` where none is reliable).
+    fn tile_peaks(&self, values: &[i32], grid: &Grid) -> Vec<i32> {
         let (tw, th) = grid.tiles;
         let mut peaks = vec![i32::MIN; tw * th];
-        let samples = signed.iter().zip(&self.coarse.rel_contact).enumerate();
+        let samples = values.iter().zip(&self.coarse.rel_contact).enumerate();
         for (k, (&v, _)) in samples.filter(|(_, (_, &rel))| rel) {
             if let Some(p) = peaks.get_mut(grid.tile_of(k)) {
                 *p = (*p).max(v);
