@@ -313,6 +313,27 @@ fn a_press_beside_a_reflection_the_colour_pulls_is_reported() {
     }
 }
 
+/// On this unit the shallowest press of the calibrated sphere peaks barely past the contact
+/// threshold where the fringes are bright, and a dim corner's noise floods nearly as high.
+/// Weighed by their fringes, as a sample's phase is against the threshold, the press
+/// stands out of the noise (`docs/pipeline.md`, *A faint press beside a dim corner's
+/// noise*): it is reported at its place, and not silently.
+#[test]
+fn a_faint_press_beside_a_dim_corners_noise_is_reported() {
+    let frames = unit_frames(900_300, "dim-corner");
+    let shallow: Vec<&Scored> = (frames.iter())
+        .filter(|f| f.kind == Kind::CalibrationSphere && f.depth_mm < 0.2)
+        .collect();
+    assert_eq!(shallow.len(), 1, "one press under 0.2 mm");
+    for f in shallow {
+        assert!(f.centre_err_mm.is_some_and(|e| e <= 1.5), "{f:?}");
+        assert!(!f.silent_in(Reading::PeakDepth), "{f:?}");
+    }
+    for f in &frames {
+        assert!(!f.missed && !f.phantom, "{f:?}");
+    }
+}
+
 /// On these units the depth model's held-out misses lie in its floor, with no share of the
 /// depth, while the kit's presses of one depth read apart from place to place by a share of
 /// it. Neither alone is twice a mid-depth press's tolerance, both together are: a

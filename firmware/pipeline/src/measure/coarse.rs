@@ -76,7 +76,7 @@ pub fn contact_tiles(
         // A faint press's region is its own flood's tiles: a speck elsewhere that passed
         // the threshold is not its place.
         let sign = faint_sign?;
-        let flood = samples.faint_press((ch, sign, thr_units), min_total, stands)?;
+        let flood = samples.faint_press((ch, sign, thr_units), min_total, amp_med)?;
         let mut tiles = vec![false; tw * th];
         for k in flood {
             if let Some(t) = tiles.get_mut((k / cw / PER) * tw + (k % cw) / PER) {
@@ -159,15 +159,19 @@ impl Samples<'_> {
     /// samples, and a field near the threshold floods far beyond a press's width.
     ///
     /// The band spreads the phase's noise to the same width, so the frame's noise makes
-    /// press-sized floods of both signs: a faint press is the highest press-sized flood of
-    /// the indentation's sign (`sign`), its peak passes the threshold where it `stands`
-    /// (its fringes' faintness read with it), and it peaks [`FAINT_STANDS_OUT`] times or
-    /// more above every other press-sized flood of either sign.
+    /// press-sized floods of both signs. The phase's noise grows as the fringes are fainter,
+    /// so floods are weighed by their peak against their own fringes: the peak times its
+    /// reference amplitude, capped at the median `amp_med`, the measure by which a sample
+    /// stands beyond the threshold in [`contact_tiles`]. A dim corner's noise then cannot
+    /// hold back a press where the fringes are bright. A faint press is the heaviest
+    /// press-sized flood of the indentation's sign (`sign`), it stands beyond the
+    /// threshold `thr`, and it weighs [`FAINT_STANDS_OUT`] times or more as much as every
+    /// other press-sized flood of either sign.
     pub(super) fn faint_press(
         &self,
         (ch, sign, thr): (usize, i32, i32),
         min_total: usize,
-        stands: impl Fn(i32, u32) -> bool,
+        amp_med: u32,
     ) -> Option<Vec<usize>> {
         let n = self.cw * ch;
         if [self.phi.len(), self.rel.len(), self.amp_r.len()]
@@ -176,22 +180,31 @@ impl Samples<'_> {
         {
             return None;
         }
-        // Floods peaking lower than this cannot hold a press back.
-        let floor = (thr as f32 / FAINT_STANDS_OUT) as i32;
-        // The highest two of the indentation's sign, the highest one of the other.
-        let press = self.press_floods((ch, sign), floor, (min_total, 2));
+        // Floods weighing less than this cannot hold a press back.
+        let bar = i64::from(thr) * i64::from(amp_med);
+        let floor = (bar as f64 / f64::from(FAINT_STANDS_OUT)) as i64;
+        // The heaviest two of the indentation's sign, the heaviest one of the other.
+        let press = self.press_floods((ch, sign), (floor, amp_med), (min_total, 2));
         let &(peak, seed) = press.first()?;
         let other = (press.get(1).into_iter())
             .chain(
-                self.press_floods((ch, -sign), floor, (min_total, 1))
+                self.press_floods((ch, -sign), (floor, amp_med), (min_total, 1))
                     .first(),
             )
             .map(|&(p, _)| p)
             .max();
-        let press = peak > thr
-            && stands(peak, self.amp_r[seed])
-            && other.is_none_or(|o| peak as f32 >= FAINT_STANDS_OUT * o as f32);
+        let press = peak > bar
+            && other.is_none_or(|o| peak as f64 >= f64::from(FAINT_STANDS_OUT) * o as f64);
         press.then(|| self.flood((ch, sign), seed, &mut vec![false; n]))
+    }
+
+    /// Sample `k`'s phase signed by `sign`, weighed by its fringes
+    /// ([`Self::faint_press`]): times its reference amplitude capped at `amp_med`.
+    fn weighed(&self, k: usize, sign: i32, amp_med: u32) -> i64 {
+        match self.rel[k] {
+            true => i64::from(self.signed(k, sign)) * i64::from(self.amp_r[k].min(amp_med)),
+            false => i64::MIN,
+        }
     }
 
     /// The half-peak flood from `seed` of the samples' phase signed by `sign`
@@ -210,19 +223,20 @@ impl Samples<'_> {
         }
     }
 
-    /// The highest `wanted` press-sized half-peak floods ([`Self::faint_press`]) of the
-    /// samples' phase signed by `sign`, from seeds above `floor` (units) that no higher
-    /// seed's flood took in: each one's peak and seed, highest first.
+    /// The heaviest `wanted` press-sized half-peak floods ([`Self::faint_press`]) of the
+    /// samples' phase signed by `sign`, from seeds weighing more than `floor` (units times
+    /// amplitude, [`Self::weighed`] with `amp_med`) that no heavier seed's flood took in:
+    /// each one's weight and seed, heaviest first.
     fn press_floods(
         &self,
         (ch, sign): (usize, i32),
-        floor: i32,
+        (floor, amp_med): (i64, u32),
         (min_total, wanted): (usize, usize),
-    ) -> Vec<(i32, usize)> {
+    ) -> Vec<(i64, usize)> {
         let n = self.cw * ch;
-        let signed = |k: usize| self.signed(k, sign);
-        let mut seeds: Vec<usize> = (0..n).filter(|&k| signed(k) > floor).collect();
-        seeds.sort_unstable_by_key(|&k| std::cmp::Reverse(signed(k)));
+        let weighed = |k: usize| self.weighed(k, sign, amp_med);
+        let mut seeds: Vec<usize> = (0..n).filter(|&k| weighed(k) > floor).collect();
+        seeds.sort_unstable_by_key(|&k| std::cmp::Reverse(weighed(k)));
         // One buffer for every flood, cleared behind it: a flood marks only what it takes.
         let (mut taken, mut seen) = (vec![false; n], vec![false; n]);
         let mut out = Vec::new();
@@ -238,7 +252,7 @@ impl Samples<'_> {
                 (taken[j], seen[j]) = (true, false);
             }
             if (min_total..=FAINT_PRESS_MAX_DISCS * min_total).contains(&flood.len()) {
-                out.push((signed(seed), seed));
+                out.push((weighed(seed), seed));
             }
         }
         out
@@ -249,9 +263,9 @@ impl Samples<'_> {
 /// ([`contact_tiles`]): a press that faint is narrower than the band, so the band's
 /// own spread sets its width; wider is a field.
 pub const FAINT_PRESS_MAX_DISCS: usize = 8;
-/// How many times higher than every other press-sized flood of the frame, of either sign, a
-/// faint press must peak ([`contact_tiles`]): those are the frame's own noise, which
-/// the band spreads to a press's width.
+/// How many times as much as every other press-sized flood of the frame, of either sign, a
+/// faint press must weigh, its peak weighed by its fringes ([`Samples::faint_press`]):
+/// those are the frame's own noise, which the band spreads to a press's width.
 pub const FAINT_STANDS_OUT: f32 = 1.25;
 
 /// Per coarse sample (`cw × ch`), whether its tile is set in `tiles` (`tw` across). The
@@ -725,6 +739,56 @@ mod tests {
         assert!(!found.on[tile_of((32, 8))]);
         // A press standing high enough is found as every press is, not as a faint one.
         assert!(find(&bump(3.0, 3.0), sign).is_some_and(|t| !t.faint));
+    }
+
+    /// A faint press where the fringes are bright stands out of noise as high where they
+    /// are faint: the phase's noise grows as the fringes fade, so the floods are weighed by
+    /// their fringes. The same noise where the fringes are bright still holds it back.
+    #[test]
+    fn a_dim_corners_noise_does_not_hold_back_a_faint_press() {
+        let (cw, ch) = (40usize, 40usize);
+        let (tw, th) = (cw * GRID / TILE_PX, ch * GRID / TILE_PX);
+        let (thr, min_total, sign) = (100, 22, -1);
+        let bump_at = |(x, y): (f32, f32), peak: f32| -> Vec<f32> {
+            (0..cw * ch)
+                .map(|k| {
+                    let (dx, dy) = ((k % cw) as f32 - x, (k / cw) as f32 - y);
+                    peak * thr as f32 * (-(dx * dx + dy * dy) / 18.0).exp()
+                })
+                .collect()
+        };
+        // The press peaks at 1.3 thresholds, a noise bump of the other sign at 1.1.
+        let phi: Vec<i32> = bump_at((12.0, 30.0), 1.3)
+            .iter()
+            .zip(bump_at((32.0, 8.0), 1.1))
+            .map(|(p, n)| (sign as f32 * (p - n)).round() as i32)
+            .collect();
+        let rel = vec![true; cw * ch];
+        let find = |amp_r: &[u32]| {
+            let amp = (amp_r, 9);
+            contact_tiles(
+                &phi,
+                &rel,
+                amp,
+                (thr, Some(sign)),
+                (cw, ch),
+                (tw, th),
+                min_total,
+            )
+        };
+        let bright = vec![9u32; cw * ch];
+        assert!(
+            find(&bright).is_none(),
+            "noise as high where the fringes are as bright"
+        );
+        // The noise's corner at under half the median amplitude, the press's at the median.
+        let dim: Vec<u32> = (0..cw * ch)
+            .map(|k| if k % cw >= 24 && k / cw < 16 { 4 } else { 9 })
+            .collect();
+        let per = TILE_PX / GRID;
+        let found = find(&dim).expect("the faint press beside the dim corner's noise");
+        assert!(found.faint && found.on[(30 / per) * tw + 12 / per]);
+        assert!(!found.on[(8 / per) * tw + 32 / per]);
     }
 
     /// Tile counts and per-sample tile membership against a plain reading, sample by
