@@ -300,17 +300,7 @@ fn a_press_beside_a_reflection_the_colour_pulls_is_reported() {
             assert!(!f.phantom, "{f:?}");
         }
     }
-    let at_skin: Vec<&Scored> = (frames.iter())
-        .filter(|f| f.kind == Kind::SkinWarm && f.depth_mm < 0.6)
-        .collect();
-    assert_eq!(
-        at_skin.len(),
-        2,
-        "one shallow press at skin temperature per unit"
-    );
-    for f in at_skin {
-        assert!(f.centre_err_mm.is_some_and(|e| e <= 1.5), "{f:?}");
-    }
+    shallow_presses_at_their_places(&frames, Kind::SkinWarm, 0.6, 2);
 }
 
 /// On this unit the skin is away from the reference's temperature, the colour's field is
@@ -325,13 +315,7 @@ fn a_shallow_press_on_a_skin_recoloured_evenly_is_reported() {
     for f in &frames {
         assert!(!f.missed && !f.phantom, "{f:?}");
     }
-    let shallow: Vec<&Scored> = (frames.iter())
-        .filter(|f| f.kind == Kind::SkinWarm && f.depth_mm < 0.6)
-        .collect();
-    assert_eq!(shallow.len(), 1, "one shallow press at skin temperature");
-    for f in shallow {
-        assert!(f.centre_err_mm.is_some_and(|e| e <= 1.5), "{f:?}");
-    }
+    shallow_presses_at_their_places(&frames, Kind::SkinWarm, 0.6, 1);
 }
 
 /// On this unit the shallowest press of the calibrated sphere peaks barely past the contact
@@ -342,12 +326,7 @@ fn a_shallow_press_on_a_skin_recoloured_evenly_is_reported() {
 #[test]
 fn a_faint_press_beside_a_dim_corners_noise_is_reported() {
     let frames = unit_frames(900_300, "dim-corner");
-    let shallow: Vec<&Scored> = (frames.iter())
-        .filter(|f| f.kind == Kind::CalibrationSphere && f.depth_mm < 0.2)
-        .collect();
-    assert_eq!(shallow.len(), 1, "one press under 0.2 mm");
-    for f in shallow {
-        assert!(f.centre_err_mm.is_some_and(|e| e <= 1.5), "{f:?}");
+    for f in shallow_presses_at_their_places(&frames, Kind::CalibrationSphere, 0.2, 1) {
         assert!(!f.silent_in(Reading::PeakDepth), "{f:?}");
     }
     for f in &frames {
@@ -397,6 +376,24 @@ fn a_hottest_place_on_a_heated_contact_reads_as_the_contact() {
         assert!(!f.failures.contains(&failure::HOTTEST_BLOCK), "{f:?}");
         assert!(!f.silent_in(Reading::Temperature), "{f:?}");
     }
+}
+
+/// The presses of `kind` shallower than `below_mm` among `frames`, `n` of them, each
+/// reported within the centre tolerance (1.5 mm) of its place.
+fn shallow_presses_at_their_places(
+    frames: &[Scored],
+    kind: Kind,
+    below_mm: f32,
+    n: usize,
+) -> Vec<&Scored> {
+    let shallow: Vec<&Scored> = (frames.iter())
+        .filter(|f| f.kind == kind && f.depth_mm > 0.0 && f.depth_mm < below_mm)
+        .collect();
+    assert_eq!(shallow.len(), n, "{kind:?} presses under {below_mm} mm");
+    for f in &shallow {
+        assert!(f.centre_err_mm.is_some_and(|e| e <= 1.5), "{f:?}");
+    }
+    shallow
 }
 
 /// The battery's frames of unit `seed`, calibrated on its own kit.
