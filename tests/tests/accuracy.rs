@@ -303,21 +303,6 @@ fn a_press_beside_a_reflection_the_colour_pulls_is_reported() {
     shallow_presses_at_their_places(&frames, Kind::SkinWarm, 0.6, 2);
 }
 
-/// On this unit the skin is away from the reference's temperature, the colour's field is
-/// taken out, and the region splits into parts, none standing out. The shallow press's
-/// part lies off any change of the stripes' contrast, where the colour can pull the phase
-/// by little, but stands only a few thresholds: asked no more than any press, it is the
-/// press (`docs/pipeline.md`, *A shallow press on a skin recoloured evenly*). Every press
-/// of the unit is reported, at its place.
-#[test]
-fn a_shallow_press_on_a_skin_recoloured_evenly_is_reported() {
-    let frames = unit_frames(900_458, "recoloured-evenly");
-    for f in &frames {
-        assert!(!f.missed && !f.phantom, "{f:?}");
-    }
-    shallow_presses_at_their_places(&frames, Kind::SkinWarm, 0.6, 1);
-}
-
 /// On this unit the shallowest press of the calibrated sphere peaks barely past the contact
 /// threshold where the fringes are bright, and a dim corner's noise floods nearly as high.
 /// Weighed by their fringes, as a sample's phase is against the threshold, the press

@@ -936,12 +936,10 @@ impl<M: PhaseMap> Found<'_, M> {
     /// Whether a part's deepest tile (by `peaks`) is clear of what the pigment's colour
     /// can do to the phase: the fringes kept the reference's contrast at its centre (no
     /// change of colour there, nor a change's rim, [`contact::recoloured_at`]), and it
-    /// stands beyond what the colour can pull there, a rim's pull where the amplitude
-    /// ratio spreads about it ([`RIM_PULL_RAD`]; a warm print's flank reaches past where
-    /// its contrast changed, and stands there as a press no deeper than that would), and
-    /// beyond the contact threshold. Off the colour's change no more is asked of a part
-    /// than of a press anywhere: a shallow press on a skin recoloured evenly stands a few
-    /// thresholds.
+    /// stands beyond what the colour can pull there, [`RECOLOURED_CONTACT_THRESHOLDS`]
+    /// contact thresholds or a rim's pull where the amplitude ratio spreads about it
+    /// ([`RIM_PULL_RAD`]), whichever is more (a warm print's flank reaches past where its
+    /// contrast changed, and stands there as a press no deeper than that would).
     fn clear_of_colour<'s>(
         &'s self,
         peaks: &'s [i32],
@@ -952,12 +950,12 @@ impl<M: PhaseMap> Found<'_, M> {
             self.faint(grid.coarse.0),
             self.amplitude_edge(grid, carrier),
         );
-        let threshold = self.bg.threshold;
+        let least = RECOLOURED_CONTACT_THRESHOLDS * self.bg.threshold;
         move |part: &[bool]| {
             deepest_tile(part, peaks).is_some_and(|(peak, t)| {
                 let at = tile_centre(t, grid);
                 let pull = (RIM_PULL_RAD * edge.log_span(at) * UNITS_PER_RAD).round() as i32;
-                !contact::recoloured_at((faint, edge), at) && peak > threshold.max(pull)
+                !contact::recoloured_at((faint, edge), at) && peak > least.max(pull)
             })
         }
     }
