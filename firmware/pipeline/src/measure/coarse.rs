@@ -60,8 +60,8 @@ pub fn contact_tiles(
     if count.iter().all(|&c| c < TILE_MIN_SAMPLES) {
         return None;
     }
-    let bar = u64::from(thr) * u64::from(amp_med);
-    let stands = |p: i32, a: u32| u64::from(p.unsigned_abs()) * u64::from(a.min(amp_med)) > bar;
+    let bar = i64::from(thr) * i64::from(amp_med);
+    let stands = |p: i32, a: u32| weighed_by_fringes(p.unsigned_abs().into(), a, amp_med) > bar;
     let samples = Samples {
         phi,
         rel,
@@ -160,9 +160,9 @@ impl Samples<'_> {
     ///
     /// The band spreads the phase's noise to the same width, so the frame's noise makes
     /// press-sized floods of both signs. The phase's noise grows as the fringes are fainter,
-    /// so floods are weighed by their peak against their own fringes: the peak times its
-    /// reference amplitude, capped at the median `amp_med`, the measure by which a sample
-    /// stands beyond the threshold in [`contact_tiles`]. A dim corner's noise then cannot
+    /// so floods are weighed by their peak against their own fringes
+    /// ([`weighed_by_fringes`], capped at the median `amp_med`), the measure by which a
+    /// sample stands beyond the threshold in [`contact_tiles`]. A dim corner's noise then cannot
     /// hold back a press where the fringes are bright. A faint press is the heaviest
     /// press-sized flood of the indentation's sign (`sign`), it stands beyond the
     /// threshold `thr`, and it weighs [`FAINT_STANDS_OUT`] times or more as much as every
@@ -199,10 +199,10 @@ impl Samples<'_> {
     }
 
     /// Sample `k`'s phase signed by `sign`, weighed by its fringes
-    /// ([`Self::faint_press`]): times its reference amplitude capped at `amp_med`.
+    /// ([`weighed_by_fringes`] with `amp_med`).
     fn weighed(&self, k: usize, sign: i32, amp_med: u32) -> i64 {
         match self.rel[k] {
-            true => i64::from(self.signed(k, sign)) * i64::from(self.amp_r[k].min(amp_med)),
+            true => weighed_by_fringes(self.signed(k, sign).into(), self.amp_r[k], amp_med),
             false => i64::MIN,
         }
     }
@@ -257,6 +257,14 @@ impl Samples<'_> {
         }
         out
     }
+}
+
+/// A phase (units) weighed by the fringes it was read on: times their reference amplitude
+/// `amp`, capped at the median `amp_med`. The phase's noise grows as the fringes fade, so a
+/// phase on faint fringes counts for less, and one on bright fringes for no more than at
+/// the median ([`contact_tiles`]' threshold holds there).
+fn weighed_by_fringes(units: i64, amp: u32, amp_med: u32) -> i64 {
+    units * i64::from(amp.min(amp_med))
 }
 
 /// How many discs a period across a faint press's half-peak flood may cover

@@ -463,6 +463,27 @@ pub fn measure<M: PhaseMap>(
     }
 }
 
+/// The phase (units) a rim of a change of the pigment's colour can pull where the fringe
+/// amplitude ratio spreads by `span` (its natural log): [`RIM_PULL_RAD`] per unit of it.
+fn rim_pull_units(span: f32) -> i32 {
+    (RIM_PULL_RAD * span * UNITS_PER_RAD).round() as i32
+}
+
+/// Of several `parts` that stand alone, none standing out by its depth, the one
+/// `clear` of the colour's pull ([`Found::clear_of_colour`]) when every other is not: a
+/// skin away from the reference's temperature moves the phase where its light or its
+/// pigment changes the stripes' contrast unevenly (a lamp's reflection, a print's rim),
+/// and a press moves it where the contrast holds. `None` where no part or more than one
+/// is clear.
+fn only_clear_of_colour<'p>(
+    parts: &[&'p Vec<bool>],
+    clear: &impl Fn(&[bool]) -> bool,
+) -> Option<&'p Vec<bool>> {
+    let mut clear = parts.iter().filter(|part| clear(part));
+    let one = clear.next()?;
+    clear.next().is_none().then_some(*one)
+}
+
 /// The working pixel at the centre of tile `t`, within the image.
 fn tile_centre(t: usize, grid: &Grid) -> (usize, usize) {
     let c = |i: usize, n: usize| (i * TILE_PX + TILE_PX / 2).min(n.saturating_sub(1));
@@ -718,8 +739,7 @@ impl<M: PhaseMap> Found<'_, M> {
     /// what a rim can pull where the amplitude ratio spreads by `span` (its log, about the
     /// apex: [`RIM_PULL_RAD`]), whichever is deeper.
     fn recoloured_limit_um(&self, threshold_um: i32, span: f32) -> i32 {
-        let pull = (RIM_PULL_RAD * span * UNITS_PER_RAD).round() as i32;
-        let rim_um = self.depth_um(pull);
+        let rim_um = self.depth_um(rim_pull_units(span));
         (RECOLOURED_CONTACT_THRESHOLDS * threshold_um).max(rim_um)
     }
 
@@ -797,7 +817,7 @@ impl<M: PhaseMap> Found<'_, M> {
     /// ([`Self::field_at_peak`]) nor within the colour's reach ([`Self::clear_of_colour`]),
     /// and the candidates are judged as on any frame (a press beside a lamp's reflection
     /// the field under-corrected). Where no part stands out by its depth, the one part
-    /// clear of the colour is the press ([`Self::only_clear_of_colour`]). The verdict
+    /// clear of the colour is the press ([`only_clear_of_colour`]). The verdict
     /// holds where the frame's fringes are faint (`low_contrast`: noise raises parts
     /// anywhere), and for a part whose contact reaches the edge of the view
     /// (`contact_at_edge`): there the kernel averages padding, the noise floor's own groups
@@ -820,10 +840,10 @@ impl<M: PhaseMap> Found<'_, M> {
             .map(|p| sign * p.minus(offset).units())
             .collect();
         let peaks = self.tile_peaks(&signed, &grid);
+        let clear = self.clear_of_colour(&peaks, &grid, carrier);
         if let Some(field) = self.colour_field {
             let size: Vec<i32> = field.iter().map(|f| f.abs()).collect();
             let field_peaks = self.tile_peaks(&size, &grid);
-            let clear = self.clear_of_colour(&peaks, &grid, carrier);
             parts.retain(|part| !self.field_at_peak(part, &peaks, &field_peaks) && clear(part));
         }
         let min_total = register::min_contact_samples(carrier);
@@ -838,7 +858,7 @@ impl<M: PhaseMap> Found<'_, M> {
                     core = c;
                     &core
                 }
-                None => self.only_clear_of_colour(&standing, &peaks, &grid, carrier)?,
+                None => only_clear_of_colour(&standing, &clear)?,
             },
             [] => return None,
         };
@@ -870,8 +890,9 @@ impl<M: PhaseMap> Found<'_, M> {
 
     /// Of several `parts` that stand alone, the press in the one whose deepest
     /// indentation-signed sample (`peaks`: each tile's, reliable samples only) lies
-    /// [`STANDS_OUT_RATIO`] times or more beyond every other's: a press amid the phase that a skin away from the
-    /// reference's temperature moves in many places, all near the threshold. Such a part
+    /// [`STANDS_OUT_RATIO`] times or more beyond every other's: a press amid the phase
+    /// that a skin away from the reference's temperature moves in many places, all near
+    /// the threshold. Such a part
     /// takes in that phase around the press too, so the press is its tiles reaching
     /// beyond every other part's deepest sample, joined to the deepest tile, and a grating
     /// period of the part's tiles around them (where the press's flank falls to the
@@ -914,25 +935,6 @@ impl<M: PhaseMap> Found<'_, M> {
         Some(core)
     }
 
-    /// Of several `parts` that stand alone, none standing out by its depth, the one clear
-    /// of the colour's pull ([`Self::clear_of_colour`]) when every other is not: a skin
-    /// away from the reference's temperature moves the phase where its light or its
-    /// pigment changes the stripes' contrast unevenly (a lamp's reflection, a print's rim),
-    /// and a press moves it where the contrast holds. `None` where no part or more than one
-    /// is clear.
-    fn only_clear_of_colour<'p>(
-        &self,
-        parts: &[&'p Vec<bool>],
-        peaks: &[i32],
-        grid: &Grid,
-        carrier: Carrier,
-    ) -> Option<&'p Vec<bool>> {
-        let clear = self.clear_of_colour(peaks, grid, carrier);
-        let mut clear = parts.iter().filter(|part| clear(part));
-        let one = clear.next()?;
-        clear.next().is_none().then_some(*one)
-    }
-
     /// Whether a part's deepest tile (by `peaks`) is clear of what the pigment's colour
     /// can do to the phase: the fringes kept the reference's contrast at its centre (no
     /// change of colour there, nor a change's rim, [`contact::recoloured_at`]), and it
@@ -954,7 +956,7 @@ impl<M: PhaseMap> Found<'_, M> {
         move |part: &[bool]| {
             deepest_tile(part, peaks).is_some_and(|(peak, t)| {
                 let at = tile_centre(t, grid);
-                let pull = (RIM_PULL_RAD * edge.log_span(at) * UNITS_PER_RAD).round() as i32;
+                let pull = rim_pull_units(edge.log_span(at));
                 !contact::recoloured_at((faint, edge), at) && peak > least.max(pull)
             })
         }
